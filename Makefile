@@ -1,0 +1,45 @@
+# tendyn — set-up and checks. `make test` and `make demo` work on a fresh machine.
+PY       ?= python3
+VENV     := .venv
+VPY      := $(VENV)/bin/python
+PIP      := $(VPY) -m pip
+STAMP    := $(VENV)/.tendyn-installed
+BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
+SOURCES  := $(shell find include src bindings python -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+
+.PHONY: install test test-python test-cpp demo bench clean
+
+$(VPY):
+	$(PY) -m venv $(VENV)
+	$(PIP) install -q --upgrade pip
+
+# Build requirements go into the venv once, then the package builds without isolation (fast rebuilds).
+$(STAMP): $(VPY) $(SOURCES)
+	$(PIP) install -q $(BUILD_DEPS)
+	$(PIP) install -q --no-build-isolation ".[test]"
+	touch $(STAMP)
+
+install: $(STAMP)
+
+test: install test-python test-cpp
+
+test-python: install
+	cd tests && ../$(VPY) -m pytest python -q
+
+# C++ test executables (no allocation in the real-time calls, C ABI), through CTest.
+test-cpp: install
+	cmake -S . -B build/cpp -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_TESTS=ON \
+	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
+	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
+	ctest --test-dir build/cpp --output-on-failure
+
+demo: install
+	$(VENV)/bin/tendyn routing show lexos
+	$(VENV)/bin/tendyn demo lexos --out out/demo
+
+bench: install
+	$(PIP) install -q ".[bench]" --no-build-isolation --no-deps mujoco 2>/dev/null || true
+	$(VPY) benchmarks/run.py
+
+clean:
+	rm -rf build $(VENV) out

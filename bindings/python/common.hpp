@@ -1,0 +1,28 @@
+// Shared helpers of the Python bindings: the throwing variant of the core's status codes.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+#include <nanobind/nanobind.h>
+#include <nanobind/eigen/dense.h>
+
+#include "tendyn/status.hpp"
+
+namespace tendyn::py {
+
+namespace nb = nanobind;
+using VecRef = Eigen::Ref<const Eigen::VectorXd>;
+
+/// Raise ValueError on an error status; pass flags (Ok, SelfLocked) through to Python.
+inline Status check(Status s, const char* where) {
+  if (is_error(s)) throw nb::value_error((std::string(where) + ": " + status_message(s)).c_str());
+  return s;
+}
+
+void expose_status(nb::module_& m);
+void expose_routing(nb::module_& m);
+void expose_losses(nb::module_& m);
+void expose_rigid_body(nb::module_& m);
+
+}  // namespace tendyn::py

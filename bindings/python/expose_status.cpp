@@ -1,0 +1,15 @@
+#include "common.hpp"
+
+namespace tendyn::py {
+
+void expose_status(nb::module_& m) {
+  nb::enum_<Status>(m, "Status", "Result code of a real-time call (negative = error).")
+      .value("Ok", Status::Ok)
+      .value("SelfLocked", Status::SelfLocked)
+      .value("NonFiniteInput", Status::NonFiniteInput)
+      .value("SizeMismatch", Status::SizeMismatch)
+      .value("InvalidModel", Status::InvalidModel);
+  m.def("status_message", &status_message, nb::arg("status"));
+}
+
+}  // namespace tendyn::py

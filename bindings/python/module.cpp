@@ -1,0 +1,10 @@
+// tendyn._core: a thin 1:1 mirror of the C++ real-time core (include/tendyn).
+#include "common.hpp"
+
+NB_MODULE(_core, m) {
+  m.doc() = "tendyn real-time core (C++17, header-only) bound with nanobind";
+  tendyn::py::expose_status(m);
+  tendyn::py::expose_routing(m);
+  tendyn::py::expose_losses(m);
+  tendyn::py::expose_rigid_body(m);
+}

@@ -1,0 +1,61 @@
+/* tendyn — C ABI of the real-time transmission core (routing + statics with losses).
+ *
+ * One handle holds an immutable model and its preallocated data; after
+ * tendyn_transmission_create no call allocates, none throws. Arrays are dense, row-major
+ * for matrices, SI units: radii [m], tensions [N], torques [N·m], velocities [rad/s].
+ * Indices are 0-based: transmission i drives joint i and crosses joints 0…i−1.
+ */
+#ifndef TENDYN_C_API_H
+#define TENDYN_C_API_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(TENDYN_BUILDING_C_API)
+#define TENDYN_API __attribute__((visibility("default")))
+#else
+#define TENDYN_API
+#endif
+
+typedef enum tendyn_status {
+  TENDYN_OK = 0,
+  TENDYN_SELF_LOCKED = 1,      /* computed; a self-locking reducer holds a back-driving load */
+  TENDYN_NON_FINITE_INPUT = -1,
+  TENDYN_SIZE_MISMATCH = -2,
+  TENDYN_INVALID_MODEL = -3,
+  TENDYN_NULL_ARGUMENT = -4
+} tendyn_status;
+
+typedef struct tendyn_transmission tendyn_transmission;
+
+/* Create a transmission model. Required: n >= 1, motor_radius (n), idle (n*n, row-major, signed
+ * idle radii in the strict lower part), driven_radius (n), reducer_ratio (n). Optional (NULL =
+ * defaults): reducer_efficiency (n, default 1), pretension (n, default 0), tau0, nu, beta
+ * (n*n row-major, [i*n + b] = branch b <= i of transmission i; default 0).
+ * On success *out owns the handle; free it with tendyn_transmission_destroy. */
+TENDYN_API tendyn_status tendyn_transmission_create(int n, const double* motor_radius, const double* idle,
+                                                    const double* driven_radius, const double* reducer_ratio,
+                                                    const double* reducer_efficiency, const double* pretension,
+                                                    const double* tau0, const double* nu, const double* beta,
+                                                    tendyn_transmission** out);
+TENDYN_API void tendyn_transmission_destroy(tendyn_transmission* t);
+TENDYN_API int tendyn_transmission_size(const tendyn_transmission* t);
+
+/* q = K^-1 R_m q_m and q_m = R_m^-1 K q (S0 eqs. 1-2, corrected). */
+TENDYN_API tendyn_status tendyn_joint_from_motor(tendyn_transmission* t, const double* q_motor, double* q);
+TENDYN_API tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const double* q, double* q_motor);
+
+/* Feedforward: joint torques wanted + joint velocity -> motor torques to command (with losses). */
+TENDYN_API tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
+                                                         const double* qdot, double* torque_motor);
+/* Forward: motor torques + joint velocity -> joint torques delivered (with losses). */
+TENDYN_API tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
+                                                     const double* qdot, double* torque_joint);
+
+TENDYN_API const char* tendyn_status_message(tendyn_status s);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* TENDYN_C_API_H */

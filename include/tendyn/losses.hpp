@@ -1,0 +1,232 @@
+// tendyn — statics of tendon transmissions with friction losses (S0 §II-C, §III; ERRATA S0).
+//
+// Loss law of a branch (S0 eqs. 11–12 with the motion sign restored, ERRATA):
+//     Δτ = τ_up − τ_down = sgn(Ṡ) (a + b·|τ_drive|) + ν Ṡ
+// where τ_up is the tension on the motor side of the branch, τ_down on the joint side, Ṡ the
+// branch velocity relative to its link, τ_drive the tension on the side power comes from (the
+// larger of |τ_up|, |τ_down|), a = τ_0 + bearing constants, b = β + bearing load terms.
+// Friction opposing Ṡ makes the drop follow the direction of power flow by itself: when the
+// joint back-drives the cable (τ Ṡ < 0) the tension rises toward the motor. With a = ν = 0 and
+// b = 1 − e^{−μθ} one branch is a capstan wrap τ_out = τ_in e^{−μθ} (Euler–Eytelwein).
+// For b < 1 the law is strictly monotone in the unknown tension, so both directions below have
+// one solution in closed form, and they are exact inverses of each other while moving.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "tendyn/routing.hpp"
+
+namespace tendyn {
+
+// ---- elementary laws ------------------------------------------------------------------------
+
+/// Inverse (back-driven) efficiency of a reducer, S0 eq. (10): η_i = (2η_d − 1)/η_d [-].
+/// Valid when the dissipated power depends only on the output power. η_d ≤ 0.5 gives η_i ≤ 0:
+/// the reducer is self-locking (see reducer_self_locking), not a negative efficiency.
+inline double reducer_inverse_efficiency(double eta_d) { return (2.0 * eta_d - 1.0) / eta_d; }
+
+/// True when a reducer of direct efficiency η_d cannot be back-driven (η_d ≤ 0.5).
+inline bool reducer_self_locking(double eta_d) { return eta_d <= 0.5; }
+
+/// Speed term h(n) of the bearing law, S0 eq. (8): h0 below n0, h1·n^(2/3) above [N·m].
+/// @param speed  bearing angular speed [rad/s] (its magnitude is used)
+inline double bearing_speed_term(double h0, double h1, double n0, double speed) {
+  const double n = std::abs(speed);
+  return n < n0 ? h0 : h1 * std::cbrt(n * n);
+}
+
+/// Friction torque of a radial ball bearing, S0 eq. (7) [N·m].
+/// @param load    radial load p on the bearing [N]
+/// @param speed   angular speed n [rad/s]
+/// @param applied external torque M_ext trying to turn the bearing [N·m]
+/// @param stuck   set to true when the bearing does not turn (|M_ext| < α p at n = 0)
+/// @return the torque the bearing opposes: M_ext when stuck; otherwise (β p + h(n)) with the
+///         sign of the motion (of M_ext at break-away).
+inline double bearing_friction_torque(double alpha, double beta, double h0, double h1, double n0,
+                                      double load, double speed, double applied, bool* stuck) {
+  if (speed == 0.0) {
+    if (std::abs(applied) < alpha * load) {
+      if (stuck) *stuck = true;
+      return applied;
+    }
+    if (stuck) *stuck = false;
+    return std::copysign(beta * load + h0, applied);
+  }
+  if (stuck) *stuck = false;
+  return std::copysign(beta * load + bearing_speed_term(h0, h1, n0, speed), speed);
+}
+
+/// Capstan (Euler–Eytelwein): tension leaving a wrap of angle θ [rad] with friction μ [-],
+/// τ_out = τ_in e^{−μθ}.
+inline double capstan_tension_out(double tension_in, double mu, double wrap) {
+  return tension_in * std::exp(-mu * wrap);
+}
+
+/// The β of S0 eq. (11) equivalent to one capstan wrap: β = 1 − e^{−μθ} [-].
+inline double capstan_beta(double mu, double wrap) { return 1.0 - std::exp(-mu * wrap); }
+
+/// Friction of one branch, affine in the driving tension: f = a + b·|τ_drive| [N].
+struct BranchFriction {
+  double a = 0.0;  ///< constant part [N]
+  double b = 0.0;  ///< tension-proportional part [-]
+};
+
+/// Branch friction of branch b of transmission i at branch speed sdot [m/s].
+/// Sliding (sdot ≠ 0): τ_0 + β|τ| + Σ_bearings (β_b p + h(n))/r; at rest: τ_0 + β|τ| + Σ α p / r
+/// (break-away). Bearing load of a pulley wrapped by θ: p = 2 sin(θ/2)(T_pre + |τ|) [N].
+inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, double sdot) {
+  BranchFriction f{m.tau0(i, b), m.beta(i, b)};
+  const double count = m.bearing_count(i, b);
+  if (count > 0.0) {
+    const double r = m.bearing_radius(i, b);
+    const double k = 2.0 * std::sin(0.5 * m.bearing_wrap(i, b));  // load per unit tension
+    const bool moving = sdot != 0.0;
+    const double coef = moving ? m.bearing_beta(i, b) : m.bearing_alpha(i, b);
+    const double h = moving ? bearing_speed_term(m.bearing_h0(i, b), m.bearing_h1(i, b),
+                                                 m.bearing_n0(i, b), sdot / r)
+                            : 0.0;
+    f.a += count * (coef * k * m.pretension(i) + h) / r;
+    f.b += count * coef * k / r;
+  }
+  return f;
+}
+
+/// Motor-side tension y of a sliding branch given its joint-side tension x (feedforward step).
+/// Solves y − s·b·max(|x|,|y|) = x + s·a + ν Ṡ, s = sgn(Ṡ) ≠ 0, b < 1 (S0 eq. 11, corrected).
+inline double branch_tension_upstream(double x, double sdot, BranchFriction f, double nu) {
+  const double s = sdot > 0.0 ? 1.0 : -1.0;
+  const double ax = std::abs(x), sb = s * f.b;
+  const double c = x + s * f.a + nu * sdot;
+  if (c < -ax * (1.0 + sb)) return c / (1.0 + sb);  // y < −|x|
+  if (c <= ax * (1.0 - sb)) return c + sb * ax;     // |y| ≤ |x|
+  return c / (1.0 - sb);                            // y > |x|
+}
+
+/// Joint-side tension x of a sliding branch given its motor-side tension y (forward step).
+/// Solves x + s·b·max(|x|,|y|) = y − s·a − ν Ṡ; exact inverse of branch_tension_upstream.
+inline double branch_tension_downstream(double y, double sdot, BranchFriction f, double nu) {
+  const double s = sdot > 0.0 ? 1.0 : -1.0;
+  const double ay = std::abs(y), sb = s * f.b;
+  const double c = y - s * f.a - nu * sdot;
+  if (c < -ay * (1.0 - sb)) return c / (1.0 - sb);  // x < −|y|
+  if (c <= ay * (1.0 + sb)) return c - sb * ay;     // |x| ≤ |y|
+  return c / (1.0 + sb);                            // x > |y|
+}
+
+// ---- transmission statics with losses ---------------------------------------------------------
+
+/// Feedforward (a): joint torques wanted + current joint velocity → motor torques to command.
+///
+/// Newton–Euler-like recursion from the distal joint (S0 Fig. 4, eqs. 4, 6, 9–12 corrected):
+/// the torque left for transmission j at its joint is τ_J,j minus what the distal cables crossing
+/// joint j already apply; the reducer (S0 eq. 9) maps it to the driven pulley (÷ η_d n when the
+/// joint is driven, × η_i / n when it back-drives the cable); the tension then climbs branch by
+/// branch to the motor. A branch at rest (Ṡ = 0) is stuck: static friction balances any
+/// difference, so it passes the tension unchanged (static friction is not compensated, S0 §III).
+///
+/// @param torque_joint  τ_J [N·m], (n)
+/// @param qdot          joint velocity [rad/s], (n)
+/// Writes data.qdot, qdot_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
+/// self_locked. Returns SelfLocked when a self-locking reducer holds a back-driving load (the
+/// motor is then asked for nothing at that pulley), an error on bad input.
+template <class V1, class V2>
+inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionData& d,
+                                       const V1& torque_joint, const V2& qdot) {
+  if (torque_joint.size() != m.n) return Status::SizeMismatch;
+  if (!all_finite(torque_joint)) return Status::NonFiniteInput;
+  const Status sv = velocities_from_joint(m, d, qdot);
+  if (is_error(sv)) return sv;
+  Status status = Status::Ok;
+  for (int i = m.n - 1; i >= 0; --i) {
+    double own = torque_joint(i);  // joint equilibrium, S0 eq. 4
+    for (int k = i + 1; k < m.n; ++k) own -= m.K(k, i) * d.tension(k, i);
+    // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`.
+    const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
+    const double power = own * qdot(i);
+    double pulley = own / ratio;  // at rest: held statically, lossless
+    d.self_locked(i) = 0;
+    if (power > 0.0) {
+      pulley = own / (eta_d * ratio);
+    } else if (power < 0.0) {
+      if (reducer_self_locking(eta_d)) {
+        pulley = 0.0;
+        d.self_locked(i) = 1;
+        status = worst(status, Status::SelfLocked);
+      } else {
+        pulley = reducer_inverse_efficiency(eta_d) * own / ratio;
+      }
+    }
+    double t = pulley / m.driven_radius(i);
+    d.tension(i, i) = t;
+    for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
+      const double sdot = d.Sdot(i, b);
+      d.stuck(i, b) = sdot == 0.0;
+      if (sdot != 0.0) t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
+      if (b > 0) d.tension(i, b - 1) = t;
+    }
+    d.tension_motor(i) = t;
+    d.torque_motor(i) = m.motor_radius(i) * t;
+    d.torque_joint(i) = torque_joint(i);
+  }
+  return status;
+}
+
+/// Forward (b): motor torques + current joint velocity → joint torques delivered.
+///
+/// Each cable is followed from its motor to its joint, losing tension branch by branch; the
+/// reducer multiplies by η_d n when it drives the joint and by n / η_i when the joint back-drives
+/// it. A branch at rest passes nothing until its drive exceeds static friction (stuck case); past
+/// break-away it passes the drive minus static friction, in the drive's direction.
+///
+/// @param torque_motor  C_m [N·m], (n)
+/// @param qdot          joint velocity [rad/s], (n)
+template <class V1, class V2>
+inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData& d,
+                                   const V1& torque_motor, const V2& qdot) {
+  if (torque_motor.size() != m.n) return Status::SizeMismatch;
+  if (!all_finite(torque_motor)) return Status::NonFiniteInput;
+  const Status sv = velocities_from_joint(m, d, qdot);
+  if (is_error(sv)) return sv;
+  Status status = Status::Ok;
+  for (int i = 0; i < m.n; ++i) {
+    d.torque_motor(i) = torque_motor(i);
+    double t = torque_motor(i) / m.motor_radius(i);
+    d.tension_motor(i) = t;
+    for (int b = 0; b <= i; ++b) {
+      const double sdot = d.Sdot(i, b);
+      const BranchFriction f = branch_friction(m, i, b, sdot);
+      if (sdot != 0.0) {
+        d.stuck(i, b) = 0;
+        t = branch_tension_downstream(t, sdot, f, m.nu(i, b));
+      } else {  // impending motion in the direction of the drive
+        const double breakaway = f.a + f.b * std::abs(t);
+        d.stuck(i, b) = std::abs(t) <= breakaway;
+        t = d.stuck(i, b) ? 0.0 : t - std::copysign(breakaway, t);
+      }
+      d.tension(i, b) = t;
+    }
+  }
+  for (int j = 0; j < m.n; ++j) {
+    const double pulley = m.driven_radius(j) * d.tension(j, j);
+    const double ratio = m.reducer_ratio(j), eta_d = m.reducer_efficiency(j);
+    const double power = pulley * qdot(j);
+    double own = eta_d * ratio * pulley;  // driving, or at rest with motion impending from the motor
+    d.self_locked(j) = 0;
+    if (power < 0.0) {
+      if (reducer_self_locking(eta_d)) {
+        own = ratio * pulley;  // the reducer holds whatever the joint pushes; report the lossless value
+        d.self_locked(j) = 1;
+        status = worst(status, Status::SelfLocked);
+      } else {
+        own = ratio * pulley / reducer_inverse_efficiency(eta_d);
+      }
+    }
+    double s = own;
+    for (int k = j + 1; k < m.n; ++k) s += m.K(k, j) * d.tension(k, j);
+    d.torque_joint(j) = s;
+  }
+  return status;
+}
+
+}  // namespace tendyn

@@ -1,0 +1,489 @@
+"""Read and validate a device file (TOML, schema version 1).
+
+:func:`load_device` is the only entry point. Every problem a user can cause raises one
+:class:`~tendyn.device.schema.DeviceError` whose message names the file, the field path (array entries
+counted from 1, as joints and transmissions are numbered in the file) and what is wrong; the first problem
+found is reported.
+"""
+
+from __future__ import annotations
+
+import datetime
+import difflib
+import math
+import os
+import tomllib
+import xml.etree.ElementTree as ET
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .schema import (
+    BEARING_FIELDS,
+    DEVICE_FIELDS,
+    DH_JOINT_FIELDS,
+    FRICTION_FIELDS,
+    GRAVITY_MAX_NORM,
+    INERTIA_TOL,
+    KINEMATICS_FIELDS,
+    MDH_JOINT_FIELDS,
+    MOTOR_FIELDS,
+    SCHEMA_VERSION,
+    SENSOR_FIELDS,
+    TOP_FIELDS,
+    TRANSMISSION_FIELDS,
+    Bearing,
+    BranchFriction,
+    Device,
+    DeviceError,
+    FieldSpec,
+    JointSpec,
+    Kinematics,
+    Motor,
+    Sensors,
+    Transmission,
+    _frozen_array,
+    _num,
+    inertia_matrix,
+)
+
+__all__ = ["load_device"]
+
+
+def load_device(path: str | os.PathLike) -> Device:
+    """Load and validate a device file.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The TOML device file (schema version 1, see ``docs/device-file.md``).
+
+    Returns
+    -------
+    Device
+        The validated, immutable description; transmissions sorted by driven joint.
+
+    Raises
+    ------
+    DeviceError
+        For any problem with the file (missing, TOML syntax, unknown or missing field, wrong type, value
+        out of range, inconsistent routing, ...). The message names the file, the field and the problem.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise DeviceError("file not found", file=str(p))
+    if not p.is_file():
+        raise DeviceError("not a regular file", file=str(p))
+    try:
+        with p.open("rb") as fh:
+            raw = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise DeviceError(f"TOML syntax error: {exc}", file=p.name) from None
+    except UnicodeDecodeError as exc:
+        raise DeviceError(f"not valid UTF-8 text: {exc}", file=p.name) from None
+    except OSError as exc:
+        raise DeviceError(f"cannot read file: {exc.strerror or exc}", file=str(p)) from None
+    return _Parser(p).device(raw)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------------------------------------
+
+def _typename(v: Any) -> str:
+    if isinstance(v, bool):
+        return f"boolean {'true' if v else 'false'}"
+    if isinstance(v, int):
+        return f"integer {v}"
+    if isinstance(v, float):
+        return f"float {_fmt(v)}"
+    if isinstance(v, str):
+        return f"string {v!r}"
+    if isinstance(v, dict):
+        return "a table"
+    if isinstance(v, list):
+        return "an array"
+    if isinstance(v, (datetime.date, datetime.time, datetime.datetime)):
+        return f"date/time {v.isoformat()}"
+    return type(v).__name__
+
+
+def _fmt(x: Any) -> str:
+    if isinstance(x, float):
+        return repr(x)
+    return str(x)
+
+
+def _join(path: str, key: str) -> str:
+    return f"{path}.{key}" if path else key
+
+
+class _Parser:
+    """Walks the parsed TOML dict; knows the file for the messages."""
+
+    def __init__(self, path: Path):
+        self.path = path
+        self.fname = path.name
+
+    # -- errors ----------------------------------------------------------------------------------------
+    def err(self, field: str | None, problem: str) -> DeviceError:
+        return DeviceError(problem, file=self.fname, field=field or None)
+
+    # -- generic values --------------------------------------------------------------------------------
+    def table(self, raw: Any, path: str, specs: tuple[FieldSpec, ...], what: str = "a table") -> dict:
+        """Check that raw is a table with only known keys, and read every spec'd field."""
+        if not isinstance(raw, dict):
+            raise self.err(path, f"must be {what} (got {_typename(raw)})")
+        known = [s.name for s in specs]
+        for key in raw:
+            if key not in known:
+                close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+                hint = f" (did you mean {close[0]!r}?)" if close else f" (known fields: {', '.join(known)})"
+                raise self.err(_join(path, key), f"unknown field{hint}")
+        out = {}
+        for spec in specs:
+            fpath = _join(path, spec.name)
+            if spec.name not in raw:
+                if spec.required:
+                    raise self.err(fpath, f"missing required field ({spec.doc})")
+                out[spec.name] = spec.default
+            else:
+                out[spec.name] = self.value(raw[spec.name], fpath, spec)
+        return out
+
+    def value(self, v: Any, path: str, spec: FieldSpec) -> Any:
+        kind = spec.kind
+        if kind == "str":
+            if not isinstance(v, str):
+                raise self.err(path, f"must be a string (got {_typename(v)})")
+            if spec.choices and v not in spec.choices:
+                raise self.err(path, f"must be one of {', '.join(repr(c) for c in spec.choices)} (got {v!r})")
+            if spec.name == "name" and not v.strip():
+                raise self.err(path, "must not be empty")
+            return v
+        if kind == "float":
+            return self.number(v, path, spec)
+        if kind == "int":
+            return self.integer(v, path, spec)
+        if kind in ("vec3", "inertia"):
+            n = 3 if kind == "vec3" else 6
+            what = "3 numbers [x, y, z]" if n == 3 else "6 numbers [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]"
+            if not isinstance(v, list) or len(v) != n:
+                got = f"{len(v)} elements" if isinstance(v, list) else _typename(v)
+                raise self.err(path, f"must be an array of {what} (got {got})")
+            return tuple(self.number(x, f"{path}[{k + 1}]", spec) for k, x in enumerate(v))
+        if kind == "int_list":
+            if not isinstance(v, list):
+                raise self.err(path, f"must be an array of integers (got {_typename(v)})")
+            return tuple(self.integer(x, f"{path}[{k + 1}]", spec) for k, x in enumerate(v))
+        if kind == "float_list":
+            if not isinstance(v, list):
+                raise self.err(path, f"must be an array of numbers (got {_typename(v)})")
+            return tuple(self.number(x, f"{path}[{k + 1}]", spec) for k, x in enumerate(v))
+        if kind == "table":
+            if not isinstance(v, dict):
+                raise self.err(path, f"must be a table (got {_typename(v)})")
+            return v
+        if kind == "table_list":
+            if not isinstance(v, list):
+                raise self.err(path, f"must be an array of tables, e.g. [[{path}]] or [{{...}}, ...] "
+                                     f"(got {_typename(v)})")
+            for k, item in enumerate(v):
+                if not isinstance(item, dict):
+                    raise self.err(f"{path}[{k + 1}]", f"must be a table (got {_typename(item)})")
+            return v
+        raise AssertionError(f"unknown field kind {kind!r}")  # pragma: no cover - programming error
+
+    def number(self, v: Any, path: str, spec: FieldSpec) -> float:
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            extra = " (booleans are not numbers)" if isinstance(v, bool) else ""
+            raise self.err(path, f"must be a number (got {_typename(v)}){extra}")
+        x = float(v)
+        if not math.isfinite(x):
+            raise self.err(path, f"must be finite (got {_fmt(x)})")
+        self.check_range(x, path, spec)
+        return x
+
+    def integer(self, v: Any, path: str, spec: FieldSpec) -> int:
+        if isinstance(v, bool) or not isinstance(v, int):
+            extra = " (booleans are not numbers)" if isinstance(v, bool) else ""
+            raise self.err(path, f"must be an integer (got {_typename(v)}){extra}")
+        if spec.choices and v not in spec.choices:
+            raise self.err(path, f"must be one of {', '.join(str(c) for c in spec.choices)} (got {v})")
+        self.check_range(v, path, spec)
+        return int(v)
+
+    def check_range(self, x: float, path: str, spec: FieldSpec) -> None:
+        problem = None
+        if spec.lo is not None and (x <= spec.lo if spec.lo_open else x < spec.lo):
+            problem = f"must be {'>' if spec.lo_open else '>='} {_num(spec.lo)}"
+        elif spec.hi is not None and (x >= spec.hi if spec.hi_open else x > spec.hi):
+            problem = f"must be {'<' if spec.hi_open else '<='} {_num(spec.hi)}"
+        elif spec.abs_max is not None and abs(x) > spec.abs_max:
+            problem = f"must satisfy |value| <= {_num(spec.abs_max)}"
+        elif spec.nonzero and x == 0:
+            problem = "must be nonzero"
+        if problem is None:
+            return
+        if spec.range_msg and not (spec.nonzero and x == 0):
+            problem = spec.range_msg
+        msg = f"{problem} (got {_fmt(x)})"
+        if spec.zero_hint and x == 0:
+            msg += f": {spec.zero_hint}"
+        raise self.err(path, msg)
+
+    def inertia(self, v: tuple, path: str) -> None:
+        """Raise unless v = [Ixx, Iyy, Izz, Ixy, Ixz, Iyz] is a physical inertia about the COM."""
+        tol = INERTIA_TOL
+        ixx, iyy, izz = v[:3]
+        ev = np.linalg.eigvalsh(inertia_matrix(v))
+        if ev[0] < -tol:
+            raise self.err(path, f"not a physical inertia: not positive semidefinite (smallest principal "
+                                 f"moment {ev[0]:.6g} kg m^2)")
+        for (a, an), (b, bn), (c, cn) in (((ixx, "Ixx"), (iyy, "Iyy"), (izz, "Izz")),
+                                           ((ixx, "Ixx"), (izz, "Izz"), (iyy, "Iyy")),
+                                           ((iyy, "Iyy"), (izz, "Izz"), (ixx, "Ixx"))):
+            if a + b < c - tol:
+                raise self.err(path, f"not a physical inertia: violates the triangle inequality "
+                                     f"{an} + {bn} >= {cn} ({_fmt(a)} + {_fmt(b)} < {_fmt(c)})")
+        if ev[0] + ev[1] < ev[2] - tol:
+            raise self.err(path, f"not a physical inertia: principal moments {ev[0]:.6g}, {ev[1]:.6g}, "
+                                 f"{ev[2]:.6g} violate the triangle inequality")
+
+    # -- sections ----------------------------------------------------------------------------------------
+    def device(self, raw: dict) -> Device:
+        # The version decides what the rest means: check it before anything else.
+        if "schema" not in raw:
+            raise self.err("schema", f"missing required field (write `schema = {SCHEMA_VERSION}` at the top)")
+        schema = raw["schema"]
+        if isinstance(schema, bool) or not isinstance(schema, int):
+            raise self.err("schema", f"must be an integer (got {_typename(schema)})")
+        if schema != SCHEMA_VERSION:
+            raise self.err("schema", f"unsupported schema version {schema}: this version of tendyn reads "
+                                     f"schema = {SCHEMA_VERSION}")
+        top = self.table(raw, "", TOP_FIELDS)
+        dev = self.table(top["device"], "device", DEVICE_FIELDS)
+        kin = self.kinematics(top["kinematics"])
+        trans = self.transmissions(top["transmissions"], kin)
+        return Device(name=dev["name"], description=dev["description"], path=self.path.resolve(),
+                      kinematics=kin, transmissions=trans)
+
+    def kinematics(self, raw: Any) -> Kinematics:
+        k = self.table(raw, "kinematics", KINEMATICS_FIELDS)
+        conv = k["convention"]
+        g = np.array(k["gravity"])
+        norm = float(np.linalg.norm(g))
+        if norm > GRAVITY_MAX_NORM:
+            raise self.err("kinematics.gravity", f"norm must be <= {_num(GRAVITY_MAX_NORM)} m/s^2 "
+                                                 f"(got {norm:.6g})")
+        urdf_path = None
+        if conv == "urdf":
+            if k["joints"] is not None:
+                raise self.err("kinematics.joints", 'not allowed with convention = "urdf": the joints come '
+                                                    "from the URDF file")
+            if k["urdf"] is None:
+                raise self.err("kinematics.urdf", 'missing required field (convention = "urdf" needs the '
+                                                  "URDF file path)")
+            urdf_path = Path(k["urdf"])
+            if not urdf_path.is_absolute():
+                urdf_path = self.path.parent / urdf_path
+            urdf_path = urdf_path.resolve()
+            if not urdf_path.is_file():
+                raise self.err("kinematics.urdf", f"URDF file not found: {urdf_path}")
+            joints = self.urdf_joints(urdf_path)
+        else:
+            if k["urdf"] is not None:
+                raise self.err("kinematics.urdf", f'only allowed with convention = "urdf" (got convention = '
+                                                  f'"{conv}")')
+            if k["joints"] is None:
+                raise self.err("kinematics.joints", f"missing required field: convention = \"{conv}\" needs "
+                                                    "one [[kinematics.joints]] entry per joint")
+            if not k["joints"]:
+                raise self.err("kinematics.joints", "must list at least one joint")
+            joints = tuple(self.dh_joint(j, f"kinematics.joints[{i + 1}]", i + 1) if conv == "dh"
+                           else self.mdh_joint(j, f"kinematics.joints[{i + 1}]", i + 1)
+                           for i, j in enumerate(k["joints"]))
+            seen: dict[str, int] = {}
+            for i, j in enumerate(joints):
+                if j.name in seen:
+                    raise self.err(f"kinematics.joints[{i + 1}].name",
+                                   f"duplicate joint name {j.name!r} (also kinematics.joints[{seen[j.name]}])")
+                seen[j.name] = i + 1
+        return Kinematics(convention=conv, gravity=_frozen_array(g, (3,)), joints=joints, urdf=urdf_path)
+
+    def limits(self, lower, upper, path: str) -> None:
+        if lower >= upper:
+            raise self.err(f"{path}.lower", f"must be < upper (got lower = {_fmt(lower)}, upper = {_fmt(upper)})")
+
+    def dh_joint(self, raw: dict, path: str, num: int) -> JointSpec:
+        f = self.table(raw, path, DH_JOINT_FIELDS)
+        self.limits(f["lower"], f["upper"], path)
+        self.inertia(f["inertia"], f"{path}.inertia")
+        return JointSpec(name=f["name"], lower=f["lower"], upper=f["upper"], a=f["a"], alpha=f["alpha"],
+                         d=f["d"], theta_offset=f["theta_offset"], mass=f["mass"],
+                         com=_frozen_array(f["com"], (3,)), inertia=_frozen_array(f["inertia"], (6,)))
+
+    def mdh_joint(self, raw: dict, path: str, num: int) -> JointSpec:
+        f = self.table(raw, path, MDH_JOINT_FIELDS)
+        if f["j"] != num:
+            raise self.err(f"{path}.j", f"must equal the entry's position {num} (got {f['j']}): list the "
+                                        "frames in order j = 1, 2, ...")
+        if f["antecedent"] >= f["j"]:
+            raise self.err(f"{path}.antecedent", f"must be < j = {f['j']} (got {f['antecedent']}): a frame's "
+                                                 "antecedent must come before it (0 = base)")
+        fixed = f["sigma"] == 2
+        if fixed and f["mu"] == 1:
+            raise self.err(f"{path}.mu", "must be 0 for a cut joint / fixed frame (sigma = 2): it cannot be "
+                                         "actuated")
+        if not fixed:
+            for key in ("lower", "upper", "mass", "com", "inertia"):
+                if f[key] is None:
+                    raise self.err(f"{path}.{key}", f"missing required field (needed for sigma = {f['sigma']})")
+            if f["mass"] <= 0:
+                raise self.err(f"{path}.mass", f"must be > 0 (got {_fmt(f['mass'])})")
+        if (f["lower"] is None) != (f["upper"] is None):
+            missing = "upper" if f["upper"] is None else "lower"
+            raise self.err(f"{path}.{missing}", "missing required field (lower and upper go together)")
+        if f["lower"] is not None:
+            self.limits(f["lower"], f["upper"], path)
+        mass = 0.0 if f["mass"] is None else f["mass"]
+        com = (0.0, 0.0, 0.0) if f["com"] is None else f["com"]
+        inertia = (0.0,) * 6 if f["inertia"] is None else f["inertia"]
+        self.inertia(inertia, f"{path}.inertia")
+        return JointSpec(name=f["name"], lower=f["lower"], upper=f["upper"], alpha=f["alpha"], d=f["d"],
+                         theta_offset=f["theta_offset"], mass=mass, com=_frozen_array(com, (3,)),
+                         inertia=_frozen_array(inertia, (6,)), j=f["j"], antecedent=f["antecedent"],
+                         mu=f["mu"], sigma=f["sigma"], gamma=f["gamma"], b=f["b"], r=f["r"])
+
+    def urdf_joints(self, urdf: Path) -> tuple[JointSpec, ...]:
+        """The movable joints of a URDF (revolute, continuous, prismatic; mimic joints excluded), in
+        depth-first order from the root link (the chain order for a serial robot)."""
+        field = "kinematics.urdf"
+        try:
+            root = ET.parse(urdf).getroot()
+        except (ET.ParseError, OSError) as exc:
+            raise self.err(field, f"cannot parse URDF file {urdf}: {exc}") from None
+        if root.tag != "robot":
+            raise self.err(field, f"{urdf} is not a URDF file (root element <{root.tag}>, expected <robot>)")
+        children: dict[str, list[ET.Element]] = {}
+        child_links = set()
+        for jt in root.findall("joint"):
+            par, chi = jt.find("parent"), jt.find("child")
+            if par is None or chi is None or not par.get("link") or not chi.get("link"):
+                raise self.err(field, f"{urdf.name}: joint {jt.get('name')!r} lacks <parent link=...> or "
+                                      "<child link=...>")
+            children.setdefault(par.get("link"), []).append(jt)
+            child_links.add(chi.get("link"))
+        links = [ln.get("name") for ln in root.findall("link")]
+        roots = [ln for ln in links if ln not in child_links]
+        if len(roots) != 1:
+            raise self.err(field, f"{urdf.name}: expected one root link, found {len(roots)} ({', '.join(roots)})")
+        out: list[JointSpec] = []
+        order: list[ET.Element] = []
+
+        visited: set[str] = set()
+
+        def visit(link: str) -> None:  # joints leaving `link` in document order, depth first
+            if link in visited:
+                raise self.err(field, f"{urdf.name}: link {link!r} is reached twice (a kinematic loop)")
+            visited.add(link)
+            for jt in children.get(link, []):
+                order.append(jt)
+                visit(jt.find("child").get("link"))
+
+        visit(roots[0])
+        for jt in order:
+            jtype = jt.get("type")
+            if jtype not in ("revolute", "continuous", "prismatic") or jt.find("mimic") is not None:
+                continue
+            lower = upper = None
+            lim = jt.find("limit")
+            if jtype != "continuous" and lim is not None:
+                try:
+                    lower, upper = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
+                except ValueError:
+                    raise self.err(field, f"{urdf.name}: joint {jt.get('name')!r} has non-numeric limits") from None
+            out.append(JointSpec(name=jt.get("name") or f"joint{len(out) + 1}", lower=lower, upper=upper))
+        if not out:
+            raise self.err(field, f"{urdf.name}: no movable joint")
+        return tuple(out)
+
+    def transmissions(self, raw: Any, kin: Kinematics) -> tuple[Transmission, ...]:
+        if not raw:
+            raise self.err("transmissions", "must list at least one transmission ([[transmissions]])")
+        driven_by: dict[int, tuple[int, str]] = {}
+        names: dict[str, int] = {}
+        out = []
+        for i, item in enumerate(raw):
+            path = f"transmissions[{i + 1}]"
+            t = self.transmission(item, path, kin)
+            if t.name in names:
+                raise self.err(f"{path}.name", f"duplicate transmission name {t.name!r} "
+                                               f"(also transmissions[{names[t.name]}])")
+            names[t.name] = i + 1
+            if t.joint in driven_by:
+                k, other = driven_by[t.joint]
+                raise self.err(f"{path}.joint", f"joint {t.joint} is driven twice: by transmission {other} "
+                                                f"(transmissions[{k}]) and by {t.name}; each joint must be "
+                                                "driven exactly once")
+            driven_by[t.joint] = (i + 1, t.name)
+            out.append(t)
+        for num, js in enumerate(kin.joints, start=1):
+            if js.actuated and num not in driven_by:
+                raise self.err("transmissions", f"joint {num} ({js.name}) is not driven by any transmission; "
+                                                "each actuated joint must be driven exactly once")
+        return tuple(sorted(out, key=lambda t: t.joint))
+
+    def transmission(self, raw: dict, path: str, kin: Kinematics) -> Transmission:
+        f = self.table(raw, path, TRANSMISSION_FIELDS)
+        name, joint = f["name"], f["joint"]
+        n = kin.n_joints
+        if joint > n:
+            raise self.err(f"{path}.joint", f"no joint {joint}: the device has {n} joint{'s' if n != 1 else ''}")
+        js = kin.joints[joint - 1]
+        if not js.actuated:
+            raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
+        crosses, radii = f["crosses"], f["crossed_radii"]
+        seen = set()
+        for k, c in enumerate(crosses):
+            cp = f"{path}.crosses[{k + 1}]"
+            if c < 1:
+                raise self.err(cp, f"must be a joint number >= 1 (got {c})")
+            if c >= joint:
+                raise self.err(cp, f"cannot reach joint {c}: transmission {name} drives joint {joint} "
+                                   f"(a cable only crosses joints before the one it drives)")
+            if c in seen:
+                raise self.err(cp, f"joint {c} is listed twice")
+            seen.add(c)
+        if len(radii) != len(crosses):
+            raise self.err(f"{path}.crossed_radii", f"must have one radius per crossed joint: crosses has "
+                                                    f"{len(crosses)} entries, crossed_radii has {len(radii)}")
+        # friction: one entry per branch
+        fr_raw = f["friction"]
+        if len(fr_raw) != joint:
+            raise self.err(f"{path}.friction", f"must have exactly {joint} entries, one per branch "
+                                               f"(transmission {name} drives joint {joint}), got {len(fr_raw)}")
+        friction = tuple(BranchFriction(**self.table(e, f"{path}.friction[{b + 1}]", FRICTION_FIELDS))
+                         for b, e in enumerate(fr_raw))
+        br_raw = f["bearings"]
+        if br_raw is None:
+            bearings: tuple = (None,) * joint
+        else:
+            if len(br_raw) != len(fr_raw):
+                raise self.err(f"{path}.bearings", f"must have the same length as friction ({len(fr_raw)}, one "
+                                                   f"per branch), got {len(br_raw)}; use {{}} for none")
+            bearings = tuple(None if not e else Bearing(**self.table(e, f"{path}.bearings[{b + 1}]",
+                                                                      BEARING_FIELDS))
+                             for b, e in enumerate(br_raw))
+        mot = self.table(f["motor"], f"{path}.motor", MOTOR_FIELDS)
+        if mot["peak_torque"] < mot["continuous_torque"]:
+            raise self.err(f"{path}.motor.peak_torque", f"must be >= continuous_torque (got peak_torque = "
+                                                        f"{_fmt(mot['peak_torque'])}, continuous_torque = "
+                                                        f"{_fmt(mot['continuous_torque'])})")
+        sen = self.table(f["sensors"], f"{path}.sensors", SENSOR_FIELDS)
+        return Transmission(
+            name=name, joint=joint, motor_radius=f["motor_radius"], crosses=tuple(crosses),
+            crossed_radii=tuple(radii), driven_radius=f["driven_radius"], reducer_ratio=f["reducer_ratio"],
+            reducer_efficiency=f["reducer_efficiency"], pretension=f["pretension"], friction=friction,
+            bearings=bearings, motor=Motor(**mot), sensors=Sensors(**sen))

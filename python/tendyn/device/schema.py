@@ -1,0 +1,532 @@
+"""Device description, schema version 1: the data model and the field specifications.
+
+Two halves:
+
+* **Field specifications** (:class:`FieldSpec`): for every key a device file may hold, its type, unit,
+  default and allowed range. :mod:`tendyn.device.load` validates against these tables, and
+  ``docs/device-file.md`` documents the same fields (a test checks that every field is documented).
+* **Data model**: frozen dataclasses built by :func:`tendyn.device.load_device`. All values are SI and
+  radians; joints and transmissions are numbered from 1 in the file and in the ``joint`` / ``crosses``
+  attributes, while the numpy arrays of :meth:`Device.routing_arrays` are indexed from 0.
+
+Nothing here imports the compiled core; only the standard library and numpy.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+SCHEMA_VERSION = 1
+"""The schema version this package reads (``schema = 1`` at the top of the file)."""
+
+CONVENTIONS = ("dh", "mdh", "urdf")
+"""Kinematic conventions: standard DH, Khalil-Kleinfinger modified DH, or a URDF file."""
+
+INERTIA_TOL = 1e-12
+"""Tolerance [kg m^2] of the positive-semidefinite and triangle-inequality checks of inertias."""
+
+TWO_PI = 2.0 * math.pi
+
+
+class DeviceError(ValueError):
+    """A device file (or a request about bundled devices) is invalid.
+
+    The message names the file, the field path and what is wrong, e.g.
+    ``lexos.toml: transmissions[2].driven_radius: must be > 0 (got 0.0): ...``.
+
+    Attributes
+    ----------
+    file : str or None
+        The file name the error is about (None when no file is involved).
+    field : str or None
+        The dotted field path, with 1-based indices of array entries (``transmissions[2].friction[1].tau0``).
+    problem : str
+        What is wrong, without the file and field prefix.
+    """
+
+    def __init__(self, problem: str, *, file: str | None = None, field: str | None = None):
+        self.file = file
+        self.field = field
+        self.problem = problem
+        parts = [p for p in (file, field) if p]
+        super().__init__(": ".join(parts + [problem]))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Field specifications
+# ----------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FieldSpec:
+    """Specification of one key of a device file.
+
+    Parameters
+    ----------
+    name : str
+        Key as written in the file.
+    kind : str
+        ``"str"``, ``"float"``, ``"int"``, ``"vec3"`` (3 floats), ``"inertia"`` (6 floats),
+        ``"int_list"``, ``"float_list"``, ``"table"`` or ``"table_list"``.
+        Integers are accepted where floats are expected; booleans never count as numbers.
+    unit : str
+        SI unit ("-" if dimensionless, "" for strings and tables).
+    required : bool
+        Whether the key must be present. When absent and not required, ``default`` is used.
+    default : Any
+        Default value of an optional key.
+    lo, hi : float or None
+        Bounds; ``lo_open`` / ``hi_open`` make them strict.
+    abs_max : float or None
+        Bound on the absolute value (``|x| <= abs_max``).
+    nonzero : bool
+        Zero is rejected (for signed radii).
+    choices : tuple
+        Allowed values (for strings and small integer enums).
+    doc : str
+        One-line description (also used in ``docs/device-file.md``).
+    zero_hint : str
+        Appended to the message when a value of 0 violates the range (e.g. singular routing).
+    range_msg : str
+        If set, the message used for any range violation (e.g. ``must be in (0, 1]``).
+    """
+
+    name: str
+    kind: str
+    unit: str
+    required: bool = True
+    default: Any = None
+    lo: float | None = None
+    lo_open: bool = False
+    hi: float | None = None
+    hi_open: bool = False
+    abs_max: float | None = None
+    nonzero: bool = False
+    choices: tuple = ()
+    doc: str = ""
+    zero_hint: str = ""
+    range_msg: str = ""
+
+    def range_text(self) -> str:
+        """Human-readable allowed range, e.g. ``(0, 1]`` or ``|x| <= 10`` (empty if unbounded)."""
+        if self.choices:
+            return "one of " + ", ".join(repr(c) for c in self.choices)
+        parts = []
+        if self.lo is not None and self.hi is not None:
+            parts.append(f"{'(' if self.lo_open else '['}{_num(self.lo)}, {_num(self.hi)}{')' if self.hi_open else ']'}")
+        elif self.lo is not None:
+            parts.append(f"{'>' if self.lo_open else '>='} {_num(self.lo)}")
+        elif self.hi is not None:
+            parts.append(f"{'<' if self.hi_open else '<='} {_num(self.hi)}")
+        if self.abs_max is not None:
+            parts.append(f"|x| <= {_num(self.abs_max)}")
+        if self.nonzero:
+            parts.append("nonzero")
+        if self.kind in ("float", "vec3", "inertia", "float_list"):
+            parts.append("finite")
+        return ", ".join(parts)
+
+
+def _num(x: float) -> str:
+    if x == TWO_PI:
+        return "2*pi"
+    if float(x).is_integer():
+        return str(int(x))
+    return repr(x)
+
+
+def F(name, kind, unit, doc, **kw) -> FieldSpec:  # noqa: N802 - short constructor for the tables below
+    return FieldSpec(name=name, kind=kind, unit=unit, doc=doc, **kw)
+
+
+TOP_FIELDS = (
+    F("schema", "int", "-", "schema version of the file; must be 1", choices=(SCHEMA_VERSION,)),
+    F("device", "table", "", "device identity"),
+    F("kinematics", "table", "", "kinematic description"),
+    F("transmissions", "table_list", "", "one entry per actuated joint"),
+)
+
+DEVICE_FIELDS = (
+    F("name", "str", "", "device name (non-empty)"),
+    F("description", "str", "", "free text", required=False, default=""),
+)
+
+KINEMATICS_FIELDS = (
+    F("convention", "str", "", "kinematic convention", choices=CONVENTIONS),
+    F("gravity", "vec3", "m/s^2", "gravity vector in the base frame; norm <= 100"),
+    F("urdf", "str", "", "URDF file, absolute or relative to the device file's folder; "
+      "required with convention = \"urdf\", not allowed otherwise", required=False),
+    F("joints", "table_list", "", "one entry per joint in order; required for \"dh\"/\"mdh\", "
+      "not allowed for \"urdf\"", required=False),
+)
+
+GRAVITY_MAX_NORM = 100.0
+
+_LINK_FIELDS = (
+    F("mass", "float", "kg", "mass of the link moved by this joint", lo=0.0, lo_open=True, hi=1000.0),
+    F("com", "vec3", "m", "centre of mass in the link frame of this joint", abs_max=10.0),
+    F("inertia", "inertia", "kg m^2",
+      "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] inertia-matrix entries about the COM, link frame; positive "
+      "semidefinite and triangle inequalities (Ixx+Iyy >= Izz, ...), tolerance 1e-12", abs_max=1000.0),
+)
+
+DH_JOINT_FIELDS = (
+    F("name", "str", "", "joint name, unique"),
+    F("a", "float", "m", "link length a_i (standard DH)", abs_max=10.0),
+    F("alpha", "float", "rad", "link twist alpha_i", abs_max=TWO_PI),
+    F("d", "float", "m", "link offset d_i", abs_max=10.0),
+    F("theta_offset", "float", "rad", "theta_i = q_i + theta_offset", required=False, default=0.0),
+    F("lower", "float", "rad", "lower joint limit (< upper)"),
+    F("upper", "float", "rad", "upper joint limit (> lower)"),
+) + _LINK_FIELDS
+
+MDH_JOINT_FIELDS = (
+    F("name", "str", "", "frame/joint name, unique"),
+    F("j", "int", "-", "frame number, 1-based; must equal the entry's position", lo=1),
+    F("antecedent", "int", "-", "antecedent frame a(j); 0 = base; must be < j", lo=0),
+    F("mu", "int", "-", "1 if the joint is actuated, else 0", choices=(0, 1)),
+    F("sigma", "int", "-", "0 revolute, 1 prismatic, 2 cut joint / fixed frame", choices=(0, 1, 2)),
+    F("gamma", "float", "rad", "gamma_j (Khalil-Kleinfinger)", required=False, default=0.0, abs_max=TWO_PI),
+    F("b", "float", "m", "b_j", required=False, default=0.0, abs_max=10.0),
+    F("alpha", "float", "rad", "alpha_j", abs_max=TWO_PI),
+    F("d", "float", "m", "d_j", abs_max=10.0),
+    F("theta_offset", "float", "rad", "theta_j = q_j + theta_offset (revolute)", required=False, default=0.0),
+    F("r", "float", "m", "r_j (r_j = q_j + r for prismatic)", abs_max=10.0),
+    F("lower", "float", "rad or m", "lower joint limit (< upper); optional for sigma = 2", required=False),
+    F("upper", "float", "rad or m", "upper joint limit (> lower); optional for sigma = 2", required=False),
+    F("mass", "float", "kg", "link mass; > 0, or >= 0 and optional (default 0) for sigma = 2",
+      required=False, lo=0.0, hi=1000.0),
+    F("com", "vec3", "m", "centre of mass in frame j (optional for sigma = 2)", required=False, abs_max=10.0),
+    F("inertia", "inertia", "kg m^2", "as for \"dh\" (optional for sigma = 2)", required=False,
+      abs_max=1000.0),
+)
+
+TRANSMISSION_FIELDS = (
+    F("name", "str", "", "transmission name, unique"),
+    F("joint", "int", "-", "driven joint number (1-based); every actuated joint is driven exactly once", lo=1),
+    F("motor_radius", "float", "m", "motor pulley radius r_m", lo=0.0, lo_open=True, hi=1.0),
+    F("crosses", "int_list", "-", "joints the cable crosses on idle pulleys, each < joint, unique",
+      required=False, default=()),
+    F("crossed_radii", "float_list", "m", "signed idle-pulley radius per crossed joint (sign = routing)",
+      required=False, default=(), abs_max=1.0, nonzero=True),
+    F("driven_radius", "float", "m", "driven pulley radius", lo=0.0, lo_open=True, hi=1.0,
+      zero_hint="a zero driven radius makes the routing singular"),
+    F("reducer_ratio", "float", "-", "reducer ratio n in the driven pulley (generalised radius = "
+      "driven_radius * reducer_ratio, S0 footnote 1)", required=False, default=1.0, lo=1.0, hi=1e4),
+    F("reducer_efficiency", "float", "-", "direct efficiency eta_d of the reducer (<= 0.5: self-locking)",
+      required=False, default=1.0, lo=0.0, lo_open=True, hi=1.0, range_msg="must be in (0, 1]"),
+    F("pretension", "float", "N", "cable pretension", required=False, default=0.0, lo=0.0, hi=1e6),
+    F("friction", "table_list", "", "one entry per branch (exactly `joint` entries)"),
+    F("bearings", "table_list", "", "optional per-branch bearings, same length as friction; {} = none",
+      required=False),
+    F("motor", "table", "", "motor data"),
+    F("sensors", "table", "", "sensor data"),
+)
+
+FRICTION_FIELDS = (
+    F("tau0", "float", "N", "Coulomb friction force of the branch (eq. 12)", lo=0.0, hi=1e6),
+    F("nu", "float", "N s/m", "viscous friction of the branch (eq. 12)", lo=0.0, hi=1e6),
+    F("beta", "float", "-", "tension-proportional loss of the branch (eq. 11)", required=False, default=0.0,
+      lo=0.0, hi=1.0, hi_open=True, range_msg="must be in [0, 1)"),
+)
+
+BEARING_FIELDS = (
+    F("count", "int", "-", "number of bearings on the branch", lo=0),
+    F("radius", "float", "m", "pulley radius over the bearings", lo=0.0, lo_open=True, hi=1.0),
+    F("wrap", "float", "rad", "cable wrap angle", lo=0.0, lo_open=True, hi=TWO_PI,
+      range_msg="must be in (0, 2*pi]"),
+    F("alpha", "float", "m", "static friction per unit radial load (eq. 7)", lo=0.0, hi=1.0),
+    F("beta", "float", "m", "load-dependent coefficient (eq. 7)", lo=0.0, hi=1.0),
+    F("h0", "float", "N m", "speed-independent torque (eq. 8)", lo=0.0, hi=1e3),
+    F("h1", "float", "N m (rad/s)^(-2/3)", "speed-dependent coefficient (eq. 8)", lo=0.0, hi=1e3),
+    F("n0", "float", "rad/s", "speed threshold (eq. 8)", lo=0.0, hi=1e6),
+)
+
+MOTOR_FIELDS = (
+    F("torque_constant", "float", "N m/A", "motor torque constant k_t", lo=0.0, lo_open=True, hi=1e3),
+    F("rotor_inertia", "float", "kg m^2", "rotor inertia (motor side)", lo=0.0, hi=1e3),
+    F("continuous_torque", "float", "N m", "continuous torque (motor side)", lo=0.0, lo_open=True, hi=1e5),
+    F("peak_torque", "float", "N m", "peak torque (motor side), >= continuous_torque", lo=0.0, lo_open=True,
+      hi=1e5),
+)
+
+SENSOR_FIELDS = (
+    F("encoder_counts", "int", "counts/rev", "encoder counts per motor revolution after decoding", lo=1),
+    F("current_noise", "float", "A", "rms current measurement noise", lo=0.0, hi=1e3),
+)
+
+ALL_FIELD_TABLES = {
+    "": TOP_FIELDS,
+    "device": DEVICE_FIELDS,
+    "kinematics": KINEMATICS_FIELDS,
+    "kinematics.joints (dh)": DH_JOINT_FIELDS,
+    "kinematics.joints (mdh)": MDH_JOINT_FIELDS,
+    "transmissions": TRANSMISSION_FIELDS,
+    "transmissions.friction": FRICTION_FIELDS,
+    "transmissions.bearings": BEARING_FIELDS,
+    "transmissions.motor": MOTOR_FIELDS,
+    "transmissions.sensors": SENSOR_FIELDS,
+}
+"""Every field table, keyed by the section it describes (used by docs checks)."""
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Data model
+# ----------------------------------------------------------------------------------------------------------
+
+def _frozen_array(x, shape) -> np.ndarray:
+    a = np.array(x, dtype=float).reshape(shape)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class JointSpec:
+    """One joint (and the link it moves).
+
+    For ``convention = "dh"``: a [m], alpha [rad], d [m], theta_offset [rad] (theta = q + theta_offset),
+    lower/upper [rad], mass [kg], com [m] (3,), inertia [kg m^2] (6,) = [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]
+    about the COM in the link frame. For ``"mdh"`` additionally j, antecedent, mu, sigma, gamma [rad],
+    b [m], r [m] (a is None). For ``"urdf"`` only name, lower, upper are filled (None for continuous
+    joints); the rest comes from the URDF itself.
+    """
+
+    name: str
+    lower: float | None = None
+    upper: float | None = None
+    a: float | None = None
+    alpha: float | None = None
+    d: float | None = None
+    theta_offset: float | None = None
+    mass: float | None = None
+    com: np.ndarray | None = None
+    inertia: np.ndarray | None = None
+    # modified DH (Khalil-Kleinfinger) only
+    j: int | None = None
+    antecedent: int | None = None
+    mu: int | None = None
+    sigma: int | None = None
+    gamma: float | None = None
+    b: float | None = None
+    r: float | None = None
+
+    @property
+    def actuated(self) -> bool:
+        """True unless an mdh entry says mu = 0."""
+        return self.mu is None or self.mu == 1
+
+    def inertia_matrix(self) -> np.ndarray | None:
+        """The 3x3 inertia matrix [kg m^2] about the COM in the link frame (None if not given)."""
+        if self.inertia is None:
+            return None
+        return inertia_matrix(self.inertia)
+
+
+def inertia_matrix(v) -> np.ndarray:
+    """[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] -> symmetric 3x3 matrix (entries as in URDF)."""
+    ixx, iyy, izz, ixy, ixz, iyz = (float(x) for x in v)
+    return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]])
+
+
+@dataclass(frozen=True, eq=False)
+class Kinematics:
+    """Kinematic description.
+
+    convention : "dh", "mdh" or "urdf"
+    gravity : (3,) array [m/s^2], base frame
+    joints : tuple of :class:`JointSpec`, in order (joint k is ``joints[k-1]``)
+    urdf : resolved path of the URDF file, or None
+    """
+
+    convention: str
+    gravity: np.ndarray
+    joints: tuple[JointSpec, ...]
+    urdf: Path | None = None
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.joints)
+
+
+@dataclass(frozen=True)
+class BranchFriction:
+    """Friction of one branch of a cable (S0 eqs. 11-12).
+
+    tau0 [N] Coulomb force, nu [N s/m] viscous coefficient, beta [-] tension-proportional loss in [0, 1).
+    """
+
+    tau0: float
+    nu: float
+    beta: float = 0.0
+
+
+@dataclass(frozen=True)
+class Bearing:
+    """Bearings of one branch (S0 eqs. 7-8).
+
+    count [-], radius [m], wrap [rad], alpha [m], beta [m], h0 [N m], h1 [N m (rad/s)^(-2/3)], n0 [rad/s].
+    """
+
+    count: int
+    radius: float
+    wrap: float
+    alpha: float
+    beta: float
+    h0: float
+    h1: float
+    n0: float
+
+
+@dataclass(frozen=True)
+class Motor:
+    """Motor data (motor side): torque_constant [N m/A], rotor_inertia [kg m^2], continuous_torque and
+    peak_torque [N m]."""
+
+    torque_constant: float
+    rotor_inertia: float
+    continuous_torque: float
+    peak_torque: float
+
+    @property
+    def continuous_current(self) -> float:
+        """Continuous current [A] = continuous_torque / torque_constant."""
+        return self.continuous_torque / self.torque_constant
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """Sensors: encoder_counts [counts per motor revolution after decoding], current_noise [A rms]."""
+
+    encoder_counts: int
+    current_noise: float
+
+
+@dataclass(frozen=True)
+class Transmission:
+    """One cable from a motor to its driven joint.
+
+    joint is the driven joint number (1-based); crosses are the (1-based) joints crossed on idle pulleys
+    with signed radii crossed_radii [m]; motor_radius, driven_radius [m]; reducer_ratio [-];
+    reducer_efficiency eta_d [-]; pretension [N]; friction and bearings have one entry per branch
+    (``joint`` branches: branch 0 on the base, branch b on link b); a bearings entry is None when the
+    branch has none.
+    """
+
+    name: str
+    joint: int
+    motor_radius: float
+    crosses: tuple[int, ...]
+    crossed_radii: tuple[float, ...]
+    driven_radius: float
+    reducer_ratio: float
+    reducer_efficiency: float
+    pretension: float
+    friction: tuple[BranchFriction, ...]
+    bearings: tuple[Bearing | None, ...]
+    motor: Motor
+    sensors: Sensors
+
+    @property
+    def generalized_radius(self) -> float:
+        """r_i^i = driven_radius * reducer_ratio [m] (S0 footnote 1, ERRATA)."""
+        return self.driven_radius * self.reducer_ratio
+
+    @property
+    def n_branches(self) -> int:
+        return self.joint
+
+    @property
+    def self_locking(self) -> bool:
+        """True if eta_d <= 0.5: the reducer cannot be back-driven (ERRATA, eq. 10)."""
+        return self.reducer_efficiency <= 0.5
+
+    @property
+    def inverse_efficiency(self) -> float:
+        """eta_i = (2 eta_d - 1) / eta_d (S0 eq. 10); <= 0 means self-locking."""
+        eta = self.reducer_efficiency
+        return (2.0 * eta - 1.0) / eta
+
+
+BEARING_ARRAY_NAMES = ("count", "radius", "wrap", "alpha", "beta", "h0", "h1", "n0")
+
+
+@dataclass(frozen=True, eq=False)
+class Device:
+    """A validated device description (see :func:`tendyn.device.load_device`).
+
+    name, description : str
+    path : Path of the device file
+    kinematics : :class:`Kinematics`
+    transmissions : tuple of :class:`Transmission`, sorted by driven joint
+    """
+
+    name: str
+    description: str
+    path: Path
+    kinematics: Kinematics
+    transmissions: tuple[Transmission, ...] = field(default_factory=tuple)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joints of the kinematic description."""
+        return self.kinematics.n_joints
+
+    @property
+    def n_transmissions(self) -> int:
+        return len(self.transmissions)
+
+    @property
+    def joint_names(self) -> tuple[str, ...]:
+        return tuple(j.name for j in self.kinematics.joints)
+
+    def routing_arrays(self) -> dict[str, np.ndarray]:
+        """The routing and friction data as numpy arrays, 0-based.
+
+        Rows are transmissions (sorted by driven joint), columns are joints; with one transmission per
+        joint (every "dh" device) the matrices are square (n, n) and lower-triangular.
+
+        Returns
+        -------
+        dict of str to ndarray
+            ``motor_radius`` (m,) [m]; ``K`` (m, n) [m] with K[i, j] the signed idle-pulley radius of
+            transmission i at crossed joint j, K[i, joint_i] = generalised radius (driven_radius *
+            reducer_ratio), 0 elsewhere, so that R_m q_m = K q; ``driven_radius``, ``reducer_ratio``,
+            ``reducer_efficiency``, ``pretension`` (m,); ``tau0`` [N], ``nu`` [N s/m], ``beta`` [-] (m, n)
+            with [i, b] = branch b of transmission i (zero for b >= joint_i); ``bearing_count``,
+            ``bearing_radius``, ``bearing_wrap``, ``bearing_alpha``, ``bearing_beta``, ``bearing_h0``,
+            ``bearing_h1``, ``bearing_n0`` (m, n), zero where there is no bearing except
+            ``bearing_radius`` = 1.0 there (no division by zero).
+        """
+        n = self.n_joints
+        m = self.n_transmissions
+        out: dict[str, np.ndarray] = {
+            "motor_radius": np.array([t.motor_radius for t in self.transmissions], dtype=float),
+            "K": np.zeros((m, n)),
+            "driven_radius": np.array([t.driven_radius for t in self.transmissions], dtype=float),
+            "reducer_ratio": np.array([t.reducer_ratio for t in self.transmissions], dtype=float),
+            "reducer_efficiency": np.array([t.reducer_efficiency for t in self.transmissions], dtype=float),
+            "pretension": np.array([t.pretension for t in self.transmissions], dtype=float),
+            "tau0": np.zeros((m, n)),
+            "nu": np.zeros((m, n)),
+            "beta": np.zeros((m, n)),
+        }
+        for name in BEARING_ARRAY_NAMES:
+            out["bearing_" + name] = np.ones((m, n)) if name == "radius" else np.zeros((m, n))
+        for i, t in enumerate(self.transmissions):
+            for jn, rad in zip(t.crosses, t.crossed_radii):
+                out["K"][i, jn - 1] = rad
+            out["K"][i, t.joint - 1] = t.generalized_radius
+            for b, fr in enumerate(t.friction):
+                out["tau0"][i, b] = fr.tau0
+                out["nu"][i, b] = fr.nu
+                out["beta"][i, b] = fr.beta
+            for b, br in enumerate(t.bearings):
+                if br is None:
+                    continue
+                for name in BEARING_ARRAY_NAMES:
+                    out["bearing_" + name][i, b] = getattr(br, name)
+        return out

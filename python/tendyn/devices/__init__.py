@@ -1,0 +1,50 @@
+"""Bundled device files (the digital twins of the seed papers' devices).
+
+>>> from tendyn.devices import bundled, available
+>>> bundled("lexos").name
+'lexos.toml'
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ..device.schema import DeviceError
+
+__all__ = ["available", "bundled"]
+
+_HERE = Path(__file__).resolve().parent
+
+
+def available() -> tuple[str, ...]:
+    """Names of the bundled device files (file stems), sorted."""
+    return tuple(sorted(p.stem for p in _HERE.glob("*.toml")))
+
+
+def bundled(name: str) -> Path:
+    """Path of a bundled device file.
+
+    Parameters
+    ----------
+    name : str
+        Device name, i.e. the file stem (``"lexos"``); a trailing ``.toml`` is accepted and case is ignored.
+
+    Returns
+    -------
+    pathlib.Path
+        Absolute path of the TOML file (load it with :func:`tendyn.device.load_device`).
+
+    Raises
+    ------
+    DeviceError
+        If no bundled device has that name; the message lists the available names.
+    """
+    if not isinstance(name, str):
+        raise DeviceError(f"bundled device name must be a string (got {type(name).__name__})")
+    stem = name.strip().lower()
+    if stem.endswith(".toml"):
+        stem = stem[: -len(".toml")]
+    names = available()
+    if stem not in names:
+        raise DeviceError(f"no bundled device named {name!r}; available: {', '.join(names) or '(none)'}")
+    return _HERE / f"{stem}.toml"
