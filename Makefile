@@ -24,10 +24,11 @@ install: $(STAMP)
 test: install test-python test-cpp
 
 test-python: install
-	cd tests && ../$(VPY) -m pytest python -q
+	$(VPY) -m pytest tests/python -q
 
 # C++ test executables (no allocation in the real-time calls, C ABI), through CTest.
 test-cpp: install
+	mkdir -p build
 	cmake -S . -B build/cpp -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_TESTS=ON \
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
@@ -38,7 +39,7 @@ demo: install
 	$(VENV)/bin/tendyn demo lexos --out out/demo
 
 bench: install
-	$(PIP) install -q ".[bench]" --no-build-isolation --no-deps mujoco 2>/dev/null || true
+	$(PIP) install -q mujoco
 	$(VPY) benchmarks/run.py
 
 clean:

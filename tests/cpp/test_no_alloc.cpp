@@ -27,7 +27,12 @@ int main(int argc, char** argv) {
   std::normal_distribution<double> N(0.0, 1.0);
   Eigen::VectorXd tau(n), qd(n), cm(n), q(n);
   long bad = 0;
+  // The counter itself must see an allocation, or this test could not fail.
   counting::armed = true;
+  { Eigen::VectorXd probe(64); probe.setZero(); }
+  const long probe_count = counting::count;
+  counting::count = 0;
+  if (probe_count == 0) { std::puts("malloc interposition does not work"); return 1; }
   for (long k = 0; k < calls; ++k) {
     for (int i = 0; i < n; ++i) { tau(i) = N(rng); qd(i) = (k % 7 == 0) ? 0.0 : N(rng); q(i) = N(rng); }
     if (tendyn::is_error(tendyn::motor_torque_feedforward(m, d, tau, qd))) ++bad;

@@ -146,7 +146,7 @@ class _Parser:
             fpath = _join(path, spec.name)
             if spec.name not in raw:
                 if spec.required:
-                    raise self.err(fpath, f"missing required field ({spec.doc})")
+                    raise self.err(fpath, f"missing required field: {spec.doc}")
                 out[spec.name] = spec.default
             else:
                 out[spec.name] = self.value(raw[spec.name], fpath, spec)
@@ -197,7 +197,7 @@ class _Parser:
 
     def number(self, v: Any, path: str, spec: FieldSpec) -> float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            extra = " (booleans are not numbers)" if isinstance(v, bool) else ""
+            extra = ": booleans are not numbers" if isinstance(v, bool) else ""
             raise self.err(path, f"must be a number (got {_typename(v)}){extra}")
         x = float(v)
         if not math.isfinite(x):
@@ -207,7 +207,7 @@ class _Parser:
 
     def integer(self, v: Any, path: str, spec: FieldSpec) -> int:
         if isinstance(v, bool) or not isinstance(v, int):
-            extra = " (booleans are not numbers)" if isinstance(v, bool) else ""
+            extra = ": booleans are not numbers" if isinstance(v, bool) else ""
             raise self.err(path, f"must be an integer (got {_typename(v)}){extra}")
         if spec.choices and v not in spec.choices:
             raise self.err(path, f"must be one of {', '.join(str(c) for c in spec.choices)} (got {v})")
@@ -255,7 +255,7 @@ class _Parser:
     def device(self, raw: dict) -> Device:
         # The version decides what the rest means: check it before anything else.
         if "schema" not in raw:
-            raise self.err("schema", f"missing required field (write `schema = {SCHEMA_VERSION}` at the top)")
+            raise self.err("schema", f"missing required field: write `schema = {SCHEMA_VERSION}` at the top")
         schema = raw["schema"]
         if isinstance(schema, bool) or not isinstance(schema, int):
             raise self.err("schema", f"must be an integer (got {_typename(schema)})")
@@ -283,8 +283,8 @@ class _Parser:
                 raise self.err("kinematics.joints", 'not allowed with convention = "urdf": the joints come '
                                                     "from the URDF file")
             if k["urdf"] is None:
-                raise self.err("kinematics.urdf", 'missing required field (convention = "urdf" needs the '
-                                                  "URDF file path)")
+                raise self.err("kinematics.urdf", 'missing required field: convention = "urdf" needs the '
+                                                  "URDF file path")
             urdf_path = Path(k["urdf"])
             if not urdf_path.is_absolute():
                 urdf_path = self.path.parent / urdf_path
@@ -339,12 +339,12 @@ class _Parser:
         if not fixed:
             for key in ("lower", "upper", "mass", "com", "inertia"):
                 if f[key] is None:
-                    raise self.err(f"{path}.{key}", f"missing required field (needed for sigma = {f['sigma']})")
+                    raise self.err(f"{path}.{key}", f"missing required field: needed for sigma = {f['sigma']}")
             if f["mass"] <= 0:
                 raise self.err(f"{path}.mass", f"must be > 0 (got {_fmt(f['mass'])})")
         if (f["lower"] is None) != (f["upper"] is None):
             missing = "upper" if f["upper"] is None else "lower"
-            raise self.err(f"{path}.{missing}", "missing required field (lower and upper go together)")
+            raise self.err(f"{path}.{missing}", "missing required field: lower and upper go together")
         if f["lower"] is not None:
             self.limits(f["lower"], f["upper"], path)
         mass = 0.0 if f["mass"] is None else f["mass"]

@@ -1,0 +1,577 @@
+"""Device file (TOML, schema 1): loading, validation messages, the L-EXOS twin, routing arrays, docs."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tendyn.device import (
+    Device,
+    DeviceError,
+    load_device,
+)
+from tendyn.device.schema import ALL_FIELD_TABLES
+from tendyn.devices import available, bundled
+
+REPO = Path(__file__).resolve().parents[2]
+LEXOS = bundled("lexos")
+LABEL = re.compile(r"\[(SEED|INFERRED|ASSUMPTION)\]")
+
+
+# --------------------------------------------------------------------------------------------------------
+# a tiny TOML writer (inline tables only) so that tests edit a dict and write it back
+# --------------------------------------------------------------------------------------------------------
+
+def _toml_value(v) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    raise TypeError(v)
+
+
+def dumps(d: dict) -> str:
+    return "".join(f"{k} = {_toml_value(v)}\n" for k, v in d.items())
+
+
+def lexos_dict() -> dict:
+    with LEXOS.open("rb") as fh:
+        return tomllib.load(fh)
+
+
+def mdh_dict() -> dict:
+    """A small modified-DH device: two actuated revolute joints and a fixed frame (sigma = 2)."""
+    base = lexos_dict()
+    joints = [
+        dict(name="q1", j=1, antecedent=0, mu=1, sigma=0, gamma=0.0, b=0.0, alpha=0.0, d=0.0,
+             theta_offset=0.0, r=0.0, lower=-1.0, upper=1.0, mass=1.0, com=[0.1, 0.0, 0.0],
+             inertia=[0.01, 0.01, 0.01, 0.0, 0.0, 0.0]),
+        dict(name="q2", j=2, antecedent=1, mu=1, sigma=0, alpha=-1.5707963267948966, d=0.0, r=0.0,
+             lower=-1.0, upper=1.0, mass=1.0, com=[0.0, 0.0, 0.1], inertia=[0.01, 0.01, 0.01, 0.0, 0.0, 0.0]),
+        dict(name="tool", j=3, antecedent=2, mu=0, sigma=2, alpha=0.0, d=0.3, r=0.0),
+    ]
+    base["kinematics"] = {"convention": "mdh", "gravity": [0.0, 0.0, -9.81], "joints": joints}
+    base["transmissions"] = base["transmissions"][:2]
+    return base
+
+
+def write(tmp_path: Path, content, name: str = "lexos.toml") -> Path:
+    p = tmp_path / name
+    p.write_text(content if isinstance(content, str) else dumps(content), encoding="utf-8")
+    return p
+
+
+# --------------------------------------------------------------------------------------------------------
+# L-EXOS
+# --------------------------------------------------------------------------------------------------------
+
+def test_lexos_loads():
+    dev = load_device(LEXOS)
+    assert isinstance(dev, Device)
+    assert dev.name == "L-EXOS"
+    assert dev.n_joints == 4
+    assert dev.kinematics.convention == "dh"
+    np.testing.assert_array_equal(dev.kinematics.gravity, [0.0, 0.0, -9.81])
+    assert [t.joint for t in dev.transmissions] == [1, 2, 3, 4]
+    assert [j.mass for j in dev.kinematics.joints] == [2.0, 2.0, 1.2, 0.8]
+    assert dev.kinematics.joints[1].theta_offset == pytest.approx(-math.pi / 2)
+    assert dev.kinematics.joints[2].d == 0.30 and dev.kinematics.joints[3].a == 0.32
+    assert all(t.pretension == 50.0 and t.motor_radius == 0.008 for t in dev.transmissions)
+    assert all(t.sensors.encoder_counts == 16384 for t in dev.transmissions)
+    assert all(t.sensors.current_noise == pytest.approx(0.01 * t.motor.continuous_current)
+               for t in dev.transmissions)
+    assert all(t.bearings == (None,) * t.joint for t in dev.transmissions)
+
+
+def test_C2_generalized_radius_is_pulley_times_reducer():
+    """C2 / S0 footnote 1: with a reducer in the driven pulley, r_i^i = r_pulley * n_i."""
+    dev = load_device(LEXOS)
+    K = dev.routing_arrays()["K"]
+    assert K[0, 0] == pytest.approx(0.04 * 8) == pytest.approx(0.32)
+    assert K[1, 1] == pytest.approx(0.32)
+    assert K[2, 2] == pytest.approx(0.09)  # joint 3: ring, no reducer
+    assert K[3, 3] == pytest.approx(0.03 * 8)
+    for i, t in enumerate(dev.transmissions):
+        assert t.generalized_radius == pytest.approx(t.driven_radius * t.reducer_ratio)
+        assert K[i, i] == pytest.approx(t.generalized_radius)
+    # joint/motor ratios of DEVICES.md: 40, 40, ~11, 30
+    np.testing.assert_allclose(np.diag(K) / dev.routing_arrays()["motor_radius"], [40, 40, 11.25, 30])
+
+
+def test_lexos_routing_arrays_consistent():
+    dev = load_device(LEXOS)
+    r = dev.routing_arrays()
+    n = dev.n_joints
+    K = r["K"]
+    assert K.shape == (n, n)
+    np.testing.assert_array_equal(K, np.tril(K))  # lower-triangular: a cable never reaches beyond its joint
+    assert np.all(np.diag(K) > 0)  # nonsingular routing
+    assert abs(np.linalg.det(K)) > 0
+    # transmission i crosses joints 1..i-1 [SEED]: the strict lower triangle is fully populated with +-0.015
+    below = K[np.tril_indices(n, -1)]
+    np.testing.assert_allclose(np.abs(below), 0.015)
+    np.testing.assert_allclose(K[3, :3], [0.015, -0.015, 0.015])
+    for i, t in enumerate(dev.transmissions):
+        for jn, rad in zip(t.crosses, t.crossed_radii):
+            assert K[i, jn - 1] == rad
+    for key in ("motor_radius", "driven_radius", "reducer_ratio", "reducer_efficiency", "pretension"):
+        assert r[key].shape == (n,)
+    np.testing.assert_allclose(r["driven_radius"] * r["reducer_ratio"], np.diag(K))
+    np.testing.assert_allclose(r["reducer_efficiency"], [0.9, 0.9, 1.0, 0.9])
+    np.testing.assert_allclose(r["reducer_ratio"], [8, 8, 1, 8])
+    tril = np.tril(np.ones((n, n)))
+    np.testing.assert_allclose(r["tau0"], 1.0 * tril)
+    np.testing.assert_allclose(r["nu"], 10.0 * tril)
+    np.testing.assert_allclose(r["beta"], 0.02 * tril)
+    for name in ("count", "wrap", "alpha", "beta", "h0", "h1", "n0"):
+        np.testing.assert_array_equal(r["bearing_" + name], np.zeros((n, n)))
+    np.testing.assert_array_equal(r["bearing_radius"], np.ones((n, n)))
+
+
+def test_lexos_lossless_virtual_work():
+    """R_m q_m = K q, tau_J = K^T t, C_m = R_m t  =>  qdot^T tau_J == qdot_m^T C_m (ERRATA eq. 5)."""
+    dev = load_device(LEXOS)
+    r = dev.routing_arrays()
+    Rm, K = np.diag(r["motor_radius"]), r["K"]
+    rng = np.random.default_rng(1)
+    qd, t = rng.normal(size=4), rng.uniform(10, 100, size=4)
+    qmd = np.linalg.solve(Rm, K @ qd)
+    assert qd @ (K.T @ t) == pytest.approx(qmd @ (Rm @ t))
+
+
+def _dh(a, alpha, d, theta):
+    ca, sa, ct, st = np.cos(alpha), np.sin(alpha), np.cos(theta), np.sin(theta)
+    return np.array([[ct, -st * ca, st * sa, a * ct], [st, ct * ca, -ct * sa, a * st], [0, sa, ca, d], [0, 0, 0, 1]])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_lexos_com_geometry(seed):
+    """The COM vectors put each COM where DEVICES.md says, for any configuration (forward kinematics)."""
+    dev = load_device(LEXOS)
+    q = np.random.default_rng(seed).uniform(-1, 1, 4)
+    M, frames = np.eye(4), []
+    for js, qi in zip(dev.kinematics.joints, q):
+        M = M @ _dh(js.a, js.alpha, js.d, qi + js.theta_offset)
+        frames.append(M.copy())
+    com = [F[:3, :3] @ js.com + F[:3, 3] for F, js in zip(frames, dev.kinematics.joints)]
+    shoulder, elbow, handle = np.zeros(3), frames[2][:3, 3], frames[3][:3, 3]
+    assert np.linalg.norm(elbow - shoulder) == pytest.approx(0.30)
+    assert np.linalg.norm(handle - elbow) == pytest.approx(0.32)
+    arm, fore = elbow / 0.30, (handle - elbow) / 0.32
+    np.testing.assert_allclose(com[1], 0.12 * arm, atol=1e-12)  # 0.12 m along the upper arm
+    np.testing.assert_allclose(com[2], 0.26 * arm, atol=1e-12)  # 0.26 m from the shoulder, near the elbow
+    np.testing.assert_allclose(com[3], elbow + 0.14 * fore, atol=1e-12)  # 0.14 m along the forearm
+    assert np.linalg.norm(com[0][:2]) == pytest.approx(0.05)  # 0.05 m off axis 1 (z0)
+
+
+def test_lexos_every_value_is_labelled():
+    text = LEXOS.read_text(encoding="utf-8")
+    text = re.sub(r'"""(.|\n)*?"""', '""', text)  # the multi-line description
+    for line in text.splitlines():
+        if re.match(r"^\s*[A-Za-z_]\w*\s*=", line) and not line.startswith(("schema", "description")):
+            assert LABEL.search(line), f"value without [SEED]/[INFERRED]/[ASSUMPTION] label: {line!r}"
+        if re.match(r"^\s*\{", line):  # per-branch friction entries: covered by the label of `friction = [`
+            assert "branch" in line
+
+
+def test_device_is_immutable():
+    dev = load_device(LEXOS)
+    with pytest.raises(AttributeError):
+        dev.name = "x"  # type: ignore[misc]
+    with pytest.raises(AttributeError):
+        dev.transmissions[0].joint = 2  # type: ignore[misc]
+    with pytest.raises(ValueError):
+        dev.kinematics.gravity[2] = 0.0
+    with pytest.raises(ValueError):
+        dev.kinematics.joints[0].com[0] = 1.0
+
+
+def test_bundled():
+    assert "lexos" in available()
+    assert bundled("lexos") == bundled("LEXOS.toml")
+    assert bundled("lexos").is_file()
+
+
+def test_bundled_unknown_lists_available():
+    with pytest.raises(DeviceError, match="lexos") as ei:
+        bundled("nope")
+    assert "nope" in str(ei.value)
+    assert isinstance(ei.value, ValueError)
+
+
+# --------------------------------------------------------------------------------------------------------
+# valid variations
+# --------------------------------------------------------------------------------------------------------
+
+def test_transmissions_sorted_by_driven_joint(tmp_path):
+    d = lexos_dict()
+    d["transmissions"] = d["transmissions"][::-1]
+    dev = load_device(write(tmp_path, d))
+    assert [t.name for t in dev.transmissions] == ["t1", "t2", "t3", "t4"]
+    np.testing.assert_array_equal(dev.routing_arrays()["K"], load_device(LEXOS).routing_arrays()["K"])
+
+
+def test_int_accepted_for_float_and_defaults(tmp_path):
+    d = lexos_dict()
+    t = d["transmissions"][0]
+    t["pretension"] = 50  # int for float
+    del t["reducer_ratio"], t["reducer_efficiency"]  # defaults 1.0
+    t["friction"] = [{"tau0": 1, "nu": 10}]  # beta defaults to 0
+    d["kinematics"]["gravity"] = [0, 0, -10]
+    dev = load_device(write(tmp_path, d))
+    t1 = dev.transmissions[0]
+    assert t1.pretension == 50.0 and isinstance(t1.pretension, float)
+    assert t1.reducer_ratio == 1.0 and t1.reducer_efficiency == 1.0
+    assert t1.friction[0].beta == 0.0
+    assert dev.kinematics.gravity.dtype == float
+
+
+def test_self_locking_efficiency_is_kept(tmp_path):
+    d = lexos_dict()
+    d["transmissions"][0]["reducer_efficiency"] = 0.4
+    t1 = load_device(write(tmp_path, d)).transmissions[0]
+    assert t1.reducer_efficiency == 0.4
+    assert t1.self_locking and t1.inverse_efficiency < 0
+
+
+def test_bearings_parsed_into_arrays(tmp_path):
+    d = lexos_dict()
+    br = {"count": 2, "radius": 0.01, "wrap": 3.14159, "alpha": 0.002, "beta": 0.0015, "h0": 1e-4,
+          "h1": 2e-5, "n0": 5.0}
+    d["transmissions"][2]["bearings"] = [{}, br, {}]
+    dev = load_device(write(tmp_path, d))
+    t3 = dev.transmissions[2]
+    assert t3.bearings[0] is None and t3.bearings[2] is None
+    assert t3.bearings[1].count == 2 and t3.bearings[1].h1 == 2e-5
+    r = dev.routing_arrays()
+    assert r["bearing_count"][2, 1] == 2 and r["bearing_radius"][2, 1] == 0.01
+    assert r["bearing_n0"][2, 1] == 5.0
+    assert r["bearing_radius"][2, 0] == 1.0 and r["bearing_count"][2, 0] == 0
+
+
+def test_mdh_loads(tmp_path):
+    dev = load_device(write(tmp_path, mdh_dict()))
+    assert dev.kinematics.convention == "mdh"
+    assert dev.n_joints == 3 and dev.n_transmissions == 2
+    tool = dev.kinematics.joints[2]
+    assert tool.sigma == 2 and tool.mass == 0.0 and not tool.actuated
+    assert dev.kinematics.joints[1].antecedent == 1
+    assert dev.routing_arrays()["K"].shape == (2, 3)
+
+
+URDF = """<?xml version="1.0"?>
+<robot name="two">
+  <link name="base"/><link name="l1"/><link name="l2"/><link name="tip"/>
+  <joint name="j2" type="revolute"><parent link="l1"/><child link="l2"/>
+    <axis xyz="0 0 1"/><limit lower="-0.5" upper="0.5" effort="1" velocity="1"/></joint>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="l1"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+  <joint name="fixed_tip" type="fixed"><parent link="l2"/><child link="tip"/></joint>
+</robot>
+"""
+
+
+def test_urdf_convention(tmp_path):
+    (tmp_path / "robots").mkdir()
+    (tmp_path / "robots" / "two.urdf").write_text(URDF)
+    d = lexos_dict()
+    d["kinematics"] = {"convention": "urdf", "gravity": [0.0, 0.0, -9.81], "urdf": "robots/two.urdf"}
+    d["transmissions"] = d["transmissions"][:2]
+    dev = load_device(write(tmp_path, d))
+    assert dev.kinematics.urdf == (tmp_path / "robots" / "two.urdf").resolve()
+    assert [j.name for j in dev.kinematics.joints] == ["j1", "j2"]  # chain order, not document order
+    assert dev.kinematics.joints[1].lower == -0.5
+    assert dev.routing_arrays()["K"].shape == (2, 2)
+
+
+def test_docs_example_loads(tmp_path):
+    text = (REPO / "docs" / "device-file.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```toml\n(.*?)```", text, flags=re.S)
+    assert blocks
+    dev = load_device(write(tmp_path, blocks[-1], "example.toml"))
+    assert dev.n_joints == 2
+    assert dev.transmissions[1].bearings[1].count == 2
+    assert dev.routing_arrays()["K"][1, 0] == -0.012
+
+
+def test_every_field_is_documented():
+    text = (REPO / "docs" / "device-file.md").read_text(encoding="utf-8")
+    for section, specs in ALL_FIELD_TABLES.items():
+        for spec in specs:
+            assert f"`{spec.name}`" in text, f"field {section}.{spec.name} missing from docs/device-file.md"
+            assert spec.doc, f"field {section}.{spec.name} has no description"
+
+
+# --------------------------------------------------------------------------------------------------------
+# malformed files: one edit each, one clear DeviceError naming file, field and problem
+# --------------------------------------------------------------------------------------------------------
+
+def _edit(fn, base=lexos_dict):
+    def make():
+        d = copy.deepcopy(base())
+        fn(d)
+        return d
+    return make
+
+
+def _set(path: str, value, base=lexos_dict):
+    """Set d[a][b]... (integers index lists, 0-based)."""
+    keys = [int(k) if k.isdigit() else k for k in path.split("/")]
+
+    def fn(d):
+        obj = d
+        for k in keys[:-1]:
+            obj = obj[k]
+        obj[keys[-1]] = value
+    return _edit(fn, base)
+
+
+def _del(path: str, base=lexos_dict):
+    keys = [int(k) if k.isdigit() else k for k in path.split("/")]
+
+    def fn(d):
+        obj = d
+        for k in keys[:-1]:
+            obj = obj[k]
+        del obj[keys[-1]]
+    return _edit(fn, base)
+
+
+def _drive_joint_1_twice(d):
+    t2 = d["transmissions"][1]
+    t2.update(joint=1, crosses=[], crossed_radii=[], friction=t2["friction"][:1])
+
+
+def _urdf_with_joints(d):
+    d["kinematics"]["convention"] = "urdf"
+    d["kinematics"]["urdf"] = "x.urdf"
+
+
+def _urdf_missing(d):
+    d["kinematics"] = {"convention": "urdf", "gravity": [0.0, 0.0, -9.81], "urdf": "robots/missing.urdf"}
+
+
+_SYNTAX = """schema = 1
+[device]
+name = "L-EXOS"
+[kinematics
+convention = "dh"
+"""
+
+MALFORMED = [
+    # (id, content maker or raw TOML string or None for "no file", expected fragments)
+    ("file_missing", None, ["missing.toml", "file not found"]),
+    ("toml_syntax", _SYNTAX, ["TOML syntax error", "line 4"]),
+    ("toml_duplicate_key", 'schema = 1\nschema = 1\n', ["TOML syntax error", "line 2"]),
+    ("schema_version", _set("schema", 2), ["schema: unsupported schema version 2", "schema = 1"]),
+    ("schema_missing", _del("schema"), ["schema: missing required field"]),
+    ("schema_float", _set("schema", 1.0), ["schema: must be an integer (got float 1.0)"]),
+    ("unknown_top", _set("transmission", []), ["transmission: unknown field", "did you mean 'transmissions'"]),
+    ("unknown_nested", _set("transmissions/1/driven_raduis", 0.04),
+     ["transmissions[2].driven_raduis: unknown field (did you mean 'driven_radius'?)"]),
+    ("unknown_joint_field", _set("kinematics/joints/0/masss", 1.0),
+     ["kinematics.joints[1].masss: unknown field (did you mean 'mass'?)"]),
+    ("unknown_no_suggestion", _set("device/zzz", 1), ["device.zzz: unknown field", "known fields: name"]),
+    ("missing_required", _del("transmissions/0/motor_radius"),
+     ["transmissions[1].motor_radius: missing required field"]),
+    ("missing_device_name", _del("device/name"), ["device.name: missing required field"]),
+    ("missing_motor_table", _del("transmissions/3/motor"), ["transmissions[4].motor: missing required field"]),
+    ("missing_friction", _del("transmissions/1/friction"), ["transmissions[2].friction: missing required"]),
+    ("empty_name", _set("device/name", " "), ["device.name: must not be empty"]),
+    ("bool_not_number", _set("kinematics/joints/0/mass", True),
+     ["kinematics.joints[1].mass: must be a number (got boolean true)", "booleans are not numbers"]),
+    ("string_not_number", _set("transmissions/1/driven_radius", "0.04"),
+     ["transmissions[2].driven_radius: must be a number (got string '0.04')"]),
+    ("float_not_int", _set("transmissions/0/sensors/encoder_counts", 16384.0),
+     ["transmissions[1].sensors.encoder_counts: must be an integer (got float 16384.0)"]),
+    ("bool_not_int", _set("transmissions/0/joint", True), ["transmissions[1].joint: must be an integer",
+                                                            "boolean"]),
+    ("table_not_list", _set("transmissions", {"name": "t1"}), ["transmissions: must be an array of tables"]),
+    ("vec3_length", _set("kinematics/joints/1/com", [0.0, 0.12]),
+     ["kinematics.joints[2].com: must be an array of 3 numbers", "got 2 elements"]),
+    ("driven_radius_zero", _set("transmissions/1/driven_radius", 0.0),
+     ["transmissions[2].driven_radius: must be > 0 (got 0.0): a zero driven radius makes the routing singular"]),
+    ("motor_radius_negative", _set("transmissions/0/motor_radius", -0.008),
+     ["transmissions[1].motor_radius: must be > 0 (got -0.008)"]),
+    ("motor_radius_too_big", _set("transmissions/0/motor_radius", 2.0),
+     ["transmissions[1].motor_radius: must be <= 1 (got 2.0)"]),
+    ("mass_zero", _set("kinematics/joints/2/mass", 0.0), ["kinematics.joints[3].mass: must be > 0 (got 0.0)"]),
+    ("alpha_too_big", _set("kinematics/joints/0/alpha", 7.0),
+     ["kinematics.joints[1].alpha: must satisfy |value| <= 2*pi (got 7.0)"]),
+    ("beta_one", _set("transmissions/2/friction/1/beta", 1.0),
+     ["transmissions[3].friction[2].beta: must be in [0, 1) (got 1.0)"]),
+    ("tau0_negative", _set("transmissions/2/friction/0/tau0", -1.0),
+     ["transmissions[3].friction[1].tau0: must be >= 0 (got -1.0)"]),
+    ("reducer_ratio_below_one", _set("transmissions/0/reducer_ratio", 0.5),
+     ["transmissions[1].reducer_ratio: must be >= 1 (got 0.5)"]),
+    ("pretension_negative", _set("transmissions/0/pretension", -5.0),
+     ["transmissions[1].pretension: must be >= 0 (got -5.0)"]),
+    ("encoder_zero", _set("transmissions/0/sensors/encoder_counts", 0),
+     ["transmissions[1].sensors.encoder_counts: must be >= 1 (got 0)"]),
+    ("efficiency_zero", _set("transmissions/0/reducer_efficiency", 0.0),
+     ["transmissions[1].reducer_efficiency: must be in (0, 1] (got 0.0)"]),
+    ("efficiency_above_one", _set("transmissions/3/reducer_efficiency", 1.1),
+     ["transmissions[4].reducer_efficiency: must be in (0, 1] (got 1.1)"]),
+    ("nan", _set("kinematics/joints/3/a", math.nan), ["kinematics.joints[4].a: must be finite (got nan)"]),
+    ("inf", _set("kinematics/gravity", [0.0, 0.0, -math.inf]),
+     ["kinematics.gravity[3]: must be finite (got -inf)"]),
+    ("nan_in_list", _set("transmissions/3/crossed_radii", [0.015, math.nan, 0.015]),
+     ["transmissions[4].crossed_radii[2]: must be finite (got nan)"]),
+    ("gravity_norm", _set("kinematics/gravity", [0.0, 0.0, -981.0]),
+     ["kinematics.gravity: norm must be <= 100 m/s^2 (got 981)"]),
+    ("convention_unknown", _set("kinematics/convention", "DH"),
+     ["kinematics.convention: must be one of 'dh', 'mdh', 'urdf' (got 'DH')"]),
+    ("duplicate_joint_name", _set("kinematics/joints/1/name", "shoulder_abduction"),
+     ["kinematics.joints[2].name: duplicate joint name 'shoulder_abduction' (also kinematics.joints[1])"]),
+    ("duplicate_transmission_name", _set("transmissions/2/name", "t1"),
+     ["transmissions[3].name: duplicate transmission name 't1'"]),
+    ("lower_ge_upper", _set("kinematics/joints/2/lower", 1.2),
+     ["kinematics.joints[3].lower: must be < upper (got lower = 1.2, upper = 1.0471975511965976)"]),
+    ("lower_eq_upper", _set("kinematics/joints/3/upper", 0.0), ["kinematics.joints[4].lower: must be < upper"]),
+    ("inertia_not_psd", _set("kinematics/joints/0/inertia", [0.01, 0.01, 0.01, 0.02, 0.0, 0.0]),
+     ["kinematics.joints[1].inertia: not a physical inertia: not positive semidefinite"]),
+    ("inertia_triangle", _set("kinematics/joints/1/inertia", [0.01, 0.01, 0.03, 0.0, 0.0, 0.0]),
+     ["kinematics.joints[2].inertia: not a physical inertia", "Ixx + Iyy >= Izz"]),
+    ("inertia_length", _set("kinematics/joints/1/inertia", [0.01, 0.01, 0.03]),
+     ["kinematics.joints[2].inertia: must be an array of 6 numbers [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]"]),
+    ("crosses_beyond_driven", _set("transmissions/1/crosses", [1, 4]),
+     ["transmissions[2].crosses[2]: cannot reach joint 4: transmission t2 drives joint 2"]),
+    ("crosses_own_joint", _set("transmissions/2/crosses", [1, 3]),
+     ["transmissions[3].crosses[2]: cannot reach joint 3: transmission t3 drives joint 3"]),
+    ("crosses_zero", _set("transmissions/1/crosses", [0]), ["transmissions[2].crosses[1]: must be a joint number >= 1"]),
+    ("crosses_duplicate", _set("transmissions/3/crosses", [1, 1, 2]),
+     ["transmissions[4].crosses[2]: joint 1 is listed twice"]),
+    ("crossed_radii_length", _set("transmissions/2/crossed_radii", [0.015]),
+     ["transmissions[3].crossed_radii: must have one radius per crossed joint", "crosses has 2 entries, "
+      "crossed_radii has 1"]),
+    ("crossed_radius_zero", _set("transmissions/2/crossed_radii", [0.015, 0.0]),
+     ["transmissions[3].crossed_radii[2]: must be nonzero (got 0.0)"]),
+    ("friction_length", _set("transmissions/2/friction", [{"tau0": 1.0, "nu": 10.0}] * 2),
+     ["transmissions[3].friction: must have exactly 3 entries, one per branch", "got 2"]),
+    ("friction_entry_not_table", _set("transmissions/0/friction", [1.0]),
+     ["transmissions[1].friction[1]: must be a table (got float 1.0)"]),
+    ("bearings_length", _set("transmissions/1/bearings", [{}]),
+     ["transmissions[2].bearings: must have the same length as friction (2, one per branch), got 1"]),
+    ("bearing_wrap", _set("transmissions/0/bearings", [{"count": 1, "radius": 0.01, "wrap": 7.0, "alpha": 0.0,
+                                                        "beta": 0.0, "h0": 0.0, "h1": 0.0, "n0": 0.0}]),
+     ["transmissions[1].bearings[1].wrap: must be in (0, 2*pi] (got 7.0)"]),
+    ("bearing_missing_field", _set("transmissions/0/bearings", [{"count": 1}]),
+     ["transmissions[1].bearings[1].radius: missing required field"]),
+    ("joint_driven_twice", _edit(_drive_joint_1_twice),
+     ["transmissions[2].joint: joint 1 is driven twice", "each joint must be driven exactly once"]),
+    ("joint_not_driven", _edit(lambda d: d["transmissions"].pop()),
+     ["transmissions: joint 4 (elbow_flexion) is not driven by any transmission"]),
+    ("joint_does_not_exist", _set("transmissions/3/joint", 5), ["transmissions[4].joint: no joint 5: the device has 4 joints"]),
+    ("no_transmissions", _set("transmissions", []), ["transmissions: must list at least one transmission"]),
+    ("peak_below_continuous", _set("transmissions/0/motor/peak_torque", 0.5),
+     ["transmissions[1].motor.peak_torque: must be >= continuous_torque (got peak_torque = 0.5, "
+      "continuous_torque = 0.7)"]),
+    ("urdf_path_missing", _edit(_urdf_missing), ["kinematics.urdf: URDF file not found", "missing.urdf"]),
+    ("urdf_with_joints", _edit(_urdf_with_joints), ['kinematics.joints: not allowed with convention = "urdf"']),
+    ("urdf_key_with_dh", _set("kinematics/urdf", "a.urdf"), ['kinematics.urdf: only allowed with convention = "urdf"']),
+    ("dh_without_joints", _del("kinematics/joints"), ["kinematics.joints: missing required field"]),
+    ("mdh_antecedent_ge_j", _set("kinematics/joints/1/antecedent", 2, base=mdh_dict),
+     ["kinematics.joints[2].antecedent: must be < j = 2 (got 2)"]),
+    ("mdh_j_position", _set("kinematics/joints/2/j", 4, base=mdh_dict),
+     ["kinematics.joints[3].j: must equal the entry's position 3 (got 4)"]),
+    ("mdh_sigma", _set("kinematics/joints/0/sigma", 3, base=mdh_dict),
+     ["kinematics.joints[1].sigma: must be one of 0, 1, 2 (got 3)"]),
+    ("mdh_missing_mass", _del("kinematics/joints/1/mass", base=mdh_dict),
+     ["kinematics.joints[2].mass: missing required field: needed for sigma = 0"]),
+    ("mdh_fixed_actuated", _set("kinematics/joints/2/mu", 1, base=mdh_dict),
+     ["kinematics.joints[3].mu: must be 0 for a cut joint / fixed frame (sigma = 2)"]),
+    ("mdh_drive_passive", _set("transmissions/1/joint", 3, base=mdh_dict),
+     ["transmissions[2].joint: joint 3 (tool) is not actuated (mu = 0)"]),
+]
+
+
+@pytest.mark.parametrize("case_id, content, fragments", MALFORMED, ids=[c[0] for c in MALFORMED])
+def test_malformed_device_file(tmp_path, case_id, content, fragments):
+    if content is None:
+        path = tmp_path / "missing.toml"
+    else:
+        path = write(tmp_path, content() if callable(content) else content)
+    with pytest.raises(Exception) as ei:
+        load_device(path)
+    err = ei.value
+    assert type(err) is DeviceError, f"{type(err).__name__}: {err}"  # never KeyError/TypeError/TOMLDecodeError
+    msg = str(err)
+    assert msg.startswith("lexos.toml: ") or content is None, msg
+    for frag in fragments:
+        assert frag in msg, f"{frag!r} not in {msg!r}"
+    assert "\n" not in msg  # one message, one line
+    assert err.__cause__ is None or isinstance(err.__cause__, DeviceError)
+
+
+def test_malformed_table_is_large_enough():
+    assert len(MALFORMED) >= 18
+
+
+def test_error_has_file_and_field_attributes(tmp_path):
+    d = lexos_dict()
+    d["transmissions"][1]["driven_radius"] = 0.0
+    with pytest.raises(DeviceError) as ei:
+        load_device(write(tmp_path, d))
+    assert ei.value.file == "lexos.toml"
+    assert ei.value.field == "transmissions[2].driven_radius"
+    assert "singular" in ei.value.problem
+    assert isinstance(ei.value, ValueError)
+
+
+def _leaves(obj, prefix=()):
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            yield from _leaves(v, prefix + (k,))
+    elif isinstance(obj, list) and obj and isinstance(obj[0], dict):
+        for i, v in enumerate(obj):
+            yield from _leaves(v, prefix + (i,))
+    yield prefix
+
+
+_JUNK = ["x", True, -1, 0, 0.0, 1e9, math.nan, -math.inf, [], [1, 2], {}, {"a": 1}]
+
+
+@pytest.mark.parametrize("base", [lexos_dict, mdh_dict], ids=["dh", "mdh"])
+def test_every_mutation_gives_device_error_or_loads(tmp_path, base):
+    """Replace or delete every field of a valid file in turn: the loader either accepts the file or raises a
+    DeviceError, never another exception type (deterministic sweep, no randomness)."""
+    original = base()
+    paths = [p for p in _leaves(original) if p]
+    assert len(paths) > 50
+    n_errors = 0
+    for path in paths:
+        for value in _JUNK + [None]:  # None = delete the field
+            d = copy.deepcopy(original)
+            obj = d
+            for k in path[:-1]:
+                obj = obj[k]
+            if value is None:
+                del obj[path[-1]]
+            else:
+                obj[path[-1]] = value
+            f = write(tmp_path, d)
+            try:
+                load_device(f)
+            except DeviceError as exc:
+                n_errors += 1
+                assert str(exc).startswith("lexos.toml: ")
+    assert n_errors > len(paths)
