@@ -139,124 +139,125 @@ def _num(x: float) -> str:
     return repr(x)
 
 
-def F(name, kind, unit, doc, **kw) -> FieldSpec:  # noqa: N802 - short constructor for the tables below
+def _spec(name, kind, unit, doc, **kw) -> FieldSpec:
+    """Short constructor for the tables below."""
     return FieldSpec(name=name, kind=kind, unit=unit, doc=doc, **kw)
 
 
 TOP_FIELDS = (
-    F("schema", "int", "-", "schema version of the file; must be 1", choices=(SCHEMA_VERSION,)),
-    F("device", "table", "", "device identity"),
-    F("kinematics", "table", "", "kinematic description"),
-    F("transmissions", "table_list", "", "one entry per actuated joint"),
+    _spec("schema", "int", "-", "schema version of the file; must be 1", choices=(SCHEMA_VERSION,)),
+    _spec("device", "table", "", "device identity"),
+    _spec("kinematics", "table", "", "kinematic description"),
+    _spec("transmissions", "table_list", "", "one entry per actuated joint"),
 )
 
 DEVICE_FIELDS = (
-    F("name", "str", "", "device name (non-empty)"),
-    F("description", "str", "", "free text", required=False, default=""),
+    _spec("name", "str", "", "device name (non-empty)"),
+    _spec("description", "str", "", "free text", required=False, default=""),
 )
 
 KINEMATICS_FIELDS = (
-    F("convention", "str", "", "kinematic convention", choices=CONVENTIONS),
-    F("gravity", "vec3", "m/s^2", "gravity vector in the base frame; norm <= 100"),
-    F("urdf", "str", "", "URDF file, absolute or relative to the device file's folder; "
+    _spec("convention", "str", "", "kinematic convention", choices=CONVENTIONS),
+    _spec("gravity", "vec3", "m/s^2", "gravity vector in the base frame; norm <= 100"),
+    _spec("urdf", "str", "", "URDF file, absolute or relative to the device file's folder; "
       "required with convention = \"urdf\", not allowed otherwise", required=False),
-    F("joints", "table_list", "", "one entry per joint in order; required for \"dh\"/\"mdh\", "
+    _spec("joints", "table_list", "", "one entry per joint in order; required for \"dh\"/\"mdh\", "
       "not allowed for \"urdf\"", required=False),
 )
 
 GRAVITY_MAX_NORM = 100.0
 
 _LINK_FIELDS = (
-    F("mass", "float", "kg", "mass of the link moved by this joint", lo=0.0, lo_open=True, hi=1000.0),
-    F("com", "vec3", "m", "centre of mass in the link frame of this joint", abs_max=10.0),
-    F("inertia", "inertia", "kg m^2",
+    _spec("mass", "float", "kg", "mass of the link moved by this joint", lo=0.0, lo_open=True, hi=1000.0),
+    _spec("com", "vec3", "m", "centre of mass in the link frame of this joint", abs_max=10.0),
+    _spec("inertia", "inertia", "kg m^2",
       "[Ixx, Iyy, Izz, Ixy, Ixz, Iyz] inertia-matrix entries about the COM, link frame; positive "
       "semidefinite and triangle inequalities (Ixx+Iyy >= Izz, ...), tolerance 1e-12", abs_max=1000.0),
 )
 
 DH_JOINT_FIELDS = (
-    F("name", "str", "", "joint name, unique"),
-    F("a", "float", "m", "link length a_i (standard DH)", abs_max=10.0),
-    F("alpha", "float", "rad", "link twist alpha_i", abs_max=TWO_PI),
-    F("d", "float", "m", "link offset d_i", abs_max=10.0),
-    F("theta_offset", "float", "rad", "theta_i = q_i + theta_offset", required=False, default=0.0),
-    F("lower", "float", "rad", "lower joint limit (< upper)"),
-    F("upper", "float", "rad", "upper joint limit (> lower)"),
+    _spec("name", "str", "", "joint name, unique"),
+    _spec("a", "float", "m", "link length a_i (standard DH)", abs_max=10.0),
+    _spec("alpha", "float", "rad", "link twist alpha_i", abs_max=TWO_PI),
+    _spec("d", "float", "m", "link offset d_i", abs_max=10.0),
+    _spec("theta_offset", "float", "rad", "theta_i = q_i + theta_offset", required=False, default=0.0),
+    _spec("lower", "float", "rad", "lower joint limit (< upper)"),
+    _spec("upper", "float", "rad", "upper joint limit (> lower)"),
 ) + _LINK_FIELDS
 
 MDH_JOINT_FIELDS = (
-    F("name", "str", "", "frame/joint name, unique"),
-    F("j", "int", "-", "frame number, 1-based; must equal the entry's position", lo=1),
-    F("antecedent", "int", "-", "antecedent frame a(j); 0 = base; must be < j", lo=0),
-    F("mu", "int", "-", "1 if the joint is actuated, else 0", choices=(0, 1)),
-    F("sigma", "int", "-", "0 revolute, 1 prismatic, 2 cut joint / fixed frame", choices=(0, 1, 2)),
-    F("gamma", "float", "rad", "gamma_j (Khalil-Kleinfinger)", required=False, default=0.0, abs_max=TWO_PI),
-    F("b", "float", "m", "b_j", required=False, default=0.0, abs_max=10.0),
-    F("alpha", "float", "rad", "alpha_j", abs_max=TWO_PI),
-    F("d", "float", "m", "d_j", abs_max=10.0),
-    F("theta_offset", "float", "rad", "theta_j = q_j + theta_offset (revolute)", required=False, default=0.0),
-    F("r", "float", "m", "r_j (r_j = q_j + r for prismatic)", abs_max=10.0),
-    F("lower", "float", "rad or m", "lower joint limit (< upper); optional for sigma = 2", required=False),
-    F("upper", "float", "rad or m", "upper joint limit (> lower); optional for sigma = 2", required=False),
-    F("mass", "float", "kg", "link mass; > 0, or >= 0 and optional (default 0) for sigma = 2",
+    _spec("name", "str", "", "frame/joint name, unique"),
+    _spec("j", "int", "-", "frame number, 1-based; must equal the entry's position", lo=1),
+    _spec("antecedent", "int", "-", "antecedent frame a(j); 0 = base; must be < j", lo=0),
+    _spec("mu", "int", "-", "1 if the joint is actuated, else 0", choices=(0, 1)),
+    _spec("sigma", "int", "-", "0 revolute, 1 prismatic, 2 cut joint / fixed frame", choices=(0, 1, 2)),
+    _spec("gamma", "float", "rad", "gamma_j (Khalil-Kleinfinger)", required=False, default=0.0, abs_max=TWO_PI),
+    _spec("b", "float", "m", "b_j", required=False, default=0.0, abs_max=10.0),
+    _spec("alpha", "float", "rad", "alpha_j", abs_max=TWO_PI),
+    _spec("d", "float", "m", "d_j", abs_max=10.0),
+    _spec("theta_offset", "float", "rad", "theta_j = q_j + theta_offset (revolute)", required=False, default=0.0),
+    _spec("r", "float", "m", "r_j (r_j = q_j + r for prismatic)", abs_max=10.0),
+    _spec("lower", "float", "rad or m", "lower joint limit (< upper); optional for sigma = 2", required=False),
+    _spec("upper", "float", "rad or m", "upper joint limit (> lower); optional for sigma = 2", required=False),
+    _spec("mass", "float", "kg", "link mass; > 0, or >= 0 and optional (default 0) for sigma = 2",
       required=False, lo=0.0, hi=1000.0),
-    F("com", "vec3", "m", "centre of mass in frame j (optional for sigma = 2)", required=False, abs_max=10.0),
-    F("inertia", "inertia", "kg m^2", "as for \"dh\" (optional for sigma = 2)", required=False,
+    _spec("com", "vec3", "m", "centre of mass in frame j (optional for sigma = 2)", required=False, abs_max=10.0),
+    _spec("inertia", "inertia", "kg m^2", "as for \"dh\" (optional for sigma = 2)", required=False,
       abs_max=1000.0),
 )
 
 TRANSMISSION_FIELDS = (
-    F("name", "str", "", "transmission name, unique"),
-    F("joint", "int", "-", "driven joint number (1-based); every actuated joint is driven exactly once", lo=1),
-    F("motor_radius", "float", "m", "motor pulley radius r_m", lo=0.0, lo_open=True, hi=1.0),
-    F("crosses", "int_list", "-", "joints the cable crosses on idle pulleys, each < joint, unique",
+    _spec("name", "str", "", "transmission name, unique"),
+    _spec("joint", "int", "-", "driven joint number (1-based); every actuated joint is driven exactly once", lo=1),
+    _spec("motor_radius", "float", "m", "motor pulley radius r_m", lo=0.0, lo_open=True, hi=1.0),
+    _spec("crosses", "int_list", "-", "joints the cable crosses on idle pulleys, each < joint, unique",
       required=False, default=()),
-    F("crossed_radii", "float_list", "m", "signed idle-pulley radius per crossed joint (sign = routing)",
+    _spec("crossed_radii", "float_list", "m", "signed idle-pulley radius per crossed joint (sign = routing)",
       required=False, default=(), abs_max=1.0, nonzero=True),
-    F("driven_radius", "float", "m", "driven pulley radius", lo=0.0, lo_open=True, hi=1.0,
+    _spec("driven_radius", "float", "m", "driven pulley radius", lo=0.0, lo_open=True, hi=1.0,
       zero_hint="a zero driven radius makes the routing singular"),
-    F("reducer_ratio", "float", "-", "reducer ratio n in the driven pulley (generalised radius = "
+    _spec("reducer_ratio", "float", "-", "reducer ratio n in the driven pulley (generalised radius = "
       "driven_radius * reducer_ratio, S0 footnote 1)", required=False, default=1.0, lo=1.0, hi=1e4),
-    F("reducer_efficiency", "float", "-", "direct efficiency eta_d of the reducer (<= 0.5: self-locking)",
+    _spec("reducer_efficiency", "float", "-", "direct efficiency eta_d of the reducer (<= 0.5: self-locking)",
       required=False, default=1.0, lo=0.0, lo_open=True, hi=1.0, range_msg="must be in (0, 1]"),
-    F("pretension", "float", "N", "cable pretension", required=False, default=0.0, lo=0.0, hi=1e6),
-    F("friction", "table_list", "", "one entry per branch (exactly `joint` entries)"),
-    F("bearings", "table_list", "", "optional per-branch bearings, same length as friction; {} = none",
+    _spec("pretension", "float", "N", "cable pretension", required=False, default=0.0, lo=0.0, hi=1e6),
+    _spec("friction", "table_list", "", "one entry per branch (exactly `joint` entries)"),
+    _spec("bearings", "table_list", "", "optional per-branch bearings, same length as friction; {} = none",
       required=False),
-    F("motor", "table", "", "motor data"),
-    F("sensors", "table", "", "sensor data"),
+    _spec("motor", "table", "", "motor data"),
+    _spec("sensors", "table", "", "sensor data"),
 )
 
 FRICTION_FIELDS = (
-    F("tau0", "float", "N", "Coulomb friction force of the branch (eq. 12)", lo=0.0, hi=1e6),
-    F("nu", "float", "N s/m", "viscous friction of the branch (eq. 12)", lo=0.0, hi=1e6),
-    F("beta", "float", "-", "tension-proportional loss of the branch (eq. 11)", required=False, default=0.0,
+    _spec("tau0", "float", "N", "Coulomb friction force of the branch (eq. 12)", lo=0.0, hi=1e6),
+    _spec("nu", "float", "N s/m", "viscous friction of the branch (eq. 12)", lo=0.0, hi=1e6),
+    _spec("beta", "float", "-", "tension-proportional loss of the branch (eq. 11)", required=False, default=0.0,
       lo=0.0, hi=1.0, hi_open=True, range_msg="must be in [0, 1)"),
 )
 
 BEARING_FIELDS = (
-    F("count", "int", "-", "number of bearings on the branch", lo=0),
-    F("radius", "float", "m", "pulley radius over the bearings", lo=0.0, lo_open=True, hi=1.0),
-    F("wrap", "float", "rad", "cable wrap angle", lo=0.0, lo_open=True, hi=TWO_PI,
+    _spec("count", "int", "-", "number of bearings on the branch", lo=0),
+    _spec("radius", "float", "m", "pulley radius over the bearings", lo=0.0, lo_open=True, hi=1.0),
+    _spec("wrap", "float", "rad", "cable wrap angle", lo=0.0, lo_open=True, hi=TWO_PI,
       range_msg="must be in (0, 2*pi]"),
-    F("alpha", "float", "m", "static friction per unit radial load (eq. 7)", lo=0.0, hi=1.0),
-    F("beta", "float", "m", "load-dependent coefficient (eq. 7)", lo=0.0, hi=1.0),
-    F("h0", "float", "N m", "speed-independent torque (eq. 8)", lo=0.0, hi=1e3),
-    F("h1", "float", "N m (rad/s)^(-2/3)", "speed-dependent coefficient (eq. 8)", lo=0.0, hi=1e3),
-    F("n0", "float", "rad/s", "speed threshold (eq. 8)", lo=0.0, hi=1e6),
+    _spec("alpha", "float", "m", "static friction per unit radial load (eq. 7)", lo=0.0, hi=1.0),
+    _spec("beta", "float", "m", "load-dependent coefficient (eq. 7)", lo=0.0, hi=1.0),
+    _spec("h0", "float", "N m", "speed-independent torque (eq. 8)", lo=0.0, hi=1e3),
+    _spec("h1", "float", "N m (rad/s)^(-2/3)", "speed-dependent coefficient (eq. 8)", lo=0.0, hi=1e3),
+    _spec("n0", "float", "rad/s", "speed threshold (eq. 8)", lo=0.0, hi=1e6),
 )
 
 MOTOR_FIELDS = (
-    F("torque_constant", "float", "N m/A", "motor torque constant k_t", lo=0.0, lo_open=True, hi=1e3),
-    F("rotor_inertia", "float", "kg m^2", "rotor inertia (motor side)", lo=0.0, hi=1e3),
-    F("continuous_torque", "float", "N m", "continuous torque (motor side)", lo=0.0, lo_open=True, hi=1e5),
-    F("peak_torque", "float", "N m", "peak torque (motor side), >= continuous_torque", lo=0.0, lo_open=True,
+    _spec("torque_constant", "float", "N m/A", "motor torque constant k_t", lo=0.0, lo_open=True, hi=1e3),
+    _spec("rotor_inertia", "float", "kg m^2", "rotor inertia (motor side)", lo=0.0, hi=1e3),
+    _spec("continuous_torque", "float", "N m", "continuous torque (motor side)", lo=0.0, lo_open=True, hi=1e5),
+    _spec("peak_torque", "float", "N m", "peak torque (motor side), >= continuous_torque", lo=0.0, lo_open=True,
       hi=1e5),
 )
 
 SENSOR_FIELDS = (
-    F("encoder_counts", "int", "counts/rev", "encoder counts per motor revolution after decoding", lo=1),
-    F("current_noise", "float", "A", "rms current measurement noise", lo=0.0, hi=1e3),
+    _spec("encoder_counts", "int", "counts/rev", "encoder counts per motor revolution after decoding", lo=1),
+    _spec("current_noise", "float", "A", "rms current measurement noise", lo=0.0, hi=1e3),
 )
 
 ALL_FIELD_TABLES = {

@@ -1,0 +1,121 @@
+"""The `tendyn` command. Parses arguments and calls the packages; no physics lives here.
+
+Every command that computes something takes ``--json`` and then prints its main results as one
+JSON document on stdout; progress and logs go to stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+
+def _load(device_arg: str):
+    """A device file path, or the name of a bundled twin (e.g. ``lexos``)."""
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+
+    path = Path(device_arg)
+    if path.suffix == ".toml" or path.exists():
+        return load_device(path)
+    return load_device(bundled(device_arg))
+
+
+def _matrix_text(name: str, M: np.ndarray, unit: str) -> str:
+    rows = "\n".join("    " + "  ".join(f"{v:+10.5f}" for v in row) for row in M)
+    return f"  {name} [{unit}]\n{rows}"
+
+
+def cmd_routing_show(args) -> int:
+    from tendyn.io import to_jsonable
+    from tendyn.transmission import Transmission
+
+    dev = _load(args.device)
+    tr = Transmission.from_device(dev)
+    M = tr.matrices()
+    if args.json:
+        doc = {"device": dev.name, "n": tr.n, "routing": tr.routing_table(),
+               **{k: M[k] for k in ("joint_from_motor_position", "motor_from_joint_position",
+                                     "motor_from_joint_torque", "joint_from_motor_torque", "K", "R_m")},
+               "units": {"K": "m", "R_m": "m", "joint_from_motor_position": "rad/rad",
+                         "motor_from_joint_position": "rad/rad", "motor_from_joint_torque": "(N·m)/(N·m)",
+                         "joint_from_motor_torque": "(N·m)/(N·m)"}}
+        print(json.dumps(to_jsonable(doc), indent=2))
+        return 0
+    print(f"{dev.name}: {tr.n} tendon transmissions (transmission i drives joint i)")
+    print(f"{'tr':>3} {'r_m [mm]':>9}  {'signed radius at joints 1…i [mm]':<36} {'pulley':>7} {'n':>5} {'eta_d':>6} {'q/q_m':>7}")
+    for row in tr.routing_table():
+        radii = " ".join(f"{1e3 * r:+7.1f}" for r in row["radius_at_joint_m"][:-1])
+        print(f"{row['transmission']:>3} {1e3 * row['motor_radius_m']:9.2f}  {radii:<36} "
+              f"{1e3 * row['driven_radius_m']:7.1f} {row['reducer_ratio']:5.1f} "
+              f"{row['reducer_efficiency']:6.2f} {1 / row['joint_per_motor_ratio']:7.4f}")
+    print("\nR_m q_m = K q (S0 eqs. 1–2, corrected); τ_J = Kᵀ t, C_m = R_m t (eq. 5, corrected)")
+    print(_matrix_text("K", M["K"], "m"))
+    print(_matrix_text("joint_from_motor_position  q = K⁻¹R_m q_m", M["joint_from_motor_position"], "rad/rad"))
+    print(_matrix_text("motor_from_joint_position  q_m = R_m⁻¹K q", M["motor_from_joint_position"], "rad/rad"))
+    print(_matrix_text("motor_from_joint_torque  C_m = R_m K⁻ᵀ τ_J", M["motor_from_joint_torque"], "N·m/N·m"))
+    print(_matrix_text("joint_from_motor_torque  τ_J = Kᵀ R_m⁻¹ C_m", M["joint_from_motor_torque"], "N·m/N·m"))
+    return 0
+
+
+def cmd_demo(args) -> int:
+    from tendyn.io import atomic_write_text, to_jsonable
+    from tendyn.pipelines.statics_demo import statics_demo
+
+    dev = _load(args.device)
+    out = Path(args.out)
+    print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
+    demo = statics_demo(dev)
+    fig_path = out / "statics_with_losses.png"
+    demo.plot(fig_path)
+    atomic_write_text(out / "statics_with_losses.json", json.dumps(to_jsonable(demo.to_dict())))
+    if args.json:
+        print(json.dumps({"device": dev.name, "figure": str(fig_path),
+                          "data": str(out / "statics_with_losses.json")}))
+    else:
+        for s in demo.sweeps:
+            k = len(s.torque_joint) - 1
+            print(f"joint {s.joint + 1}: to deliver {s.torque_joint[k]:+.2f} N·m at {s.speed:+.1f} rad/s "
+                  f"the motor needs {s.motor_positive_speed[k]:+.4f} N·m "
+                  f"(lossless {s.motor_lossless[k]:+.4f}); back-driven at {-s.speed:+.1f} rad/s "
+                  f"{s.motor_negative_speed[k]:+.4f} N·m")
+        print(f"figure: {fig_path}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="tendyn", description="Tendon transmissions: model, simulate, identify, compensate.")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    routing = sub.add_parser("routing", help="transmission routing and matrices")
+    rsub = routing.add_subparsers(dest="action", required=True)
+    show = rsub.add_parser("show", help="print the routing table and the four matrices")
+    show.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
+    show.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    show.set_defaults(func=cmd_routing_show)
+
+    demo = sub.add_parser("demo", help="statics with losses on a device: figure + data")
+    demo.add_argument("device", nargs="?", default="lexos")
+    demo.add_argument("--out", default="out/demo", help="output folder [default: out/demo]")
+    demo.add_argument("--json", action="store_true")
+    demo.set_defaults(func=cmd_demo)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    from tendyn.device import DeviceError
+
+    try:
+        return args.func(args)
+    except DeviceError as exc:
+        print(f"tendyn: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
