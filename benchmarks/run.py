@@ -1,0 +1,74 @@
+"""`make bench`: tendyn against baselines measured in the same run; ratios > 1 mean tendyn is better.
+
+Writes benchmarks/results.json as a list of {name, value, unit, baseline, baseline_value, ratio}
+and prints it as a table. Machines are shared and noisy: only same-run ratios mean anything.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+
+from numpy_statics import motor_torque_feedforward as numpy_feedforward  # noqa: E402
+
+from tendyn import _core  # noqa: E402
+from tendyn.device import load_device  # noqa: E402
+from tendyn.devices import bundled  # noqa: E402
+from tendyn.io import atomic_write_text  # noqa: E402
+from tendyn.transmission import Transmission  # noqa: E402
+
+
+def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int = 3000) -> None:
+    """Feedforward motor torques with losses, L-EXOS (4 transmissions): C++ core vs numpy recursion."""
+    dev = load_device(bundled("lexos"))
+    tr = Transmission.from_device(dev)
+    arr = dev.routing_arrays()
+    rng = np.random.default_rng(7)
+    tau = rng.normal(size=(calls, tr.n)) * 5
+    qd = rng.normal(size=(calls, tr.n))
+    # the two implementations agree before anything is timed
+    for k in range(50):
+        np.testing.assert_allclose(numpy_feedforward(arr, tau[k], qd[k]),
+                                   tr.feedforward(tau[k], qd[k]).torque_motor, rtol=1e-10, atol=1e-12)
+    print(f"[bench] C++ feedforward, {calls} calls timed one by one …", file=sys.stderr)
+    ns = np.asarray(_core.time_motor_torque_feedforward(tr.model, tr.data, tau, qd))
+    print(f"[bench] numpy baseline, {baseline_calls} calls …", file=sys.stderr)
+    base = np.empty(baseline_calls)
+    for k in range(baseline_calls):
+        t0 = time.perf_counter_ns()
+        numpy_feedforward(arr, tau[k], qd[k])
+        base[k] = time.perf_counter_ns() - t0
+    med, p999 = np.median(ns), np.percentile(ns, 99.9)
+    bmed, bp999 = np.median(base), np.percentile(base, 99.9)
+    results.append(dict(name="lexos_feedforward_median", value=med / 1e3, unit="us/call",
+                        baseline="numpy recursion (same physics)", baseline_value=bmed / 1e3, ratio=bmed / med))
+    results.append(dict(name="lexos_feedforward_p99.9", value=p999 / 1e3, unit="us/call",
+                        baseline="numpy recursion (same physics)", baseline_value=bp999 / 1e3, ratio=bp999 / p999))
+
+
+def print_table(results: list) -> None:
+    print(f"{'benchmark':<34} {'tendyn':>12} {'baseline':>12} {'unit':>9} {'ratio':>9}  baseline")
+    for r in results:
+        print(f"{r['name']:<34} {r['value']:12.4g} {r['baseline_value']:12.4g} {r['unit']:>9} "
+              f"{r['ratio']:9.1f}  {r['baseline']}")
+
+
+def main() -> int:
+    results: list = []
+    bench_feedforward(results)
+    path = HERE / "results.json"
+    atomic_write_text(path, json.dumps(results, indent=2))
+    print_table(results)
+    print(f"\nwritten: {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
