@@ -24,5 +24,7 @@ void expose_status(nb::module_& m);
 void expose_routing(nb::module_& m);
 void expose_losses(nb::module_& m);
 void expose_rigid_body(nb::module_& m);
+void expose_sim(nb::module_& m);
+void expose_tendon_bench(nb::module_& m);
 
 }  // namespace tendyn::py

@@ -7,4 +7,6 @@ NB_MODULE(_core, m) {
   tendyn::py::expose_routing(m);
   tendyn::py::expose_losses(m);
   tendyn::py::expose_rigid_body(m);
+  tendyn::py::expose_sim(m);
+  tendyn::py::expose_tendon_bench(m);
 }

@@ -1,0 +1,1 @@
+"""Frequency-domain and symbolic analysis (transfer functions, sensitivities, operational maps)."""

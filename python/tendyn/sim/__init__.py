@@ -1,0 +1,1 @@
+"""Simulation of the digital twins: the C++ stepping loop and the experiments run on it."""
