@@ -1,7 +1,128 @@
+#include <nanobind/stl/string.h>
+
 #include "common.hpp"
+#include "tendyn/sim.hpp"
 
 namespace tendyn::py {
 
-void expose_sim(nb::module_& m) { (void)m; }
+void expose_sim(nb::module_& m) {
+  using M = SimModel;
+  using D = SimData;
+  using RowMat = RowMatrixXd;
+  using MatRef = Eigen::Ref<const RowMat>;
+
+  nb::enum_<DriveKind>(m, "DriveKind").value("Tendon", DriveKind::Tendon).value("Elastic", DriveKind::Elastic);
+  nb::enum_<ControlMode>(m, "ControlMode")
+      .value("Torque", ControlMode::Torque)
+      .value("JointPID", ControlMode::JointPID)
+      .value("MotorPID", ControlMode::MotorPID);
+  nb::enum_<SiteKind>(m, "SiteKind")
+      .value("Branch", SiteKind::Branch)
+      .value("Reducer", SiteKind::Reducer)
+      .value("MotorCoulomb", SiteKind::MotorCoulomb)
+      .value("JointCoulomb", SiteKind::JointCoulomb);
+
+  nb::class_<M>(m, "SimModel", "Fixed-step simulator model (fill the fields, then finalize()).")
+      .def(nb::init<>())
+      .def_rw("body", &M::body)
+      .def_rw("L", &M::L)
+      .def_rw("c", &M::c)
+      .def_ro("na", &M::na)
+      .def_rw("drive", &M::drive)
+      .def_rw("tendon", &M::tendon)
+      .def_rw("ratio", &M::ratio)
+      .def_rw("stiffness_motor", &M::stiffness_motor)
+      .def_rw("damping_motor", &M::damping_motor)
+      .def_rw("rotor_inertia", &M::rotor_inertia)
+      .def_rw("torque_constant", &M::torque_constant)
+      .def_rw("peak_torque", &M::peak_torque)
+      .def_rw("coulomb_motor", &M::coulomb_motor)
+      .def_rw("viscous_motor", &M::viscous_motor)
+      .def_rw("coulomb_joint", &M::coulomb_joint)
+      .def_rw("viscous_joint", &M::viscous_joint)
+      .def_rw("offset_joint", &M::offset_joint)
+      .def_rw("encoder_counts", &M::encoder_counts)
+      .def_rw("current_noise", &M::current_noise)
+      .def_rw("dt", &M::dt)
+      .def_rw("control_decimation", &M::control_decimation)
+      .def_rw("mode", &M::mode)
+      .def_rw("kp", &M::kp)
+      .def_rw("kd", &M::kd)
+      .def_rw("ki", &M::ki)
+      .def_rw("velocity_cutoff_hz", &M::velocity_cutoff_hz)
+      .def_rw("pgs_max_iterations", &M::pgs_max_iterations)
+      .def_rw("pgs_tolerance", &M::pgs_tolerance)
+      .def_ro("nv", &M::nv)
+      .def_ro("n_sites", &M::n_sites)
+      .def_ro("G", &M::G)
+      .def_ro("D", &M::D)
+      .def_ro("site_kind", &M::site_kind)
+      .def_ro("site_i", &M::site_i)
+      .def_ro("site_b", &M::site_b)
+      .def("finalize", [](M& self) { return check(self.finalize(), "SimModel.finalize"); });
+
+  nb::class_<D>(m, "SimData", "State and preallocated workspace of the simulator.")
+      .def(nb::init<const M&>(), nb::arg("model"))
+      .def("reset", &D::reset, nb::arg("q0"), nb::arg("seed"))
+      .def_ro("time", &D::time)
+      .def_ro("step_count", &D::step_count)
+      .def_ro("qa", &D::qa)
+      .def_ro("va", &D::va)
+      .def_ro("qm", &D::qm)
+      .def_ro("vm", &D::vm)
+      .def_ro("q_motor_meas", &D::q_motor_meas)
+      .def_ro("torque_motor_meas", &D::torque_motor_meas)
+      .def_ro("torque_motor_cmd", &D::torque_motor_cmd)
+      .def_ro("torque_motor", &D::torque_motor)
+      .def_ro("tension", &D::tension)
+      .def_ro("tension_motor", &D::tension_motor)
+      .def_ro("p", &D::p)
+      .def_ro("pgs_iterations", &D::pgs_iterations)
+      .def_ro("work_motor", &D::work_motor)
+      .def_ro("work_external", &D::work_external)
+      .def_ro("dissipated", &D::dissipated)
+      .def("set_velocity",
+           [](D& d, VecRef va, VecRef vm) { d.va = va; d.vm = vm; d.vm_prev = vm; },
+           nb::arg("va"), nb::arg("vm"))
+      .def("set_motor_position", [](D& d, VecRef qm) { d.qm = qm; }, nb::arg("qm"));
+
+  m.def("sim_step",
+        [](const M& mo, D& d, VecRef ref_q, VecRef ref_v, VecRef ff, VecRef ext) {
+          if (ref_q.size() != mo.na || ref_v.size() != mo.na || ff.size() != mo.na || ext.size() != mo.na)
+            throw nb::value_error("sim_step: inputs must have na entries");
+          return check(step(mo, d, ref_q, ref_v, ff, ext), "sim_step");
+        },
+        nb::arg("model"), nb::arg("data"), nb::arg("ref_q"), nb::arg("ref_v"), nb::arg("ff"), nb::arg("torque_ext"));
+  m.def("mechanical_energy", &mechanical_energy, nb::arg("model"), nb::arg("data"));
+  m.def(
+      "sim_run",
+      [](const M& mo, D& d, MatRef ref_q, MatRef ref_v, MatRef ff, MatRef ext, int log_every) {
+        if (log_every < 1) throw nb::value_error("sim_run: log_every must be >= 1");
+        const long rows = (ref_q.rows() + log_every - 1) / log_every;
+        Eigen::VectorXd time(rows);
+        RowMat qmm(rows, mo.na), tmm(rows, mo.na), tmc(rows, mo.na), qj(rows, mo.na), vj(rows, mo.na),
+            qmt(rows, mo.na), vmt(rows, mo.na);
+        SimLog log{time, qmm, tmm, tmc, qj, vj, qmt, vmt};
+        Status s;
+        {
+          nb::gil_scoped_release release;
+          s = run(mo, d, ref_q, ref_v, ff, ext, log_every, log);
+        }
+        check(s, "sim_run");
+        nb::dict out;
+        out["time"] = time;
+        out["q_motor_meas"] = qmm;
+        out["torque_motor_meas"] = tmm;
+        out["torque_motor_cmd"] = tmc;
+        out["q_joint"] = qj;
+        out["qd_joint"] = vj;
+        out["q_motor"] = qmt;
+        out["qd_motor"] = vmt;
+        return out;
+      },
+      nb::arg("model"), nb::arg("data"), nb::arg("ref_q"), nb::arg("ref_v"), nb::arg("ff"),
+      nb::arg("torque_ext"), nb::arg("log_every"),
+      "Run len(ref_q) steps; inputs (steps, na), row-major. Returns the log as a dict of arrays.");
+}
 
 }  // namespace tendyn::py

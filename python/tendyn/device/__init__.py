@@ -6,7 +6,8 @@
 >>> dev.n_joints
 4
 
-See ``docs/device-file.md`` for the format. This package uses only the standard library and numpy.
+See ``docs/device-file.md`` for the format. The loader uses only the standard library and numpy;
+``rigid_body`` and ``closed_loop`` (rigid-body models, closed-loop maps, base parameters) use Pinocchio.
 """
 
 from .load import load_device
@@ -14,8 +15,10 @@ from .schema import (
     SCHEMA_VERSION,
     Bearing,
     BranchFriction,
+    Constraint,
     Device,
     DeviceError,
+    Drive,
     FieldSpec,
     JointSpec,
     Kinematics,
@@ -28,8 +31,10 @@ __all__ = [
     "SCHEMA_VERSION",
     "Bearing",
     "BranchFriction",
+    "Constraint",
     "Device",
     "DeviceError",
+    "Drive",
     "FieldSpec",
     "JointSpec",
     "Kinematics",

@@ -21,7 +21,9 @@ import numpy as np
 
 from .schema import (
     BEARING_FIELDS,
+    CONSTRAINT_FIELDS,
     DEVICE_FIELDS,
+    DRIVE_FIELDS,
     DH_JOINT_FIELDS,
     FRICTION_FIELDS,
     GRAVITY_MAX_NORM,
@@ -35,8 +37,10 @@ from .schema import (
     TRANSMISSION_FIELDS,
     Bearing,
     BranchFriction,
+    Constraint,
     Device,
     DeviceError,
+    Drive,
     FieldSpec,
     JointSpec,
     Kinematics,
@@ -62,7 +66,9 @@ def load_device(path: str | os.PathLike) -> Device:
     Returns
     -------
     Device
-        The validated, immutable description; transmissions sorted by driven joint.
+        The validated, immutable description; transmissions (or drives) sorted by driven joint.
+        A file with ``[device] kind = "tendon_bench_2n"`` is handed to
+        ``tendyn.device.tendon_bench.load_tendon_bench`` and its result returned.
 
     Raises
     ------
@@ -84,6 +90,16 @@ def load_device(path: str | os.PathLike) -> Device:
         raise DeviceError(f"not valid UTF-8 text: {exc}", file=p.name) from None
     except OSError as exc:
         raise DeviceError(f"cannot read file: {exc.strerror or exc}", file=str(p)) from None
+    dev_table = raw.get("device")
+    if isinstance(dev_table, dict) and dev_table.get("kind") == "tendon_bench_2n":
+        try:
+            from .tendon_bench import load_tendon_bench  # lazy: optional module
+        except ImportError as exc:
+            if getattr(exc, "name", None) not in (None, __package__ + ".tendon_bench"):
+                raise
+            raise DeviceError("tendon bench support is not installed", file=p.name,
+                              field="device.kind") from None
+        return load_tendon_bench(p)
     return _Parser(p).device(raw)
 
 
@@ -264,10 +280,24 @@ class _Parser:
                                      f"schema = {SCHEMA_VERSION}")
         top = self.table(raw, "", TOP_FIELDS)
         dev = self.table(top["device"], "device", DEVICE_FIELDS)
+        if dev["kind"] != "serial":
+            raise self.err("device.kind", f"kind {dev['kind']!r} is read by its own loader: use "
+                                          "tendyn.device.load_device on the file")
         kin = self.kinematics(top["kinematics"])
-        trans = self.transmissions(top["transmissions"], kin)
+        trans: tuple = ()
+        drives: tuple = ()
+        if top["transmissions"] is not None and top["drives"] is not None:
+            raise self.err("drives", "not allowed together with [[transmissions]]: a device has cable "
+                                     "transmissions or elastic capstan drives, not both")
+        if top["drives"] is not None:
+            drives = self.drives(top["drives"], kin)
+        elif top["transmissions"] is not None:
+            trans = self.transmissions(top["transmissions"], kin)
+        else:
+            raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
+                                            "joint (or [[drives]] for elastic capstan drives)")
         return Device(name=dev["name"], description=dev["description"], path=self.path.resolve(),
-                      kinematics=kin, transmissions=trans)
+                      kinematics=kin, transmissions=trans, drives=drives, kind=dev["kind"])
 
     def kinematics(self, raw: Any) -> Kinematics:
         k = self.table(raw, "kinematics", KINEMATICS_FIELDS)
@@ -310,7 +340,66 @@ class _Parser:
                     raise self.err(f"kinematics.joints[{i + 1}].name",
                                    f"duplicate joint name {j.name!r} (also kinematics.joints[{seen[j.name]}])")
                 seen[j.name] = i + 1
-        return Kinematics(convention=conv, gravity=_frozen_array(g, (3,)), joints=joints, urdf=urdf_path)
+        constraints = self.constraints(k["constraints"], conv, joints)
+        return Kinematics(convention=conv, gravity=_frozen_array(g, (3,)), joints=joints, urdf=urdf_path,
+                          constraints=constraints)
+
+    def constraints(self, raw: Any, conv: str, joints: tuple[JointSpec, ...]) -> tuple[Constraint, ...]:
+        """Closed-loop constraints: one per passive non-cut joint (mu = 0, sigma != 2), terms on active
+        joints only."""
+        raw = list(raw or ())
+        if raw and conv != "mdh":
+            raise self.err("kinematics.constraints", f'only allowed with convention = "mdh" (got convention = '
+                                                     f'"{conv}")')
+        if conv != "mdh":
+            return ()
+        n = len(joints)
+        by_joint: dict[int, int] = {}
+        out = []
+        for i, item in enumerate(raw):
+            path = f"kinematics.constraints[{i + 1}]"
+            f = self.table(item, path, CONSTRAINT_FIELDS)
+            jn = f["joint"]
+            if jn > n:
+                raise self.err(f"{path}.joint", f"no joint {jn}: the device has {n} joint{'s' if n != 1 else ''}")
+            js = joints[jn - 1]
+            if js.sigma == 2:
+                raise self.err(f"{path}.joint", f"joint {jn} ({js.name}) is a cut joint / fixed frame "
+                                                "(sigma = 2): it has no coordinate to constrain")
+            if js.actuated:
+                raise self.err(f"{path}.joint", f"joint {jn} ({js.name}) is actuated (mu = 1): only passive "
+                                                "joints are determined by constraints")
+            if jn in by_joint:
+                raise self.err(f"{path}.joint", f"joint {jn} ({js.name}) is constrained twice (also "
+                                                f"kinematics.constraints[{by_joint[jn]}])")
+            by_joint[jn] = i + 1
+            terms = []
+            for key, coef in f["terms"].items():
+                tpath = f"{path}.terms.{key}"
+                try:
+                    kn = int(key)
+                except ValueError:
+                    kn = None
+                if kn is None or str(kn) != key.strip():
+                    raise self.err(tpath, f"key must be an active joint number written as a string, e.g. \"2\" "
+                                          f"(got {key!r})")
+                if not 1 <= kn <= n:
+                    raise self.err(tpath, f"no joint {kn}: the device has {n} joint{'s' if n != 1 else ''}")
+                ks = joints[kn - 1]
+                if not ks.actuated or ks.sigma == 2:
+                    raise self.err(tpath, f"joint {kn} ({ks.name}) is not an active joint (mu = 0): constraint "
+                                          "terms are on active joints only")
+                spec = FieldSpec(name=key, kind="float", unit="-", abs_max=1e3)
+                terms.append((kn, self.number(coef, tpath, spec)))
+            if not terms:
+                raise self.err(f"{path}.terms", "must have at least one active-joint coefficient")
+            out.append(Constraint(joint=jn, terms=tuple(sorted(terms)), offset=f["offset"]))
+        for num, js in enumerate(joints, start=1):
+            if not js.actuated and js.sigma != 2 and num not in by_joint:
+                raise self.err("kinematics.constraints", f"joint {num} ({js.name}) is passive (mu = 0) and has no "
+                                                         "constraint: every passive non-cut joint needs exactly "
+                                                         "one [[kinematics.constraints]] entry")
+        return tuple(sorted(out, key=lambda c: c.joint))
 
     def limits(self, lower, upper, path: str) -> None:
         if lower >= upper:
@@ -340,8 +429,8 @@ class _Parser:
             for key in ("lower", "upper", "mass", "com", "inertia"):
                 if f[key] is None:
                     raise self.err(f"{path}.{key}", f"missing required field: needed for sigma = {f['sigma']}")
-            if f["mass"] <= 0:
-                raise self.err(f"{path}.mass", f"must be > 0 (got {_fmt(f['mass'])})")
+            if f["mass"] <= 0 and f["mu"] == 1:
+                raise self.err(f"{path}.mass", f"must be > 0 (got {_fmt(f['mass'])}) for an actuated joint")
         if (f["lower"] is None) != (f["upper"] is None):
             missing = "upper" if f["upper"] is None else "lower"
             raise self.err(f"{path}.{missing}", "missing required field: lower and upper go together")
@@ -487,3 +576,44 @@ class _Parser:
             crossed_radii=tuple(radii), driven_radius=f["driven_radius"], reducer_ratio=f["reducer_ratio"],
             reducer_efficiency=f["reducer_efficiency"], pretension=f["pretension"], friction=friction,
             bearings=bearings, motor=Motor(**mot), sensors=Sensors(**sen))
+
+    def drives(self, raw: Any, kin: Kinematics) -> tuple[Drive, ...]:
+        if not raw:
+            raise self.err("drives", "must list at least one drive ([[drives]])")
+        driven_by: dict[int, int] = {}
+        names: dict[str, int] = {}
+        out = []
+        n = kin.n_joints
+        for i, item in enumerate(raw):
+            path = f"drives[{i + 1}]"
+            f = self.table(item, path, DRIVE_FIELDS)
+            joint = f["joint"]
+            if joint > n:
+                raise self.err(f"{path}.joint", f"no joint {joint}: the device has {n} joint{'s' if n != 1 else ''}")
+            js = kin.joints[joint - 1]
+            if not js.actuated:
+                raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
+            if joint in driven_by:
+                raise self.err(f"{path}.joint", f"joint {joint} is driven twice (also drives[{driven_by[joint]}]); "
+                                                "each joint must be driven exactly once")
+            driven_by[joint] = i + 1
+            name = f["name"] if f["name"] is not None else f"drive{joint}"
+            if name in names:
+                raise self.err(f"{path}.name", f"duplicate drive name {name!r} (also drives[{names[name]}])")
+            names[name] = i + 1
+            mot = self.table(f["motor"], f"{path}.motor", MOTOR_FIELDS)
+            if mot["peak_torque"] < mot["continuous_torque"]:
+                raise self.err(f"{path}.motor.peak_torque", f"must be >= continuous_torque (got peak_torque = "
+                                                            f"{_fmt(mot['peak_torque'])}, continuous_torque = "
+                                                            f"{_fmt(mot['continuous_torque'])})")
+            sen = self.table(f["sensors"], f"{path}.sensors", SENSOR_FIELDS)
+            out.append(Drive(name=name, joint=joint, ratio=f["ratio"], stiffness_motor=f["stiffness_motor"],
+                             damping_motor=f["damping_motor"], coulomb_motor=f["coulomb_motor"],
+                             viscous_motor=f["viscous_motor"], offset_joint=f["offset_joint"],
+                             motor=Motor(**mot), sensors=Sensors(**sen),
+                             servo_stiffness_motor=f["servo_stiffness_motor"]))
+        for num, js in enumerate(kin.joints, start=1):
+            if js.actuated and js.sigma != 2 and num not in driven_by:
+                raise self.err("drives", f"joint {num} ({js.name}) is not driven by any drive; each actuated "
+                                         "joint must be driven exactly once")
+        return tuple(sorted(out, key=lambda d: d.joint))

@@ -59,8 +59,60 @@ class JointFrame:
     inertia: np.ndarray       # (3, 3) [kg·m²] about the COM, joint-frame axes
 
 
+def _mdh_constant(js) -> np.ndarray:
+    """Constant part of the KK transform of an mdh row: Rz(γ) Tz(b) Rx(α) Tx(d) Rz(θ₀) Tz(r₀).
+
+    For a revolute joint θ = q + θ₀ and Rz(q) commutes with Tz(r), so frame j = constant · Rz(q); for a
+    prismatic joint r = q + r₀ and frame j = constant · Tz(q); a cut joint / fixed frame (σ = 2) is the
+    constant part alone.
+    """
+    return mdh_transform(js.gamma or 0.0, js.b or 0.0, js.alpha, js.d, js.theta_offset or 0.0, js.r or 0.0)
+
+
+def _mdh_tree(device):
+    """Resolve the mdh rows into (tree index or None, parent tree index, placement in the parent joint frame).
+
+    Rows with σ = 2 are fixed frames (cut joints close loops): they get no tree index; a row whose
+    antecedent is a fixed frame is placed through it.
+    """
+    kin = device.kinematics
+    tree_index: dict[int, int] = {}            # file frame number -> 1-based Pinocchio joint index
+    anchor: dict[int, tuple[int, np.ndarray]] = {0: (0, np.eye(4))}  # frame -> (tree parent, placement)
+    rows = []
+    for num, js in enumerate(kin.joints, start=1):
+        a = int(js.antecedent)
+        if a in tree_index:
+            parent, pre = tree_index[a], np.eye(4)
+        else:
+            parent, pre = anchor[a]
+        placement = pre @ _mdh_constant(js)
+        if js.sigma == 2:
+            anchor[num] = (parent, placement)
+            rows.append((None, parent, placement))
+        else:
+            tree_index[num] = len(tree_index) + 1
+            rows.append((tree_index[num], parent, placement))
+    return rows
+
+
+def tree_joint_numbers(device) -> list[int]:
+    """File joint numbers (1-based) of the joints of the rigid-body tree, in tree order (σ = 2 rows skipped)."""
+    kin = device.kinematics
+    if kin.convention != "mdh":
+        return list(range(1, kin.n_joints + 1))
+    return [num for num, js in enumerate(kin.joints, start=1) if js.sigma != 2]
+
+
 def joint_frames(device) -> list[JointFrame]:
-    """Joint frames of an open chain described by standard DH (convention "dh") or KK ("mdh")."""
+    """Joint frames of the rigid-body tree of a device.
+
+    Convention "dh": open chain, standard DH. Convention "mdh" (Khalil–Kleinfinger): frame j relative to
+    its antecedent a(j) is Rz(γ) Tz(b) Rx(α) Tx(d) Rz(θ) Tz(r), θ = q + theta_offset (revolute) or
+    r = q + r (prismatic); the Pinocchio joint frame is frame j itself, so ``com`` and ``inertia`` (about the
+    COM, frame-j axes) pass unchanged. Cut joints / fixed frames (σ = 2) are not in the tree (see
+    :func:`cut_frames`); ``parent`` is the 1-based index among the tree joints (0 = base), not the file's
+    antecedent number.
+    """
     kin = device.kinematics
     frames: list[JointFrame] = []
     if kin.convention == "dh":
@@ -75,18 +127,78 @@ def joint_frames(device) -> list[JointFrame]:
             previous_link = link
         return frames
     if kin.convention == "mdh":
-        for js in kin.joints:
-            if js.sigma == 2:
-                raise NotImplementedError("cut joints (sigma = 2) need the closed-loop builder")
-            placement = mdh_transform(js.gamma, js.b, js.alpha, js.d,
-                                      js.theta_offset if js.sigma == 0 else js.theta_offset,
-                                      js.r if js.sigma == 0 else js.r)
+        for js, (idx, parent, placement) in zip(kin.joints, _mdh_tree(device)):
+            if idx is None:
+                continue
             frames.append(JointFrame(
-                js.name, int(js.antecedent), placement, np.array([0.0, 0.0, 1.0]), js.sigma == 1,
+                js.name, parent, placement, np.array([0.0, 0.0, 1.0]), js.sigma == 1,
                 float(js.mass or 0.0), np.asarray(js.com if js.com is not None else (0, 0, 0), float),
                 inertia_matrix(js.inertia if js.inertia is not None else (0,) * 6)))
         return frames
     raise NotImplementedError(f"rigid-body model for convention {kin.convention!r} is not built yet")
+
+
+@dataclass(frozen=True)
+class CutFrame:
+    """A fixed frame (σ = 2 row of an mdh table, e.g. the far side of a cut joint)."""
+
+    name: str
+    number: int               # file frame number j (1-based)
+    antecedent: int           # file frame number a(j)
+    parent: int               # 1-based tree joint the frame is fixed to (0 = base)
+    placement: np.ndarray     # (4, 4) frame in that tree joint's frame
+
+
+def cut_frames(device) -> list[CutFrame]:
+    """The σ = 2 frames of an mdh device (not part of the tree), for loop-closure checks."""
+    kin = device.kinematics
+    if kin.convention != "mdh":
+        return []
+    return [CutFrame(js.name, num, int(js.antecedent), parent, placement)
+            for num, (js, (idx, parent, placement)) in enumerate(zip(kin.joints, _mdh_tree(device)), start=1)
+            if idx is None]
+
+
+def pinocchio_model(device):
+    """A Python Pinocchio model (``pin.Model``) of the device's rigid-body tree (gravity from the device).
+
+    Joint k of the model (1-based) is ``joint_frames(device)[k - 1]``; its q/v index is k − 1.
+    """
+    import pinocchio as pin
+
+    model = pin.Model()
+    model.gravity.linear = np.asarray(device.kinematics.gravity, float)
+    for f in joint_frames(device):
+        z = np.allclose(f.axis, (0.0, 0.0, 1.0))
+        if f.prismatic:
+            jm = pin.JointModelPZ() if z else pin.JointModelPrismaticUnaligned(np.asarray(f.axis, float))
+        else:
+            jm = pin.JointModelRZ() if z else pin.JointModelRevoluteUnaligned(np.asarray(f.axis, float))
+        jid = model.addJoint(f.parent, jm, pin.SE3(f.placement[:3, :3].copy(), f.placement[:3, 3].copy()), f.name)
+        model.appendBodyToJoint(jid, pin.Inertia(f.mass, np.asarray(f.com, float), np.asarray(f.inertia, float)),
+                                pin.SE3.Identity())
+    return model
+
+
+STANDARD_PARAMETER_NAMES = ("M", "MX", "MY", "MZ", "XX", "XY", "YY", "XZ", "YZ", "ZZ")
+"""The 10 standard (classical) parameters of a link in Pinocchio's order: mass [kg], first moments
+[kg·m] and inertia [kg·m²] about the link frame's origin, link-frame axes (S2 section II)."""
+
+
+def standard_parameters(device) -> tuple[list[str], np.ndarray]:
+    """Names (``"ZZ2"``: parameter + file joint number) and values of the standard parameters of the tree.
+
+    The file stores mass m, COM c and inertia I_c about the COM; about the frame origin
+    MS = m c and J_O = I_c + m (cᵀc 1 − c cᵀ) (parallel-axis theorem).
+    """
+    names, values = [], []
+    for num, f in zip(tree_joint_numbers(device), joint_frames(device)):
+        c = np.asarray(f.com, float)
+        J = np.asarray(f.inertia, float) + f.mass * (c @ c * np.eye(3) - np.outer(c, c))
+        ms = f.mass * c
+        values += [f.mass, ms[0], ms[1], ms[2], J[0, 0], J[0, 1], J[1, 1], J[0, 2], J[1, 2], J[2, 2]]
+        names += [f"{p}{num}" for p in STANDARD_PARAMETER_NAMES]
+    return names, np.array(values)
 
 
 def rigid_body_model(device):

@@ -148,12 +148,20 @@ TOP_FIELDS = (
     _spec("schema", "int", "-", "schema version of the file; must be 1", choices=(SCHEMA_VERSION,)),
     _spec("device", "table", "", "device identity"),
     _spec("kinematics", "table", "", "kinematic description"),
-    _spec("transmissions", "table_list", "", "one entry per actuated joint"),
+    _spec("transmissions", "table_list", "", "one entry per actuated joint (a device has [[transmissions]] "
+      "or [[drives]], not both)", required=False),
+    _spec("drives", "table_list", "", "elastic capstan drives, one per actuated joint (alternative to "
+      "[[transmissions]])", required=False),
 )
+
+DEVICE_KINDS = ("serial", "tendon_bench_2n")
+"""Device kinds: a serial/tree mechanism described here, or the S1 tendon bench (its own loader)."""
 
 DEVICE_FIELDS = (
     _spec("name", "str", "", "device name (non-empty)"),
     _spec("description", "str", "", "free text", required=False, default=""),
+    _spec("kind", "str", "", "device kind; \"tendon_bench_2n\" files are read by "
+      "tendyn.device.tendon_bench.load_tendon_bench", required=False, default="serial", choices=DEVICE_KINDS),
 )
 
 KINEMATICS_FIELDS = (
@@ -163,6 +171,16 @@ KINEMATICS_FIELDS = (
       "required with convention = \"urdf\", not allowed otherwise", required=False),
     _spec("joints", "table_list", "", "one entry per joint in order; required for \"dh\"/\"mdh\", "
       "not allowed for \"urdf\"", required=False),
+    _spec("constraints", "table_list", "", "closed-loop constraints q_joint = sum(coef * q_active) + offset, "
+      "one per passive non-cut joint (\"mdh\" only)", required=False, default=()),
+)
+
+CONSTRAINT_FIELDS = (
+    _spec("joint", "int", "-", "the passive joint (mu = 0, sigma 0 or 1) this constraint determines", lo=1),
+    _spec("terms", "table", "", "coefficients [-] on active joints, keys = joint numbers as strings, "
+      "e.g. { \"2\" = -1.0, \"5\" = 1.0 }"),
+    _spec("offset", "float", "rad or m", "constant term of the constraint", required=False, default=0.0,
+      abs_max=10.0),
 )
 
 GRAVITY_MAX_NORM = 100.0
@@ -199,7 +217,8 @@ MDH_JOINT_FIELDS = (
     _spec("r", "float", "m", "r_j (r_j = q_j + r for prismatic)", abs_max=10.0),
     _spec("lower", "float", "rad or m", "lower joint limit (< upper); optional for sigma = 2", required=False),
     _spec("upper", "float", "rad or m", "upper joint limit (> lower); optional for sigma = 2", required=False),
-    _spec("mass", "float", "kg", "link mass; > 0, or >= 0 and optional (default 0) for sigma = 2",
+    _spec("mass", "float", "kg", "link mass; > 0 for an actuated joint, >= 0 for a passive one (mu = 0; "
+      "e.g. the massless far side of a cut loop), optional (default 0) for sigma = 2",
       required=False, lo=0.0, hi=1000.0),
     _spec("com", "vec3", "m", "centre of mass in frame j (optional for sigma = 2)", required=False, abs_max=10.0),
     _spec("inertia", "inertia", "kg m^2", "as for \"dh\" (optional for sigma = 2)", required=False,
@@ -260,6 +279,28 @@ SENSOR_FIELDS = (
     _spec("current_noise", "float", "A", "rms current measurement noise", lo=0.0, hi=1e3),
 )
 
+DRIVE_FIELDS = (
+    _spec("name", "str", "", "drive name, unique (default \"drive<joint>\")", required=False),
+    _spec("joint", "int", "-", "driven joint number (1-based, actuated); every actuated joint is driven "
+      "exactly once", lo=1),
+    _spec("ratio", "float", "-", "capstan ratio N: joint speed * N = motor speed", lo=0.0, lo_open=True,
+      hi=1e4),
+    _spec("stiffness_motor", "float", "N m/rad", "capstan (cable) stiffness K_T seen at the motor",
+      lo=0.0, lo_open=True, hi=1e9),
+    _spec("damping_motor", "float", "N m s/rad", "capstan damping seen at the motor", required=False,
+      default=0.0, lo=0.0, hi=1e6),
+    _spec("coulomb_motor", "float", "N m", "Coulomb friction at the motor (joint side: N * coulomb_motor)",
+      required=False, default=0.0, lo=0.0, hi=1e6),
+    _spec("viscous_motor", "float", "N m s/rad", "viscous friction at the motor (joint side: N^2 * "
+      "viscous_motor)", required=False, default=0.0, lo=0.0, hi=1e6),
+    _spec("offset_joint", "float", "N m", "constant torque offset seen at the joint (any sign)",
+      required=False, default=0.0, abs_max=1e6),
+    _spec("servo_stiffness_motor", "float", "N m/rad", "servo (\"electric\") stiffness K_E at the motor; "
+      "absent = not modelled", required=False, lo=0.0, hi=1e9),
+    _spec("motor", "table", "", "motor data, as [transmissions.motor]"),
+    _spec("sensors", "table", "", "sensor data, as [transmissions.sensors]"),
+)
+
 ALL_FIELD_TABLES = {
     "": TOP_FIELDS,
     "device": DEVICE_FIELDS,
@@ -271,6 +312,10 @@ ALL_FIELD_TABLES = {
     "transmissions.bearings": BEARING_FIELDS,
     "transmissions.motor": MOTOR_FIELDS,
     "transmissions.sensors": SENSOR_FIELDS,
+    "kinematics.constraints": CONSTRAINT_FIELDS,
+    "drives": DRIVE_FIELDS,
+    "drives.motor": MOTOR_FIELDS,
+    "drives.sensors": SENSOR_FIELDS,
 }
 """Every field table, keyed by the section it describes (used by docs checks)."""
 
@@ -341,16 +386,31 @@ class Kinematics:
     gravity : (3,) array [m/s^2], base frame
     joints : tuple of :class:`JointSpec`, in order (joint k is ``joints[k-1]``)
     urdf : resolved path of the URDF file, or None
+    constraints : tuple of :class:`Constraint` (closed loops, "mdh" only), sorted by joint
     """
 
     convention: str
     gravity: np.ndarray
     joints: tuple[JointSpec, ...]
     urdf: Path | None = None
+    constraints: tuple["Constraint", ...] = ()
 
     @property
     def n_joints(self) -> int:
         return len(self.joints)
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A closed-loop constraint q_joint = sum_k terms[k] * q_k + offset (joints 1-based, k active).
+
+    joint : the passive joint it determines; terms : tuple of (active joint, coefficient [-]) pairs sorted
+    by joint; offset [rad] (or [m] for a prismatic joint).
+    """
+
+    joint: int
+    terms: tuple[tuple[int, float], ...]
+    offset: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -452,6 +512,56 @@ class Transmission:
         return (2.0 * eta - 1.0) / eta
 
 
+@dataclass(frozen=True)
+class Drive:
+    """Elastic capstan drive of one actuated joint (S2 eqs. 13-15; stiffnesses motor side, ERRATA eq. 19).
+
+    joint [-] 1-based driven joint; ratio N [-] (motor speed = N * joint speed); stiffness_motor K_T
+    [N m/rad]; damping_motor [N m s/rad]; coulomb_motor [N m]; viscous_motor [N m s/rad]; offset_joint
+    [N m] (at the joint); servo_stiffness_motor K_E [N m/rad] or None; motor, sensors as for transmissions.
+    """
+
+    name: str
+    joint: int
+    ratio: float
+    stiffness_motor: float
+    damping_motor: float
+    coulomb_motor: float
+    viscous_motor: float
+    offset_joint: float
+    motor: Motor
+    sensors: Sensors
+    servo_stiffness_motor: float | None = None
+
+    @property
+    def coulomb_joint(self) -> float:
+        """Coulomb friction seen at the joint [N m] = N * coulomb_motor (a motor torque C is N C at the joint)."""
+        return self.ratio * self.coulomb_motor
+
+    @property
+    def viscous_joint(self) -> float:
+        """Viscous friction seen at the joint [N m s/rad] = N^2 * viscous_motor (motor speed N qdot)."""
+        return self.ratio ** 2 * self.viscous_motor
+
+    @property
+    def stiffness_joint(self) -> float:
+        """Capstan stiffness seen at the joint [N m/rad] = N^2 * stiffness_motor (ERRATA eq. 19)."""
+        return self.ratio ** 2 * self.stiffness_motor
+
+    @property
+    def total_stiffness_motor(self) -> float:
+        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19); K_T if K_E is not given."""
+        kt, ke = self.stiffness_motor, self.servo_stiffness_motor
+        if ke is None:
+            return kt
+        return kt * ke / (kt + ke) if ke > 0 else 0.0
+
+    @property
+    def rotor_inertia_joint(self) -> float:
+        """Rotor inertia reflected to the joint [kg m^2] = N^2 * rotor_inertia."""
+        return self.ratio ** 2 * self.motor.rotor_inertia
+
+
 BEARING_ARRAY_NAMES = ("count", "radius", "wrap", "alpha", "beta", "h0", "h1", "n0")
 
 
@@ -462,7 +572,9 @@ class Device:
     name, description : str
     path : Path of the device file
     kinematics : :class:`Kinematics`
-    transmissions : tuple of :class:`Transmission`, sorted by driven joint
+    transmissions : tuple of :class:`Transmission`, sorted by driven joint (empty for a drive device)
+    drives : tuple of :class:`Drive`, sorted by driven joint (empty for a transmission device)
+    kind : "serial" (the only kind this loader builds; see ``DEVICE_KINDS``)
     """
 
     name: str
@@ -470,6 +582,8 @@ class Device:
     path: Path
     kinematics: Kinematics
     transmissions: tuple[Transmission, ...] = field(default_factory=tuple)
+    drives: tuple[Drive, ...] = field(default_factory=tuple)
+    kind: str = "serial"
 
     @property
     def n_joints(self) -> int:

@@ -1,0 +1,566 @@
+// tendyn — fixed-step simulator of a tendon-driven device with friction inside the loop.
+//
+// Mechanics: a Pinocchio tree (joint side) seen through an affine map to the active joints,
+// q_tree = L q_a + c (identity for serial chains; the CEA parallelogram otherwise, S2 eq. 12:
+// Γ_a = Lᵀ Γ_tree). Two kinds of drives:
+//   * Tendon — inextensible cables (S0's hypothesis): motors are slaved, q_m = R_m⁻¹ K q_a; the
+//     rotor inertia is reflected through the lossless map; the friction of every cable branch
+//     (S0 eqs. 11–12) and every reducer (eq. 9–10) acts where it is, on the branch velocity
+//     Ṡ_ib = Σ_{j=b..i} K_ij q̇_j and on the driven joint.
+//   * Elastic — a capstan drive per active joint: motor inertia on a spring K_T (motor side) to
+//     the joint through ratio N (S2 §V-B); Coulomb/viscous friction on the motor.
+// Friction is solved at the velocity level every step (Moreau–Jean time stepping): each friction
+// site k has a Jacobian row g_k and a box [lo_k, hi_k] for its force; the impulses follow from a
+// projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started. A site whose
+// force stays inside its box does not move: true stick, no creep; outside it slides with the
+// bound force (Coulomb). Viscous terms are implicit (D). Reducers get an asymmetric box: the
+// loss (1 − η_d)|n M_p| when the pulley drives the joint, (1 − η_d)/(2η_d − 1)|n M_p| when the joint
+// back-drives it (S0 eq. 10), unbounded when self-locking (η_d ≤ 0.5).
+// Sensors: quantised motor encoders, motor-torque (current) noise, sampling at the log rate.
+// Control: torque mode, joint-space or motor-space PID at a control rate, and a C hook.
+// Model/Data convention; step() and run() allocate nothing; randomness from a seeded splitmix64.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
+#include <pinocchio/algorithm/crba.hpp>
+#include <pinocchio/algorithm/energy.hpp>
+#include <pinocchio/algorithm/rnea.hpp>
+
+#include "tendyn/losses.hpp"
+#include "tendyn/rigid_body.hpp"
+
+namespace tendyn {
+
+enum class DriveKind : int { Tendon = 0, Elastic = 1 };
+enum class ControlMode : int { Torque = 0, JointPID = 1, MotorPID = 2 };
+enum class SiteKind : int { Branch = 0, Reducer = 1, MotorCoulomb = 2, JointCoulomb = 3 };
+
+struct SimModel;
+struct SimData;
+/// Plug-in slot for a controller written in C/C++ (compensator, renderer): called at the control
+/// rate after the built-in law, it may overwrite data.torque_motor_cmd [N·m].
+using ControlHook = void (*)(void* user, const SimModel& model, SimData& data);
+
+/// Deterministic normal variates: splitmix64 + Box–Muller (same stream on every platform).
+struct Rng {
+  std::uint64_t state = 0;
+  bool has_spare = false;
+  double spare = 0.0;
+  std::uint64_t next() {
+    std::uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return (static_cast<double>(next() >> 11) + 0.5) * (1.0 / 9007199254740992.0); }
+  double normal() {
+    if (has_spare) { has_spare = false; return spare; }
+    const double u1 = uniform(), u2 = uniform();
+    const double r = std::sqrt(-2.0 * std::log(u1)), a = 6.283185307179586 * u2;
+    spare = r * std::sin(a);
+    has_spare = true;
+    return r * std::cos(a);
+  }
+};
+
+/// Immutable simulation model. Fill the public fields, then call finalize() once (setup time).
+struct SimModel {
+  RigidBodyModel body;          ///< joint-side tree
+  Eigen::MatrixXd L;            ///< (nq_tree, na) q_tree = L q_a + c
+  Eigen::VectorXd c;            ///< (nq_tree) [rad]
+  int na = 0;                   ///< active joints = motors
+  DriveKind drive = DriveKind::Tendon;
+  TransmissionModel tendon;     ///< Tendon drives: routing + cable/reducer losses
+
+  // Elastic drives (per motor): joint speed × ratio = motor speed.
+  Eigen::VectorXd ratio;            ///< N [-]
+  Eigen::VectorXd stiffness_motor;  ///< K_T [N·m/rad], motor side
+  Eigen::VectorXd damping_motor;    ///< [N·m·s/rad], motor side
+
+  // Motors (both kinds).
+  Eigen::VectorXd rotor_inertia;    ///< [kg·m²]
+  Eigen::VectorXd torque_constant;  ///< k_t [N·m/A]
+  Eigen::VectorXd peak_torque;      ///< saturation [N·m]
+  Eigen::VectorXd coulomb_motor;    ///< Coulomb friction on the motor shaft [N·m]
+  Eigen::VectorXd viscous_motor;    ///< [N·m·s/rad]
+  // Joint side (active joints).
+  Eigen::VectorXd coulomb_joint;    ///< [N·m]
+  Eigen::VectorXd viscous_joint;    ///< [N·m·s/rad]
+  Eigen::VectorXd offset_joint;     ///< constant torque the drive must overcome [N·m]
+
+  // Sensors.
+  Eigen::VectorXd encoder_counts;   ///< counts per motor revolution after decoding (0 = ideal)
+  Eigen::VectorXd current_noise;    ///< measured-current noise [A rms]
+
+  // Timing and control.
+  double dt = 1e-4;                 ///< integration step [s]
+  int control_decimation = 10;      ///< control period = dt · control_decimation
+  ControlMode mode = ControlMode::Torque;
+  Eigen::VectorXd kp, kd, ki;       ///< PID gains (joint: N·m/rad …; motor: N·m/rad at the motor)
+  double velocity_cutoff_hz = 0.0;  ///< first-order filter on the velocity estimate (0 = none)
+  ControlHook hook = nullptr;
+  void* hook_user = nullptr;
+
+  // Friction solver.
+  int pgs_max_iterations = 200;
+  double pgs_tolerance = 1e-14;     ///< on the impulse change, relative to the largest bound
+
+  // ---- derived at finalize() ----
+  int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
+  int n_sites = 0;
+  Eigen::MatrixXd Gm;               ///< (na, na) motor velocity from joint velocity (tendon)
+  Eigen::MatrixXd joint_from_motor; ///< (na, na) joint estimate from motor positions
+  Eigen::MatrixXd motor_from_joint_torque;  ///< (na, na) control: C_m from τ_J (lossless)
+  Eigen::MatrixXd M_rotor;          ///< constant mass added by the rotors
+  Eigen::MatrixXd D;                ///< (nv, nv) implicit viscous damping
+  Eigen::MatrixXd G;                ///< (n_sites, nv) site velocity Jacobians
+  Eigen::VectorXi site_kind, site_i, site_b;
+
+  /// Size every default, build the site layout and the constant matrices. Allocates.
+  Status finalize();
+  int nq_tree() const { return body.pin.nq; }
+};
+
+/// Preallocated state and workspace.
+struct SimData {
+  RigidBodyData body;
+  double time = 0.0;
+  long step_count = 0;
+  Eigen::VectorXd qa, va;           ///< active joint position [rad] / velocity [rad/s] (truth)
+  Eigen::VectorXd qm, vm;           ///< motor position / velocity (truth) [rad, rad/s]
+  Eigen::VectorXd q_tree, v_tree;
+  Eigen::MatrixXd ML, M, Mt, AGt, W;
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
+  // control and sensing
+  Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
+  Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na, tmp_na2;
+  Eigen::MatrixXd tension;          ///< cable tension estimate at joint b after branch b [N]
+  Eigen::VectorXd tension_motor;    ///< tension leaving each motor pulley [N]
+  Eigen::VectorXd vm_prev;          ///< motor velocity at the previous step (rotor inertia share)
+  Rng rng;
+  bool first_control = true;
+  // diagnostics
+  int pgs_iterations = 0;
+  double work_motor = 0.0;          ///< ∫ C_mᵀ q̇_m dt [J]
+  double work_external = 0.0;       ///< ∫ τ_extᵀ q̇_a dt [J]
+  double dissipated = 0.0;          ///< energy taken by friction and damping [J]
+
+  explicit SimData(const SimModel& m);
+  /// Set the state (velocities zero unless given) and reset sensors, controller, diagnostics.
+  void reset(const Eigen::VectorXd& q0, std::uint64_t seed);
+};
+
+// ---------------------------------------------------------------------------------------------
+
+inline Status SimModel::finalize() {
+  na = static_cast<int>(L.cols());
+  if (na <= 0 || L.rows() != body.pin.nq || c.size() != body.pin.nq) return Status::InvalidModel;
+  auto fill = [&](Eigen::VectorXd& v, double def) {
+    if (v.size() != na) v = Eigen::VectorXd::Constant(na, def);
+  };
+  fill(ratio, 1.0); fill(stiffness_motor, 0.0); fill(damping_motor, 0.0);
+  fill(rotor_inertia, 0.0); fill(torque_constant, 1.0); fill(peak_torque, 1e300);
+  fill(coulomb_motor, 0.0); fill(viscous_motor, 0.0);
+  fill(coulomb_joint, 0.0); fill(viscous_joint, 0.0); fill(offset_joint, 0.0);
+  fill(encoder_counts, 0.0); fill(current_noise, 0.0);
+  fill(kp, 0.0); fill(kd, 0.0); fill(ki, 0.0);
+  if (!(dt > 0.0) || control_decimation < 1) return Status::InvalidModel;
+
+  if (drive == DriveKind::Tendon) {
+    if (tendon.n != na || is_error(tendon.validate())) return Status::InvalidModel;
+    nv = na;
+    Gm = tendon.motor_from_joint_position;
+    joint_from_motor = tendon.joint_from_motor_position;
+    motor_from_joint_torque = tendon.motor_from_joint_torque;
+    M_rotor = Gm.transpose() * rotor_inertia.asDiagonal() * Gm;
+  } else {
+    for (int i = 0; i < na; ++i)
+      if (!(ratio(i) > 0.0) || !(stiffness_motor(i) > 0.0)) return Status::InvalidModel;
+    nv = 2 * na;
+    Gm = ratio.asDiagonal();
+    joint_from_motor = ratio.cwiseInverse().asDiagonal();
+    motor_from_joint_torque = ratio.cwiseInverse().asDiagonal();
+    M_rotor = Eigen::MatrixXd::Zero(nv, nv);
+    M_rotor.bottomRightCorner(na, na) = rotor_inertia.asDiagonal();
+  }
+
+  // Sites: every cable branch and reducer (tendon), motor and joint Coulomb where non-zero.
+  const int n_branch = drive == DriveKind::Tendon ? na * (na + 1) / 2 : 0;
+  const int n_red = drive == DriveKind::Tendon ? na : 0;
+  int n_mc = 0, n_jc = 0;
+  for (int i = 0; i < na; ++i) { n_mc += coulomb_motor(i) > 0.0; n_jc += coulomb_joint(i) > 0.0; }
+  n_sites = n_branch + n_red + n_mc + n_jc;
+  G = Eigen::MatrixXd::Zero(n_sites, nv);
+  site_kind.resize(n_sites); site_i.resize(n_sites); site_b.resize(n_sites);
+  D = Eigen::MatrixXd::Zero(nv, nv);
+  int k = 0;
+  if (drive == DriveKind::Tendon) {
+    for (int i = 0; i < na; ++i)
+      for (int b = 0; b <= i; ++b, ++k) {
+        for (int j = b; j <= i; ++j) G(k, j) = tendon.K(i, j);  // Ṡ_ib = Σ_{j≥b} K_ij q̇_j
+        site_kind(k) = static_cast<int>(SiteKind::Branch); site_i(k) = i; site_b(k) = b;
+        D += tendon.nu(i, b) * G.row(k).transpose() * G.row(k);
+      }
+    for (int i = 0; i < na; ++i, ++k) {
+      G(k, i) = 1.0;
+      site_kind(k) = static_cast<int>(SiteKind::Reducer); site_i(k) = i; site_b(k) = i;
+    }
+    D += Gm.transpose() * viscous_motor.asDiagonal() * Gm;
+    D.diagonal() += viscous_joint;
+  } else {
+    for (int i = 0; i < na; ++i) {
+      const double N = ratio(i), d = damping_motor(i);
+      D(i, i) += viscous_joint(i) + d * N * N;
+      D(na + i, na + i) += viscous_motor(i) + d;
+      D(i, na + i) -= d * N;
+      D(na + i, i) -= d * N;
+    }
+  }
+  for (int i = 0; i < na; ++i)
+    if (coulomb_motor(i) > 0.0) {
+      if (drive == DriveKind::Tendon) G.row(k) = Gm.row(i); else G(k, na + i) = 1.0;
+      site_kind(k) = static_cast<int>(SiteKind::MotorCoulomb); site_i(k) = i; site_b(k) = 0; ++k;
+    }
+  for (int i = 0; i < na; ++i)
+    if (coulomb_joint(i) > 0.0) {
+      G(k, i) = 1.0;
+      site_kind(k) = static_cast<int>(SiteKind::JointCoulomb); site_i(k) = i; site_b(k) = 0; ++k;
+    }
+  return Status::Ok;
+}
+
+inline SimData::SimData(const SimModel& m)
+    : body(m.body),
+      qa(Eigen::VectorXd::Zero(m.na)), va(Eigen::VectorXd::Zero(m.na)),
+      qm(Eigen::VectorXd::Zero(m.na)), vm(Eigen::VectorXd::Zero(m.na)),
+      q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
+      ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), AGt(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
+      W(Eigen::MatrixXd::Zero(m.n_sites, m.n_sites)), llt(m.nv),
+      F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
+      vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), u0(Eigen::VectorXd::Zero(m.n_sites)),
+      u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
+      lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)),
+      q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
+      torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
+      q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
+      q_est_prev(Eigen::VectorXd::Zero(m.na)), integral(Eigen::VectorXd::Zero(m.na)),
+      v_motor_est(Eigen::VectorXd::Zero(m.na)), qm_meas_prev(Eigen::VectorXd::Zero(m.na)),
+      tmp_na(Eigen::VectorXd::Zero(m.na)), tmp_na2(Eigen::VectorXd::Zero(m.na)),
+      tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
+      vm_prev(Eigen::VectorXd::Zero(m.na)) {}
+
+// ---- pieces of a step --------------------------------------------------------------------------
+
+/// Motor position from the state (slaved for tendon drives).
+inline void motor_state(const SimModel& m, SimData& d) {
+  if (m.drive == DriveKind::Tendon) {
+    d.qm.noalias() = m.Gm * d.qa;
+    d.vm.noalias() = m.Gm * d.va;
+  }
+}
+
+/// Sense (encoders, current noise) and run the controller: writes torque_motor_cmd / torque_motor.
+/// @param ref_q, ref_v  joint (JointPID) or motor (MotorPID) references [rad, rad/s]
+/// @param ff            feedforward: motor torques (Torque, MotorPID) or joint torques (JointPID)
+template <class V1, class V2, class V3>
+inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref_v, const V3& ff) {
+  const double Tc = m.dt * m.control_decimation;
+  for (int i = 0; i < m.na; ++i) {  // quantised motor encoders
+    const double counts = m.encoder_counts(i);
+    const double qstep = counts > 0.0 ? 6.283185307179586 / counts : 0.0;
+    d.q_motor_meas(i) = qstep > 0.0 ? qstep * std::floor(d.qm(i) / qstep + 0.5) : d.qm(i);
+  }
+  d.q_est.noalias() = m.joint_from_motor * d.q_motor_meas;
+  if (d.first_control) {
+    d.q_est_prev = d.q_est;
+    d.qm_meas_prev = d.q_motor_meas;
+    d.first_control = false;
+  }
+  const double alpha = m.velocity_cutoff_hz > 0.0
+                           ? 1.0 - std::exp(-6.283185307179586 * m.velocity_cutoff_hz * Tc) : 1.0;
+  for (int i = 0; i < m.na; ++i) {
+    d.v_est(i) += alpha * ((d.q_est(i) - d.q_est_prev(i)) / Tc - d.v_est(i));
+    d.v_motor_est(i) += alpha * ((d.q_motor_meas(i) - d.qm_meas_prev(i)) / Tc - d.v_motor_est(i));
+  }
+  d.q_est_prev = d.q_est;
+  d.qm_meas_prev = d.q_motor_meas;
+
+  switch (m.mode) {
+    case ControlMode::Torque:
+      for (int i = 0; i < m.na; ++i) d.torque_motor_cmd(i) = ff(i);
+      break;
+    case ControlMode::JointPID:
+      for (int i = 0; i < m.na; ++i) {
+        const double e = ref_q(i) - d.q_est(i);
+        d.integral(i) += e * Tc;
+        d.tmp_na(i) = m.kp(i) * e + m.kd(i) * (ref_v(i) - d.v_est(i)) + m.ki(i) * d.integral(i) + ff(i);
+      }
+      d.torque_motor_cmd.noalias() = m.motor_from_joint_torque * d.tmp_na;
+      break;
+    case ControlMode::MotorPID:
+      for (int i = 0; i < m.na; ++i) {
+        const double e = ref_q(i) - d.q_motor_meas(i);
+        d.integral(i) += e * Tc;
+        d.torque_motor_cmd(i) = m.kp(i) * e + m.kd(i) * (ref_v(i) - d.v_motor_est(i)) + m.ki(i) * d.integral(i) + ff(i);
+      }
+      break;
+  }
+  if (m.hook) m.hook(m.hook_user, m, d);
+  for (int i = 0; i < m.na; ++i) {
+    const double lim = m.peak_torque(i);
+    d.torque_motor(i) = std::max(-lim, std::min(lim, d.torque_motor_cmd(i)));
+    d.torque_motor_meas(i) = d.torque_motor(i) + m.torque_constant(i) * m.current_noise(i) * d.rng.normal();
+  }
+}
+
+/// Friction force boxes [lo, hi] of every site from the current tension estimate [N or N·m].
+inline void friction_bounds(const SimModel& m, SimData& d) {
+  for (int k = 0; k < m.n_sites; ++k) {
+    const int i = m.site_i(k), b = m.site_b(k);
+    double lo = 0.0, hi = 0.0;
+    switch (static_cast<SiteKind>(m.site_kind(k))) {
+      case SiteKind::Branch: {
+        double sdot = 0.0;
+        for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.va(j);
+        const BranchFriction f = branch_friction(m.tendon, i, b, sdot);
+        const double up = b == 0 ? d.tension_motor(i) : d.tension(i, b - 1);
+        const double drive = std::max(std::abs(up), std::abs(d.tension(i, b)));
+        hi = f.a + f.b * drive;
+        lo = -hi;
+        break;
+      }
+      case SiteKind::Reducer: {
+        const double eta = m.tendon.reducer_efficiency(i);
+        const double out = m.tendon.reducer_ratio(i) * m.tendon.driven_radius(i) * d.tension(i, i);  // n M_p
+        const double driving = (1.0 - eta) * std::abs(out);
+        const double back = reducer_self_locking(eta) ? 1e300 : (1.0 - eta) / (2.0 * eta - 1.0) * std::abs(out);
+        // the loss opposes motion; back-driving (motion against n M_p) meets the larger bound
+        if (out >= 0.0) { lo = -driving; hi = back; } else { lo = -back; hi = driving; }
+        break;
+      }
+      case SiteKind::MotorCoulomb: hi = m.coulomb_motor(i); lo = -hi; break;
+      case SiteKind::JointCoulomb: hi = m.coulomb_joint(i); lo = -hi; break;
+    }
+    d.lo(k) = lo;
+    d.hi(k) = hi;
+  }
+}
+
+/// Tensions along each cable after a step, from the motor torque net of rotor inertia and the
+/// friction forces found on the branches (tension drop Δ = −λ + ν Ṡ, S0 eq. 6).
+inline void update_tensions(const SimModel& m, SimData& d) {
+  if (m.drive != DriveKind::Tendon) return;
+  const double h = m.dt;
+  int k = 0;
+  for (int i = 0; i < m.na; ++i) {
+    const double accel = (d.vm(i) - d.vm_prev(i)) / h;
+    double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / m.tendon.motor_radius(i);
+    d.tension_motor(i) = t;
+    for (int b = 0; b <= i; ++b, ++k) {
+      double sdot = 0.0;
+      for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.va(j);
+      t -= -d.p(k) / h + m.tendon.nu(i, b) * sdot;
+      d.tension(i, b) = t;
+    }
+  }
+}
+
+/// Projected Gauss–Seidel on the friction impulses p (warm-started). Returns the iterations used.
+inline int solve_friction(const SimModel& m, SimData& d) {
+  const double h = m.dt;
+  double scale = 0.0;
+  for (int k = 0; k < m.n_sites; ++k) {
+    d.lo(k) *= h; d.hi(k) *= h;
+    scale = std::max(scale, std::min(1e6, std::max(std::abs(d.lo(k)), std::abs(d.hi(k)))));
+    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
+  }
+  if (scale == 0.0) return 0;  // no friction this step
+  d.u0.noalias() = m.G * d.vfree;
+  int it = 0;
+  for (; it < m.pgs_max_iterations; ++it) {
+    double change = 0.0;
+    for (int k = 0; k < m.n_sites; ++k) {
+      const double Wkk = d.W(k, k);
+      if (!(Wkk > 0.0) || (d.lo(k) == 0.0 && d.hi(k) == 0.0)) continue;
+      const double uk = d.u0(k) + d.W.row(k).dot(d.p);
+      const double pk = std::max(d.lo(k), std::min(d.hi(k), d.p(k) - uk / Wkk));
+      change = std::max(change, std::abs(pk - d.p(k)));
+      d.p(k) = pk;
+    }
+    if (change <= m.pgs_tolerance * std::max(scale, 1e-300)) { ++it; break; }
+  }
+  return it;
+}
+
+/// Advance one step of m.dt. Inputs are those of control() plus the external joint torque.
+template <class V1, class V2, class V3, class V4>
+inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref_v, const V3& ff,
+                   const V4& torque_ext) {
+  const int na = m.na, nv = m.nv;
+  const double h = m.dt;
+  motor_state(m, d);
+  if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
+
+  // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
+  d.q_tree.noalias() = m.L * d.qa;
+  d.q_tree += m.c;
+  d.v_tree.noalias() = m.L * d.va;
+  pinocchio::crba(m.body.pin, d.body.pin, d.q_tree);
+  d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
+  pinocchio::nonLinearEffects(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
+  d.ML.noalias() = d.body.pin.M * m.L;
+  d.M = m.M_rotor;
+  d.M.topLeftCorner(na, na).noalias() += m.L.transpose() * d.ML;
+  d.F.setZero();
+  d.F.head(na).noalias() = -m.L.transpose() * d.body.pin.nle;
+  for (int i = 0; i < na; ++i) d.F(i) += torque_ext(i) - m.offset_joint(i);
+  if (m.drive == DriveKind::Tendon) {
+    d.F.head(na).noalias() += m.Gm.transpose() * d.torque_motor;  // Kᵀ R_m⁻¹ C_m
+  } else {
+    for (int i = 0; i < na; ++i) {
+      const double spring = m.stiffness_motor(i) * (d.qm(i) - m.ratio(i) * d.qa(i));
+      d.F(i) += m.ratio(i) * spring;
+      d.F(na + i) = d.torque_motor(i) - spring;
+    }
+  }
+  for (int i = 0; i < na; ++i) {
+    d.v(i) = d.va(i);
+    if (m.drive == DriveKind::Elastic) d.v(na + i) = d.vm(i);
+  }
+
+  // (M + hD) v⁺ = M v + h F + Gᵀ p
+  d.Mt = d.M;
+  d.Mt.noalias() += h * m.D;
+  d.llt.compute(d.Mt);
+  if (d.llt.info() != Eigen::Success) return Status::InvalidModel;
+  d.rhs.noalias() = d.M * d.v;
+  d.rhs += h * d.F;
+  d.vfree = d.rhs;
+  d.llt.solveInPlace(d.vfree);
+  if (m.n_sites > 0) {
+    d.AGt = m.G.transpose();
+    d.llt.solveInPlace(d.AGt);
+    d.W.noalias() = m.G * d.AGt;
+    friction_bounds(m, d);
+    d.pgs_iterations = solve_friction(m, d);
+    d.vfree.noalias() += d.AGt * d.p;
+    d.u.noalias() = m.G * d.vfree;
+    d.dissipated -= d.u.dot(d.p);
+  }
+  // viscous dissipation and work done by the motors / external torques over the step
+  d.Dv.noalias() = m.D * d.vfree;
+  d.dissipated += h * d.vfree.dot(d.Dv);
+  d.vm_prev = d.vm;
+  for (int i = 0; i < na; ++i) {
+    d.va(i) = d.vfree(i);
+    d.qa(i) += h * d.va(i);
+    d.work_external += h * (torque_ext(i) - m.offset_joint(i)) * d.va(i);
+    if (m.drive == DriveKind::Elastic) {
+      d.vm(i) = d.vfree(na + i);
+      d.qm(i) += h * d.vm(i);
+    }
+  }
+  motor_state(m, d);
+  for (int i = 0; i < na; ++i) d.work_motor += h * d.torque_motor(i) * d.vm(i);
+  update_tensions(m, d);
+  d.time += h;
+  ++d.step_count;
+  (void)nv;
+  return Status::Ok;
+}
+
+/// Mechanical energy [J]: kinetic (links + rotors) + gravity + capstan springs.
+inline double mechanical_energy(const SimModel& m, SimData& d) {
+  d.q_tree.noalias() = m.L * d.qa;
+  d.q_tree += m.c;
+  d.v_tree.noalias() = m.L * d.va;
+  double e = pinocchio::computeKineticEnergy(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
+  e += pinocchio::computePotentialEnergy(m.body.pin, d.body.pin, d.q_tree);
+  for (int i = 0; i < m.na; ++i) {
+    e += 0.5 * m.rotor_inertia(i) * d.vm(i) * d.vm(i);
+    if (m.drive == DriveKind::Elastic) {
+      const double s = d.qm(i) - m.ratio(i) * d.qa(i);
+      e += 0.5 * m.stiffness_motor(i) * s * s;
+    }
+  }
+  return e;
+}
+
+inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
+  qa = q0;
+  va.setZero();
+  vm.setZero();
+  vm_prev.setZero();
+  qm.setZero();
+  time = 0.0;
+  step_count = 0;
+  p.setZero();
+  integral.setZero();
+  v_est.setZero();
+  v_motor_est.setZero();
+  tension.setZero();
+  tension_motor.setZero();
+  torque_motor.setZero();
+  torque_motor_cmd.setZero();
+  first_control = true;
+  rng = Rng{};
+  rng.state = seed;
+  work_motor = work_external = dissipated = 0.0;
+}
+
+using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// Log channels written by run(), one row per logged sample (row-major: numpy's layout).
+struct SimLog {
+  Eigen::Ref<Eigen::VectorXd> time;
+  Eigen::Ref<RowMatrixXd> q_motor_meas, torque_motor_meas, torque_motor_cmd, q_joint, qd_joint,
+      q_motor, qd_motor;
+};
+
+/// Run n_steps with per-step inputs (rows = steps, columns = na) and log every `log_every` steps
+/// (a multiple of the control decimation, so each logged measurement is fresh). A logged row holds
+/// the state at the start of a step together with what the sensors read and the controller
+/// commanded at that instant. The log must have ceil(n_steps / log_every) rows. Allocates nothing.
+template <class Mat>
+inline Status run(const SimModel& m, SimData& d, const Mat& ref_q, const Mat& ref_v, const Mat& ff,
+                  const Mat& torque_ext, int log_every, SimLog& log) {
+  const long n_steps = ref_q.rows();
+  if (log_every < 1 || log_every % m.control_decimation != 0 || ref_v.rows() != n_steps ||
+      ff.rows() != n_steps || torque_ext.rows() != n_steps || ref_q.cols() != m.na ||
+      ref_v.cols() != m.na || ff.cols() != m.na || torque_ext.cols() != m.na ||
+      log.time.size() != (n_steps + log_every - 1) / log_every)
+    return Status::SizeMismatch;
+  if (!all_finite(ref_q) || !all_finite(ref_v) || !all_finite(ff) || !all_finite(torque_ext))
+    return Status::NonFiniteInput;
+  if (d.step_count % m.control_decimation != 0) return Status::SizeMismatch;
+  long row = 0;
+  for (long s = 0; s < n_steps; ++s) {
+    const bool logged = s % log_every == 0;
+    if (logged) {
+      motor_state(m, d);
+      log.time(row) = d.time;
+      log.q_joint.row(row) = d.qa.transpose();
+      log.qd_joint.row(row) = d.va.transpose();
+      log.q_motor.row(row) = d.qm.transpose();
+      log.qd_motor.row(row) = d.vm.transpose();
+    }
+    const Status st = step(m, d, ref_q.row(s).transpose(), ref_v.row(s).transpose(),
+                           ff.row(s).transpose(), torque_ext.row(s).transpose());
+    if (is_error(st)) return st;
+    if (logged) {
+      log.q_motor_meas.row(row) = d.q_motor_meas.transpose();
+      log.torque_motor_meas.row(row) = d.torque_motor_meas.transpose();
+      log.torque_motor_cmd.row(row) = d.torque_motor_cmd.transpose();
+      ++row;
+    }
+  }
+  return Status::Ok;
+}
+
+}  // namespace tendyn

@@ -1,0 +1,818 @@
+"""Experiment logs, schema version 1: one table of float64 columns plus a small JSON meta record.
+
+A log holds the signals of one experiment (measured on a bench or simulated), sampled on one time grid:
+
+>>> import numpy as np
+>>> from tendyn.io.logs import make_log
+>>> t = np.arange(5) / 1000.0
+>>> log = make_log({"time": t, "q_motor_1": np.zeros(5), "q_motor_2": np.ones(5)},
+...                device="lexos", rate_hz=1000.0, seed=None, experiment="static")
+>>> log.stack("q_motor_").shape
+(5, 2)
+>>> log.units["q_motor_1"]
+'rad'
+
+Every column name must match one entry of :data:`COLUMNS` (the registry: name pattern, unit, meaning);
+indices in names are 1-based like joints and transmissions in device files (``q_motor_1`` is the motor of
+transmission 1). Two file layouts hold the same content (``docs/logs.md``):
+
+* ``.parquet``: one float64 column per signal, the meta JSON in the Arrow schema metadata under ``b"tendyn"``
+  and the unit of each column in its field metadata under ``b"unit"``.
+* ``.csv``: a comment line ``# tendyn-log {meta JSON}``, a header row of ``name [unit]`` cells, then one row
+  per sample, floats written with ``repr`` (shortest text that reads back bit-exact).
+
+The ground truth of a simulated log (the twin's parameters) never goes inside the log: it is written beside it,
+``run.parquet`` → ``run.truth.json`` (:func:`write_truth`), so an estimator reading the log cannot see it.
+
+All writes are atomic (temporary file + rename); all reads validate and raise :class:`LogError`, whose message
+names the file, the column and the row (and the CSV line) of the first problem.
+
+This module uses only the standard library, numpy and (for Parquet, imported lazily) pyarrow; it never imports
+the compiled core.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import io
+import json
+import math
+import operator
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from tendyn.io.files import atomic_write_bytes, to_jsonable
+
+__all__ = [
+    "COLUMNS",
+    "META_KEYS",
+    "SCHEMA_VERSION",
+    "ColumnSpec",
+    "Log",
+    "LogError",
+    "column_spec",
+    "make_log",
+    "read_log",
+    "read_truth",
+    "truth_path",
+    "write_log",
+    "write_truth",
+]
+
+SCHEMA_VERSION = 1
+"""The log schema version this module writes and reads (``meta["schema"]``)."""
+
+PARQUET_META_KEY = b"tendyn"
+"""Key of the meta JSON in the Arrow schema metadata of a Parquet log."""
+
+PARQUET_UNIT_KEY = b"unit"
+"""Key of the unit in the Arrow field metadata of each column of a Parquet log."""
+
+CSV_META_PREFIX = "# tendyn-log "
+"""A CSV log starts with this prefix followed by the meta JSON on one line."""
+
+TRUTH_SUFFIX = ".truth.json"
+"""Suffix of the ground-truth sidecar: ``run.parquet`` → ``run.truth.json``."""
+
+FORMATS = (".parquet", ".csv")
+"""File suffixes understood by :func:`write_log` / :func:`read_log`."""
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Errors
+# ----------------------------------------------------------------------------------------------------------
+
+class LogError(ValueError):
+    """A log (file or in memory) is invalid, or cannot be written.
+
+    The message names the file, the column and the row when relevant, e.g.
+    ``run.csv: column q_motor_2, row 17 (line 20, time 0.017 s): value nan is not finite``.
+
+    Attributes
+    ----------
+    file : str or None
+        The file (or ``"<memory>"``) the error is about.
+    column : str or None
+        The column name (or ``meta.<key>`` for a meta entry).
+    row : int or None
+        0-based sample index of the first bad row.
+    line : int or None
+        1-based line number in a CSV file.
+    problem : str
+        What is wrong, without the location prefix.
+    """
+
+    def __init__(self, problem: str, *, file=None, column: str | None = None, row: int | None = None,
+                 line: int | None = None, time: float | None = None):
+        self.file = None if file is None else str(file)
+        self.column = column
+        self.row = row
+        self.line = line
+        self.problem = problem
+        where = []
+        if column is not None:
+            where.append(column if column.startswith("meta") else f"column {column}")
+        extra = []
+        if line is not None:
+            extra.append(f"line {line}")
+        if time is not None:
+            extra.append(f"time {time!r} s")
+        if row is not None:
+            where.append(f"row {row}" + (f" ({', '.join(extra)})" if extra else ""))
+        elif extra:
+            where.append(", ".join(extra))
+        head = ", ".join(where)
+        parts = [p for p in (self.file, head) if p]
+        super().__init__(": ".join(parts + [problem]))
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Column registry
+# ----------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ColumnSpec:
+    """One entry of the column registry.
+
+    Parameters
+    ----------
+    name : str
+        Name template as documented, ``<i>`` for a 1-based transmission/motor index, ``<j>`` for a joint.
+    unit : str
+        SI unit of the values.
+    description : str
+        One-line meaning (also used in ``docs/logs.md``).
+    """
+
+    name: str
+    unit: str
+    description: str
+
+    @property
+    def indexed(self) -> bool:
+        """Whether the name ends with a 1-based index (``q_motor_<i>``)."""
+        return self.name.endswith(">")
+
+    @property
+    def base(self) -> str:
+        """The name without the index placeholder (``q_motor_``), or the full name if not indexed."""
+        return self.name[: self.name.rindex("<")] if self.indexed else self.name
+
+    @property
+    def pattern(self) -> re.Pattern:
+        """Regular expression a column name must fully match (indices: 1, 2, …, no leading zero)."""
+        return re.compile(re.escape(self.base) + r"([1-9][0-9]*)" if self.indexed else re.escape(self.name))
+
+
+COLUMNS: tuple[ColumnSpec, ...] = (
+    ColumnSpec("time", "s", "sample time (required, the first column, strictly increasing)"),
+    ColumnSpec("q_motor_<i>", "rad", "measured motor position (quantised encoder)"),
+    ColumnSpec("qd_motor_<i>", "rad/s", "motor velocity (estimate)"),
+    ColumnSpec("q_joint_<j>", "rad", "joint position (when sensed, or the simulator's truth in a truth-only log)"),
+    ColumnSpec("qd_joint_<j>", "rad/s", "joint velocity"),
+    ColumnSpec("torque_motor_<i>", "N·m", "measured motor torque (k_t × measured current)"),
+    ColumnSpec("torque_motor_cmd_<i>", "N·m", "commanded motor torque"),
+    ColumnSpec("current_<i>", "A", "measured motor current"),
+    ColumnSpec("q_ref_<j>", "rad", "joint position reference of the controller"),
+    ColumnSpec("qd_ref_<j>", "rad/s", "joint velocity reference of the controller"),
+    ColumnSpec("q_motor_ref_<i>", "rad", "motor position reference (motor space)"),
+    ColumnSpec("qd_motor_ref_<i>", "rad/s", "motor velocity reference (motor space)"),
+    ColumnSpec("torque_joint_ext_<j>", "N·m", "external torque applied on joint j (blocked-link tests, user)"),
+    ColumnSpec("force_cmd", "N", "commanded tendon force (McGill tendon bench)"),
+    ColumnSpec("force_tendon", "N", "sensed differential tendon force (McGill tendon bench)"),
+    ColumnSpec("x_tendon", "m", "sensed tendon displacement (McGill tendon bench)"),
+    ColumnSpec("current_cmd", "A", "commanded motor current (McGill tendon bench)"),
+)
+"""The column registry of schema version 1: every column of a log matches exactly one entry."""
+
+_PATTERNS = tuple((spec, spec.pattern) for spec in COLUMNS)
+
+UNIT_ALIASES: dict[str, tuple[str, ...]] = {"N·m": ("N.m", "N*m", "Nm", "N m", "N⋅m")}
+"""ASCII spellings accepted in a CSV header for a registry unit (the files we write use the registry unit)."""
+
+
+def column_spec(name: str) -> ColumnSpec | None:
+    """The registry entry a column name matches, or None."""
+    if not isinstance(name, str):
+        return None
+    for spec, pat in _PATTERNS:
+        if pat.fullmatch(name):
+            return spec
+    return None
+
+
+def _column_index(name: str, prefix: str) -> int | None:
+    """The 1-based index of ``name`` if it is ``prefix`` followed by an index, else None."""
+    if name.startswith(prefix):
+        rest = name[len(prefix):]
+        if rest.isascii() and rest.isdigit() and not rest.startswith("0"):
+            return int(rest)
+    return None
+
+
+def _suggest(name: str) -> str:
+    """A hint for an unknown column name: the closest registry entry."""
+    m = re.fullmatch(r"(.*?)_?([0-9]+)", name) if isinstance(name, str) else None
+    idx = int(m.group(2)) if m else None
+    if m and idx == 0 and column_spec(m.group(1) + "_1") is not None:
+        return f"; indices are 1-based (did you mean {m.group(1)}_1?)"
+    candidates = {}
+    for spec in COLUMNS:
+        example = spec.base + str(idx if idx else 1) if spec.indexed else spec.name
+        candidates[example] = spec
+    close = difflib.get_close_matches(str(name), list(candidates), n=1, cutoff=0.6)
+    if close:
+        spec = candidates[close[0]]
+        return f"; did you mean {close[0]} ({spec.name} [{spec.unit}], {spec.description})?"
+    return "; known columns: " + ", ".join(s.name for s in COLUMNS)
+
+
+def _unit_matches(found: str, expected: str) -> bool:
+    return found == expected or found in UNIT_ALIASES.get(expected, ())
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Meta
+# ----------------------------------------------------------------------------------------------------------
+
+META_KEYS: dict[str, str] = {
+    "schema": "int, the log schema version (1)",
+    "device": "str, the device name or device file the log is about",
+    "rate_hz": "float > 0 [Hz], the sampling rate of the log",
+    "seed": "int or null, the seed of a simulated log (null for a measured log)",
+    "experiment": "str, the experiment name (e.g. 'static', 'chirp', 'blocked_link')",
+    "options": "dict (JSON), the experiment settings",
+    "created_by": "str, 'tendyn <version>' of the writer",
+}
+"""Keys of ``Log.meta`` (all required, no others) and their types."""
+
+
+def _is_int(x) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def _json_text(obj) -> str:
+    return json.dumps(obj, ensure_ascii=False, allow_nan=False)
+
+
+def _check_meta(meta, source) -> None:
+    if not isinstance(meta, dict):
+        raise LogError(f"meta must be a dict, got {type(meta).__name__}", file=source, column="meta")
+    missing = [k for k in META_KEYS if k not in meta]
+    if missing:
+        raise LogError("missing key(s) " + ", ".join(missing) + " (meta keys: " + ", ".join(META_KEYS) + ")",
+                       file=source, column="meta")
+    unknown = [str(k) for k in meta if k not in META_KEYS]
+    if unknown:
+        raise LogError("unknown key(s) " + ", ".join(unknown) + "; experiment settings go in meta.options "
+                       "and ground truth in the truth sidecar (meta keys: " + ", ".join(META_KEYS) + ")",
+                       file=source, column="meta")
+
+    def bad(key, problem):
+        return LogError(f"{problem} (expected {META_KEYS[key]})", file=source, column=f"meta.{key}")
+
+    schema = meta["schema"]
+    if not _is_int(schema):
+        raise bad("schema", f"got {schema!r} of type {type(schema).__name__}")
+    if schema != SCHEMA_VERSION:
+        raise bad("schema", f"schema {schema} is not the version this tendyn reads ({SCHEMA_VERSION})")
+    for key in ("device", "experiment", "created_by"):
+        val = meta[key]
+        if not isinstance(val, str):
+            raise bad(key, f"got {val!r} of type {type(val).__name__}")
+        if not val.strip():
+            raise bad(key, "must not be empty")
+    rate = meta["rate_hz"]
+    if not isinstance(rate, (int, float)) or isinstance(rate, bool):
+        raise bad("rate_hz", f"got {rate!r} of type {type(rate).__name__}")
+    if not math.isfinite(rate) or rate <= 0:
+        raise bad("rate_hz", f"must be finite and > 0 (got {rate!r})")
+    seed = meta["seed"]
+    if seed is not None and not _is_int(seed):
+        raise bad("seed", f"got {seed!r} of type {type(seed).__name__}")
+    options = meta["options"]
+    if not isinstance(options, dict):
+        raise bad("options", f"got {options!r} of type {type(options).__name__}")
+    try:
+        back = json.loads(_json_text(options))
+    except (TypeError, ValueError) as exc:
+        raise bad("options", f"not JSON-serialisable: {exc}") from None
+    if back != options:
+        raise bad("options", "does not survive a JSON round trip (tuples, non-string keys or numpy values?); "
+                  "build the log with make_log, which converts them")
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Validation
+# ----------------------------------------------------------------------------------------------------------
+
+def _check_names(names, source) -> None:
+    """Column names: not empty, ``time`` first, every name known, no duplicate."""
+    if not names:
+        raise LogError("no columns (a log needs at least time [s])", file=source)
+    if "time" not in names:
+        raise LogError(f"missing the required column time [s] (columns: {', '.join(map(str, names))})",
+                       file=source, column="time")
+    if names[0] != "time":
+        raise LogError(f"the first column is {names[0]}; time [s] must come first", file=source, column="time")
+    seen = set()
+    for name in names:
+        if not isinstance(name, str):
+            raise LogError(f"column name {name!r} is not a string", file=source)
+        if name in seen:
+            raise LogError("duplicate column", file=source, column=name)
+        seen.add(name)
+        if column_spec(name) is None:
+            raise LogError(f"unknown column {name!r}, not in the log schema{_suggest(name)}", file=source)
+
+
+def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
+    """Check a whole log; ``line_of_row`` is the CSV line of row 0 (to name lines in messages)."""
+    if not isinstance(columns, dict):
+        raise LogError(f"columns must be a dict of name -> array, got {type(columns).__name__}", file=source)
+    names = list(columns)
+    _check_names(names, source)
+    for name, arr in columns.items():
+        if not isinstance(arr, np.ndarray):
+            raise LogError(f"values must be a numpy array, got {type(arr).__name__} (make_log converts)",
+                           file=source, column=name)
+        if arr.ndim != 1:
+            raise LogError(f"values must be 1-D, got shape {arr.shape}", file=source, column=name)
+        if arr.dtype != np.float64:
+            raise LogError(f"values must be float64, got {arr.dtype} (make_log converts)", file=source,
+                           column=name)
+    time = columns["time"]
+    n = time.shape[0]
+    for name, arr in columns.items():
+        if arr.shape[0] != n:
+            raise LogError(f"has {arr.shape[0]} values but time has {n}", file=source, column=name)
+    if n == 0:
+        raise LogError("empty log (no samples)", file=source)
+
+    def line(row):
+        return None if line_of_row is None else line_of_row + row
+
+    for name, arr in columns.items():
+        finite = np.isfinite(arr)
+        if not finite.all():
+            row = int(np.argmin(finite))
+            t = float(time[row]) if name != "time" and math.isfinite(time[row]) else None
+            raise LogError(f"value {float(arr[row])!r} is not finite", file=source, column=name, row=row,
+                           line=line(row), time=t)
+    if n > 1:
+        bad = np.flatnonzero(np.diff(time) <= 0.0)
+        if bad.size:
+            row = int(bad[0]) + 1
+            raise LogError(f"time is not strictly increasing: {float(time[row])!r} s after "
+                           f"{float(time[row - 1])!r} s at row {row - 1}", file=source, column="time", row=row,
+                           line=line(row))
+    _check_meta(meta, source)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# The Log
+# ----------------------------------------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class Log:
+    """One experiment log: float64 columns on one time grid, and its meta record.
+
+    Parameters
+    ----------
+    columns : dict[str, numpy.ndarray]
+        1-D float64 arrays, all the same length, in insertion order, ``"time"`` [s] first. Names and units
+        follow :data:`COLUMNS`.
+    meta : dict
+        ``schema``, ``device``, ``rate_hz`` [Hz], ``seed``, ``experiment``, ``options``, ``created_by``
+        (see :data:`META_KEYS`).
+
+    Build one with :func:`make_log` (converts and validates) or :func:`read_log`. Equality (``==``) is
+    bit-exact on the values, and compares column order and meta.
+    """
+
+    columns: dict[str, np.ndarray]
+    meta: dict = field(default_factory=dict)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise KeyError(f"no column {name!r} in the log (columns: {', '.join(self.columns)})") from None
+
+    def __contains__(self, name) -> bool:
+        return name in self.columns
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Log):
+            return NotImplemented
+        return (list(self.columns) == list(other.columns)
+                and all(np.array_equal(a, other.columns[k]) for k, a in self.columns.items())
+                and self.meta == other.meta)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return (f"Log(n_samples={self.n_samples}, device={self.meta.get('device')!r}, "
+                f"experiment={self.meta.get('experiment')!r}, columns={list(self.columns)})")
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples (rows)."""
+        return int(self.columns["time"].shape[0]) if "time" in self.columns else 0
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times [s]."""
+        return self["time"]
+
+    @property
+    def units(self) -> dict[str, str]:
+        """Column name → unit, from the registry (``"?"`` for a name not in it)."""
+        out = {}
+        for name in self.columns:
+            spec = column_spec(name)
+            out[name] = spec.unit if spec else "?"
+        return out
+
+    def column_names(self, prefix: str) -> list[str]:
+        """Names ``prefix + <index>`` present in the log, sorted by index (``q_motor_9`` before ``q_motor_10``).
+
+        Only exact ``prefix`` + index names count: ``column_names("q_motor_")`` does not return
+        ``q_motor_ref_1``. Empty list if none.
+        """
+        found = []
+        for name in self.columns:
+            idx = _column_index(name, prefix)
+            if idx is not None:
+                found.append((idx, name))
+        return [name for _, name in sorted(found)]
+
+    def stack(self, prefix: str) -> np.ndarray:
+        """The columns ``prefix1, prefix2, …, prefixk`` as an ``(n_samples, k)`` float64 array.
+
+        Column c of the result is index c + 1. Raises :class:`LogError` if no column has this prefix or the
+        indices are not exactly 1..k (a gap would shift the columns silently).
+        """
+        names = self.column_names(prefix)
+        if not names:
+            raise LogError(f"no column {prefix}<i> in the log (columns: {', '.join(self.columns)})",
+                           column=f"{prefix}<i>")
+        indices = [_column_index(n, prefix) for n in names]
+        if indices != list(range(1, len(names) + 1)):
+            missing = sorted(set(range(1, max(indices) + 1)) - set(indices))
+            raise LogError(f"indices must run 1..k without gaps to stack; missing "
+                           + ", ".join(f"{prefix}{i}" for i in missing), column=f"{prefix}<i>")
+        out = np.empty((self.n_samples, len(names)), dtype=np.float64)
+        for c, name in enumerate(names):
+            out[:, c] = self.columns[name]
+        return out
+
+    def to_dict(self) -> dict:
+        """``{"meta": {...}, "columns": {name: list of floats}}`` (JSON-serialisable, a deep copy)."""
+        return {"meta": copy.deepcopy(self.meta),
+                "columns": {name: arr.tolist() for name, arr in self.columns.items()}}
+
+    def validate(self, source="<memory>") -> "Log":
+        """Check names, units, shapes, values, time and meta; raise :class:`LogError` naming ``source``,
+        the column and the row of the first problem. Returns self."""
+        _validate(self.columns, self.meta, str(source))
+        return self
+
+
+def _created_by() -> str:
+    from tendyn import __version__
+
+    return f"tendyn {__version__}"
+
+
+def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, experiment: str,
+             options: dict | None = None) -> Log:
+    """Build and validate a log.
+
+    Parameters
+    ----------
+    columns : dict
+        Column name → 1-D array-like; converted to new float64 arrays. ``"time"`` [s] is moved first if it is
+        not; the other columns keep their order.
+    device : str
+        Device name (or device file) the log is about.
+    rate_hz : float
+        Sampling rate of the log [Hz], > 0.
+    seed : int or None
+        Seed of a simulated log; None for a measured log.
+    experiment : str
+        Experiment name.
+    options : dict, optional
+        Experiment settings; numpy values become lists/floats, tuples become lists (JSON).
+
+    Returns
+    -------
+    Log
+
+    Raises
+    ------
+    LogError
+        On any invalid column or meta value.
+    """
+    source = "<memory>"
+    if not isinstance(columns, dict):
+        raise LogError(f"columns must be a dict of name -> array, got {type(columns).__name__}", file=source)
+    conv: dict[str, np.ndarray] = {}
+    order = (["time"] if "time" in columns else []) + [k for k in columns if k != "time"]
+    for name in order:
+        try:
+            arr = np.array(columns[name], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise LogError(f"cannot convert the values to float64: {exc}", file=source, column=str(name)) \
+                from None
+        conv[name] = arr
+    if isinstance(seed, np.integer):
+        seed = operator.index(seed)  # numpy integers -> int; other types are named by the meta check
+    if isinstance(rate_hz, (np.floating, np.integer)):
+        rate_hz = float(rate_hz)
+    if isinstance(rate_hz, int) and not isinstance(rate_hz, bool):
+        rate_hz = float(rate_hz)
+    if options is None:
+        options = {}
+    if not isinstance(options, dict):
+        raise LogError(f"got {options!r} of type {type(options).__name__} (expected {META_KEYS['options']})",
+                       file=source, column="meta.options")
+    try:
+        options = json.loads(_json_text(to_jsonable(options)))
+    except (TypeError, ValueError) as exc:
+        raise LogError(f"not JSON-serialisable: {exc}", file=source, column="meta.options") from None
+    meta = {"schema": SCHEMA_VERSION, "device": device, "rate_hz": rate_hz, "seed": seed,
+            "experiment": experiment, "options": options, "created_by": _created_by()}
+    return Log(conv, meta).validate(source)
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Files
+# ----------------------------------------------------------------------------------------------------------
+
+def _format(path) -> str:
+    suffix = Path(path).suffix.lower()
+    if suffix not in FORMATS:
+        raise LogError(f"unknown log format {Path(path).suffix or '(no suffix)'!r}: use .parquet or .csv",
+                       file=str(path))
+    return suffix
+
+
+def write_log(log: Log, path) -> Path:
+    """Validate ``log`` and write it atomically to ``path`` (``.parquet`` or ``.csv``, chosen by the suffix).
+
+    The folder is created if needed. On any failure an existing file at ``path`` is left as it was and no
+    temporary file remains.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    path = Path(path)
+    fmt = _format(path)
+    if not isinstance(log, Log):
+        raise LogError(f"expected a Log, got {type(log).__name__}", file=str(path))
+    log.validate(str(path))
+    data = _parquet_bytes(log) if fmt == ".parquet" else _csv_bytes(log)
+    return atomic_write_bytes(path, data)
+
+
+def read_log(path) -> Log:
+    """Read and validate a log written by :func:`write_log` (or by hand following ``docs/logs.md``).
+
+    Raises
+    ------
+    LogError
+        Naming the file, the column and the row (and CSV line) of the first problem.
+    FileNotFoundError
+        If ``path`` does not exist.
+    """
+    path = Path(path)
+    fmt = _format(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such log file")
+    if fmt == ".parquet":
+        return _read_parquet(path)
+    return _read_csv(path)
+
+
+# -- Parquet ------------------------------------------------------------------------------------------------
+
+def _parquet_bytes(log: Log) -> bytes:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    fields = [pa.field(name, pa.float64(), nullable=False,
+                       metadata={PARQUET_UNIT_KEY: column_spec(name).unit.encode("utf-8")})
+              for name in log.columns]
+    schema = pa.schema(fields, metadata={PARQUET_META_KEY: _json_text(log.meta).encode("utf-8")})
+    table = pa.Table.from_arrays([pa.array(arr, type=pa.float64()) for arr in log.columns.values()],
+                                 schema=schema)
+    buf = io.BytesIO()
+    # no dictionary encoding (float signals rarely repeat; trying it costs 10x the write time)
+    pq.write_table(table, buf, use_dictionary=False, compression="zstd")
+    return buf.getvalue()
+
+
+def _read_parquet(path: Path) -> Log:
+    import pyarrow as pa
+    import pyarrow.compute as pc
+    import pyarrow.parquet as pq
+
+    source = str(path)
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise LogError(f"not a readable Parquet file: {exc}", file=source) from None
+    raw = (table.schema.metadata or {}).get(PARQUET_META_KEY)
+    if raw is None:
+        raise LogError("not a tendyn log: no 'tendyn' meta in the Parquet schema metadata", file=source,
+                       column="meta")
+    try:
+        meta = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
+    names = list(table.column_names)
+    _check_names(names, source)
+    columns: dict[str, np.ndarray] = {}
+    for i, name in enumerate(names):
+        fld = table.schema.field(i)
+        typ = fld.type
+        if not (pa.types.is_floating(typ) or pa.types.is_integer(typ)):
+            raise LogError(f"Arrow type {typ} is not floating or integer", file=source, column=name)
+        expected = column_spec(name).unit
+        unit = (fld.metadata or {}).get(PARQUET_UNIT_KEY)
+        if unit is not None:
+            unit = unit.decode("utf-8", "replace")
+            if not _unit_matches(unit, expected):
+                raise LogError(f"unit {unit!r} in the file, expected {expected!r}", file=source, column=name)
+        col = table.column(i)
+        if col.null_count:
+            valid = np.asarray(pc.is_valid(col).to_numpy(zero_copy_only=False), dtype=bool)
+            row = int(np.argmin(valid))
+            raise LogError("missing value (null)", file=source, column=name, row=row)
+        arr = col.to_numpy()
+        columns[name] = np.array(arr, dtype=np.float64)  # own, writable copy
+    log = Log(columns, meta)
+    _validate(log.columns, log.meta, source)
+    return log
+
+
+# -- CSV ----------------------------------------------------------------------------------------------------
+
+def _csv_bytes(log: Log) -> bytes:
+    out = io.StringIO()
+    out.write(CSV_META_PREFIX + _json_text(log.meta) + "\n")
+    out.write(",".join(f"{name} [{column_spec(name).unit}]" for name in log.columns) + "\n")
+    lists = [arr.tolist() for arr in log.columns.values()]
+    # repr(float) is the shortest text that reads back to the same float64 (bit-exact round trip)
+    out.writelines(",".join(map(repr, row)) + "\n" for row in zip(*lists))
+    return out.getvalue().encode("utf-8")
+
+
+_META_LINE = re.compile(r"#\s*tendyn-log(?:\s+(.*))?")
+_HEADER_CELL = re.compile(r"\s*([^\[\]]*?)\s*(?:\[\s*([^\[\]]*?)\s*\])?\s*")
+
+
+def _read_csv(path: Path) -> Log:
+    source = str(path)
+    try:
+        text = path.read_bytes().decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise LogError(f"not UTF-8 text: {exc}", file=source) from None
+    lines = text.splitlines()
+    while lines and not lines[-1].strip():
+        lines.pop()
+
+    meta = None
+    k = 0
+    while k < len(lines) and lines[k].lstrip().startswith("#"):
+        m = _META_LINE.fullmatch(lines[k].strip())
+        if m:
+            if meta is not None:
+                raise LogError("a second '# tendyn-log' meta line", file=source, line=k + 1)
+            try:
+                meta = json.loads(m.group(1) or "")
+            except ValueError as exc:
+                raise LogError(f"the meta after '# tendyn-log' is not valid JSON: {exc}", file=source,
+                               column="meta", line=k + 1) from None
+        k += 1
+    if meta is None:
+        raise LogError("not a tendyn log: no '# tendyn-log {meta JSON}' comment line before the header",
+                       file=source, column="meta")
+    if k >= len(lines):
+        raise LogError("no header row after the comment lines", file=source, line=k + 1)
+
+    header_line = k + 1
+    names, units = [], []
+    for c, cell in enumerate(lines[k].split(",")):
+        m = _HEADER_CELL.fullmatch(cell)
+        if m is None or not m.group(1):
+            raise LogError(f"header cell {c + 1} {cell!r} is not 'name [unit]'", file=source, line=header_line)
+        names.append(m.group(1))
+        units.append(m.group(2))
+    _check_names(names, source)
+    for name, unit in zip(names, units):
+        expected = column_spec(name).unit
+        if unit is None:
+            raise LogError(f"no unit in the header (write '{name} [{expected}]')", file=source, column=name,
+                           line=header_line)
+        if not _unit_matches(unit, expected):
+            raise LogError(f"unit {unit!r} in the file, expected {expected!r}", file=source, column=name)
+
+    ncol = len(names)
+    body = lines[k + 1:]
+    first = k + 2  # line number of row 0
+    rows: list[list[float]] = []
+    try:
+        for line in body:
+            rows.append([float(x) for x in line.split(",")])
+    except ValueError:
+        pass
+    if len(rows) == len(body):
+        for r, row in enumerate(rows):
+            if len(row) != ncol:
+                raise LogError(f"{len(row)} cells, the header has {ncol}", file=source, row=r, line=first + r)
+    else:
+        # locate the first problem in order: a row with the wrong number of cells or an unparsable cell
+        for r, line in enumerate(body):
+            cells = line.split(",")
+            if len(cells) != ncol:
+                raise LogError(f"{len(cells)} cells, the header has {ncol}", file=source, row=r, line=first + r)
+            for name, cell in zip(names, cells):
+                try:
+                    float(cell)
+                except ValueError:
+                    raise LogError(f"cannot read {cell.strip()!r} as a number", file=source, column=name,
+                                   row=r, line=first + r) from None
+    if rows:
+        data = np.array(rows, dtype=np.float64)
+        columns = {name: np.ascontiguousarray(data[:, c]) for c, name in enumerate(names)}
+    else:
+        columns = {name: np.empty(0, dtype=np.float64) for name in names}
+    log = Log(columns, meta)
+    _validate(log.columns, log.meta, source, line_of_row=first)
+    return log
+
+
+# ----------------------------------------------------------------------------------------------------------
+# Ground truth sidecar
+# ----------------------------------------------------------------------------------------------------------
+
+def truth_path(log_path) -> Path:
+    """The ground-truth file beside a log: ``<folder>/<stem>.truth.json`` (``run.parquet`` → ``run.truth.json``)."""
+    p = Path(log_path)
+    return p.with_name(p.stem + TRUTH_SUFFIX)
+
+
+def write_truth(truth: dict, log_path) -> Path:
+    """Write the ground-truth parameters of a simulated log beside it (never inside it), atomically.
+
+    Parameters
+    ----------
+    truth : dict
+        Parameters of the twin that generated the log; numpy values are converted with ``to_jsonable``.
+    log_path : path-like
+        The log the truth belongs to (it need not exist yet).
+
+    Returns
+    -------
+    pathlib.Path
+        :func:`truth_path` of ``log_path``.
+    """
+    out = truth_path(log_path)
+    if not isinstance(truth, dict):
+        raise LogError(f"truth must be a dict, got {type(truth).__name__}", file=str(out))
+    try:
+        text = json.dumps(to_jsonable(truth), ensure_ascii=False, allow_nan=False, indent=2)
+    except (TypeError, ValueError) as exc:
+        raise LogError(f"truth is not JSON-serialisable: {exc}", file=str(out)) from None
+    return atomic_write_bytes(out, (text + "\n").encode("utf-8"))
+
+
+def read_truth(log_path) -> dict:
+    """Read the ground truth beside a simulated log.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no truth file (a measured log has none).
+    LogError
+        If it is not a JSON object.
+    """
+    p = truth_path(log_path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: no ground truth beside the log {Path(log_path).name} "
+                                "(only simulated logs have one)")
+    try:
+        truth = json.loads(p.read_bytes().decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise LogError(f"not valid JSON: {exc}", file=str(p)) from None
+    if not isinstance(truth, dict):
+        raise LogError(f"expected a JSON object, got {type(truth).__name__}", file=str(p))
+    return truth

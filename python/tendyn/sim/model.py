@@ -1,0 +1,76 @@
+"""Build the C++ simulator model of a device (tendyn._core.SimModel) from its description."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from tendyn import _core
+from tendyn.device.rigid_body import rigid_body_model
+from tendyn.transmission import Transmission
+
+
+def _active_map(device):
+    """q_tree = L q_a + c: identity for a serial chain, the loop constraints for a closed one."""
+    try:
+        from tendyn.device.closed_loop import active_coordinate_map
+    except ImportError:  # closed loops not available: serial only
+        n = device.n_joints
+        return np.eye(n), np.zeros(n)
+    _, L, c = active_coordinate_map(device)
+    return np.asarray(L, float), np.asarray(c, float)
+
+
+def sim_model(device, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
+              friction: bool = True, sensors: bool = True) -> _core.SimModel:
+    """The simulator model of ``device``.
+
+    Parameters
+    ----------
+    rate_hz : integration rate [Hz] (1–20 kHz)
+    control_hz : controller and sensor rate [Hz]; rate_hz must be a multiple of it
+    friction : False switches every friction source off (energy checks, FRFs)
+    sensors : False gives ideal sensors (no quantisation, no current noise)
+    """
+    if not 1_000.0 <= rate_hz <= 20_000.0:
+        raise ValueError(f"rate_hz must be within 1–20 kHz (got {rate_hz})")
+    decim = rate_hz / control_hz
+    if abs(decim - round(decim)) > 1e-9 or round(decim) < 1:
+        raise ValueError(f"rate_hz ({rate_hz}) must be a multiple of control_hz ({control_hz})")
+    m = _core.SimModel()
+    m.body = rigid_body_model(device)
+    L, c = _active_map(device)
+    m.L, m.c = L, c
+    m.dt = 1.0 / rate_hz
+    m.control_decimation = int(round(decim))
+    drives = getattr(device, "drives", ())
+    if device.transmissions:
+        tr = Transmission.from_device(device)
+        if not friction:
+            for name in ("tau0", "nu", "beta", "bearing_count"):
+                setattr(tr.model, name, np.zeros((tr.n, tr.n)))
+            tr.model.reducer_efficiency = np.ones(tr.n)
+        m.drive = _core.DriveKind.Tendon
+        m.tendon = tr.model
+        motors = [t.motor for t in device.transmissions]
+        sens = [t.sensors for t in device.transmissions]
+    elif drives:
+        m.drive = _core.DriveKind.Elastic
+        m.ratio = np.array([d.ratio for d in drives], float)
+        m.stiffness_motor = np.array([d.stiffness_motor for d in drives], float)
+        m.damping_motor = np.array([d.damping_motor for d in drives], float)
+        if friction:
+            m.coulomb_motor = np.array([d.coulomb_motor for d in drives], float)
+            m.viscous_motor = np.array([d.viscous_motor for d in drives], float)
+        m.offset_joint = np.array([d.offset_joint for d in drives], float)
+        motors = [d.motor for d in drives]
+        sens = [d.sensors for d in drives]
+    else:
+        raise ValueError(f"{device.name}: no transmissions or drives to simulate")
+    m.rotor_inertia = np.array([mo.rotor_inertia for mo in motors], float)
+    m.torque_constant = np.array([mo.torque_constant for mo in motors], float)
+    m.peak_torque = np.array([mo.peak_torque for mo in motors], float)
+    if sensors:
+        m.encoder_counts = np.array([s.encoder_counts for s in sens], float)
+        m.current_noise = np.array([s.current_noise for s in sens], float)
+    m.finalize()
+    return m
