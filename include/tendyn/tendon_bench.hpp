@@ -50,8 +50,11 @@
 // Load: if k_z ≥ Model::clamp_stiffness (default 1e7 N/m) the load is treated as CLAMPED
 // (x_load ≡ 0): 1e9 N/m on 0.05 kg rings at 22 kHz, above the 20 kHz step rate, and its effect below
 // 100 Hz is of relative order k_e/k_z ≤ 2e-3. Otherwise the load is integrated with symplectic Euler
-// after the motors (Gauss–Seidel), with n_sub sub-steps chosen so that ω_load h/n_sub ≤ 0.2
-// (ω_load = sqrt((k_z + k_e)/I_c)); the motor positions are held at their new values over the sub-steps.
+// with n_sub sub-steps chosen so that ω_load h/n_sub ≤ 0.2
+// (ω_load = sqrt((k_z + k_e)/I_c)); the motor positions are held at their start-of-step values over the
+// sub-steps. With n_sub = 1 every force of the step comes from the start-of-step positions (plain
+// symplectic Euler), which keeps the discrete load equation I_c Δ²x_load/h² = F_m − k_z x_load centred,
+// so the anti-resonance sqrt(k_z/I_c) of eq. (2) is reproduced to O(h²).
 //
 // Noise: optional Gaussian noise on F_m and X_t from a seeded xoshiro256** generator (seeded with
 // splitmix64) and Box–Muller: same seed ⇒ bit-identical output on the same build and platform.
@@ -130,6 +133,7 @@ struct TendonBenchData {
   double k_tendon = 0.0;     ///< [N/m] series stiffness of one tendon (k_e/2)
   double w_prox = 0.0;       ///< k1/(k1 + k2): weight of the motor in the sensing-point position
   double lag_alpha = 1.0;    ///< amplifier update factor 1 − exp(−h/τ) (1 = ideal)
+  double lag_mean = 0.0;     ///< (τ/h)(1 − exp(−h/τ)): weight of the old output in the step mean (0 = ideal)
   int n_sub = 1;             ///< load sub-steps per step
   bool clamped = true;       ///< load clamped
 
@@ -238,6 +242,7 @@ inline Status tendon_bench_reset(const TendonBenchModel& m, TendonBenchData& d, 
   d.k_tendon = 0.5 * m.k_e();
   d.w_prox = m.k1 / (m.k1 + m.k2);
   d.lag_alpha = m.amplifier_lag > 0.0 ? -std::expm1(-m.dt / m.amplifier_lag) : 1.0;
+  d.lag_mean = m.amplifier_lag > 0.0 ? (m.amplifier_lag / m.dt) * d.lag_alpha : 0.0;
   d.clamped = m.load_clamped();
   if (d.clamped) {
     d.n_sub = 1;
@@ -263,10 +268,12 @@ inline TendonBenchData::TendonBenchData(const TendonBenchModel& model, std::uint
 inline Status tendon_bench_step(const TendonBenchModel& m, TendonBenchData& d, double u) {
   if (!std::isfinite(u)) return Status::NonFiniteInput;
   const double h = d.h;
-  // Amplifier (exact first-order lag for a command held over the step), then the class-B split.
+  // Amplifier: exact first-order lag for a command held over the step; the motors get the MEAN of the
+  // lag output over the step (no half-step bias), u_amp keeps its end-of-step value. Then the class-B split.
+  const double u_step = u + (d.u_amp - u) * d.lag_mean;
   d.u_amp += d.lag_alpha * (u - d.u_amp);
-  const double ua = d.u_amp > 0.0 ? d.u_amp : 0.0;
-  const double ub = d.u_amp < 0.0 ? -d.u_amp : 0.0;
+  const double ua = u_step > 0.0 ? u_step : 0.0;
+  const double ub = u_step < 0.0 ? -u_step : 0.0;
   const double f_a = m.pretension + ua;   // motor A pulls towards +x
   const double f_b = m.pretension + ub;   // motor B pulls towards −x
 
@@ -274,15 +281,14 @@ inline Status tendon_bench_step(const TendonBenchModel& m, TendonBenchData& d, d
   const double t_a = detail::tension(m.pretension, d.k_tendon, d.x_a - d.x_load);
   const double t_b = detail::tension(m.pretension, d.k_tendon, d.x_load - d.x_b);
 
-  // Motor nodes: velocity-level stick/slip, then positions (symplectic Euler).
+  // Motor nodes: velocity-level stick/slip with the forces of the start of the step.
   const double fc_a = m.friction_c0 + m.friction_mu_tension * t_a;
   const double fc_b = m.friction_c0 + m.friction_mu_tension * t_b;
   d.v_a = detail::node_velocity(d.v_a, f_a - t_a, fc_a, d.m_node, d.c_node, h, d.friction_a, d.stuck_a);
   d.v_b = detail::node_velocity(d.v_b, t_b - f_b, fc_b, d.m_node, d.c_node, h, d.friction_b, d.stuck_b);
-  d.x_a += h * d.v_a;
-  d.x_b += h * d.v_b;
 
-  // Load: clamped, or symplectic Euler sub-steps with the motors at their new positions.
+  // Load: clamped, or symplectic Euler with the motors at their start-of-step positions (so that with
+  // n_sub = 1 the whole step is plain symplectic Euler: every force from the start-of-step positions).
   if (!d.clamped) {
     const double hs = h / d.n_sub;
     for (int i = 0; i < d.n_sub; ++i) {
@@ -292,6 +298,9 @@ inline Status tendon_bench_step(const TendonBenchModel& m, TendonBenchData& d, d
       d.x_load += hs * d.v_load;
     }
   }
+  // Motor positions last (a stuck node keeps its position bit for bit: v = 0 exactly).
+  d.x_a += h * d.v_a;
+  d.x_b += h * d.v_b;
 
   d.steps += 1;
   d.time = static_cast<double>(d.steps) * h;
