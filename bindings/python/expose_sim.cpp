@@ -20,7 +20,8 @@ void expose_sim(nb::module_& m) {
       .value("Branch", SiteKind::Branch)
       .value("Reducer", SiteKind::Reducer)
       .value("MotorCoulomb", SiteKind::MotorCoulomb)
-      .value("JointCoulomb", SiteKind::JointCoulomb);
+      .value("JointCoulomb", SiteKind::JointCoulomb)
+      .value("Lock", SiteKind::Lock);
 
   nb::class_<M>(m, "SimModel", "Fixed-step simulator model (fill the fields, then finalize()).")
       .def(nb::init<>())
@@ -41,6 +42,7 @@ void expose_sim(nb::module_& m) {
       .def_rw("coulomb_joint", &M::coulomb_joint)
       .def_rw("viscous_joint", &M::viscous_joint)
       .def_rw("offset_joint", &M::offset_joint)
+      .def_rw("lock_joint", &M::lock_joint)
       .def_rw("encoder_counts", &M::encoder_counts)
       .def_rw("current_noise", &M::current_noise)
       .def_rw("dt", &M::dt)

@@ -37,7 +37,7 @@ namespace tendyn {
 
 enum class DriveKind : int { Tendon = 0, Elastic = 1 };
 enum class ControlMode : int { Torque = 0, JointPID = 1, MotorPID = 2 };
-enum class SiteKind : int { Branch = 0, Reducer = 1, MotorCoulomb = 2, JointCoulomb = 3 };
+enum class SiteKind : int { Branch = 0, Reducer = 1, MotorCoulomb = 2, JointCoulomb = 3, Lock = 4 };
 
 struct SimModel;
 struct SimData;
@@ -91,6 +91,7 @@ struct SimModel {
   Eigen::VectorXd coulomb_joint;    ///< [N·m]
   Eigen::VectorXd viscous_joint;    ///< [N·m·s/rad]
   Eigen::VectorXd offset_joint;     ///< constant torque the drive must overcome [N·m]
+  Eigen::VectorXd lock_joint;       ///< 1 = the link is blocked (blocked-link tests), 0 = free
 
   // Sensors.
   Eigen::VectorXd encoder_counts;   ///< counts per motor revolution after decoding (0 = ideal)
@@ -166,7 +167,7 @@ inline Status SimModel::finalize() {
   fill(ratio, 1.0); fill(stiffness_motor, 0.0); fill(damping_motor, 0.0);
   fill(rotor_inertia, 0.0); fill(torque_constant, 1.0); fill(peak_torque, 1e300);
   fill(coulomb_motor, 0.0); fill(viscous_motor, 0.0);
-  fill(coulomb_joint, 0.0); fill(viscous_joint, 0.0); fill(offset_joint, 0.0);
+  fill(coulomb_joint, 0.0); fill(viscous_joint, 0.0); fill(offset_joint, 0.0); fill(lock_joint, 0.0);
   fill(encoder_counts, 0.0); fill(current_noise, 0.0);
   fill(kp, 0.0); fill(kd, 0.0); fill(ki, 0.0);
   if (!(dt > 0.0) || control_decimation < 1) return Status::InvalidModel;
@@ -192,9 +193,13 @@ inline Status SimModel::finalize() {
   // Sites: every cable branch and reducer (tendon), motor and joint Coulomb where non-zero.
   const int n_branch = drive == DriveKind::Tendon ? na * (na + 1) / 2 : 0;
   const int n_red = drive == DriveKind::Tendon ? na : 0;
-  int n_mc = 0, n_jc = 0;
-  for (int i = 0; i < na; ++i) { n_mc += coulomb_motor(i) > 0.0; n_jc += coulomb_joint(i) > 0.0; }
-  n_sites = n_branch + n_red + n_mc + n_jc;
+  int n_mc = 0, n_jc = 0, n_lock = 0;
+  for (int i = 0; i < na; ++i) {
+    n_mc += coulomb_motor(i) > 0.0;
+    n_jc += coulomb_joint(i) > 0.0;
+    n_lock += lock_joint(i) != 0.0;
+  }
+  n_sites = n_branch + n_red + n_mc + n_jc + n_lock;
   G = Eigen::MatrixXd::Zero(n_sites, nv);
   site_kind.resize(n_sites); site_i.resize(n_sites); site_b.resize(n_sites);
   D = Eigen::MatrixXd::Zero(nv, nv);
@@ -230,6 +235,11 @@ inline Status SimModel::finalize() {
     if (coulomb_joint(i) > 0.0) {
       G(k, i) = 1.0;
       site_kind(k) = static_cast<int>(SiteKind::JointCoulomb); site_i(k) = i; site_b(k) = 0; ++k;
+    }
+  for (int i = 0; i < na; ++i)
+    if (lock_joint(i) != 0.0) {  // a bilateral velocity constraint: an unbounded friction site
+      G(k, i) = 1.0;
+      site_kind(k) = static_cast<int>(SiteKind::Lock); site_i(k) = i; site_b(k) = 0; ++k;
     }
   return Status::Ok;
 }
@@ -346,6 +356,7 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
       }
       case SiteKind::MotorCoulomb: hi = m.coulomb_motor(i); lo = -hi; break;
       case SiteKind::JointCoulomb: hi = m.coulomb_joint(i); lo = -hi; break;
+      case SiteKind::Lock: hi = 1e300; lo = -hi; break;
     }
     d.lo(k) = lo;
     d.hi(k) = hi;

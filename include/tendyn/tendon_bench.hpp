@@ -45,6 +45,10 @@
 // node, p = v + (h/m)(F_applied − T) is the velocity the node would reach without friction (damping is
 // implicit: v⁺ = (p − (h/m) λ)/(1 + h c/m)). If |p| ≤ (h/m) F_c friction cancels it: the node sticks,
 // v⁺ = 0 exactly and its position is bit-for-bit unchanged. Otherwise λ = F_c sign(p) (slip).
+// Consequence of the class-B split with Coulomb nodes (not programmed, it follows): each motor sees only
+// its half-wave; after the first half-wave a node sticks at an offset and moves again only if the
+// half-wave swing exceeds 2 F_c, so a sine of amplitude A gives no AC output below A ≈ 2 F_c (dead-band),
+// and just above it the friction-dominated response peaks well below the 30 Hz linear resonance (C22).
 // Integrator: semi-implicit (symplectic) Euler: velocities first, then positions x⁺ = x + h v⁺.
 //
 // Load: if k_z ≥ Model::clamp_stiffness (default 1e7 N/m) the load is treated as CLAMPED

@@ -9,6 +9,9 @@ Conventions
 * Step k (k = 0 … n−1) holds u[k] over [k h, (k+1) h]; the outputs of step k are the state at (k+1) h.
   A sine command is sampled at the middle of its step, u[k] = A sin(ω (k + ½) h), so that the held
   staircase has no half-step delay with respect to A sin(ω t).
+* Friction on: the response depends on the amplitude. With the bundled bench (F_c ≈ 0.125 N per node at
+  rest) a sine command has a dead-band up to ≈ 2 F_c ≈ 0.25 N (class-B half-waves against Coulomb nodes),
+  and the open-loop peak of |F_m/F_τ| moves from ≈ 15 Hz (0.31 N) to ≈ 30 Hz (≥ 0.6 N), C22.
 * Frequencies in Hz in the arguments (``freqs_hz``); ``omega`` [rad/s] where angular frequency is meant.
 """
 

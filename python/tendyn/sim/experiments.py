@@ -1,0 +1,294 @@
+"""Experiments run on a twin: each builds references, runs the C++ loop and returns a log.
+
+The log (tendyn.io.logs) holds only what a real bench would record: motor encoders, measured motor
+torques (current × k_t with noise), commands and references. The twin's parameters and true states
+go beside it (``SimRun.truth``), never inside what an estimator reads.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from tendyn import _core
+from tendyn.io import to_jsonable
+from tendyn.io.logs import Log, make_log
+from tendyn.sim.model import sim_model
+
+
+@dataclass
+class SimRun:
+    """One simulated experiment: the log an estimator may read, and the truth it may not."""
+
+    log: Log
+    truth: dict = field(default_factory=dict)       # parameters of the twin (JSON-able)
+    states: dict = field(default_factory=dict)      # true joint/motor trajectories at the log rate
+
+
+def device_truth(device) -> dict:
+    """The twin's parameters that identification tries to recover (JSON-able)."""
+    out = {"device": device.name}
+    if device.transmissions:
+        arr = device.routing_arrays()
+        out["routing"] = {k: arr[k] for k in ("motor_radius", "K", "reducer_ratio", "reducer_efficiency",
+                                             "tau0", "nu", "beta", "pretension")}
+    drives = getattr(device, "drives", ())
+    if drives:
+        out["drives"] = [{k: getattr(d, k) for k in ("joint", "ratio", "stiffness_motor", "damping_motor",
+                                                    "coulomb_motor", "viscous_motor", "offset_joint")}
+                         for d in drives]
+    return to_jsonable(out)
+
+
+def _pin_model(m: _core.SimModel, device):
+    from tendyn.device.rigid_body import joint_frames
+
+    model = pin.Model()
+    model.gravity.linear = np.asarray(device.kinematics.gravity, float)
+    for f in joint_frames(device):
+        jid = model.addJoint(f.parent, pin.JointModelRZ(), pin.SE3(f.placement[:3, :3], f.placement[:3, 3]), f.name)
+        model.appendBodyToJoint(jid, pin.Inertia(f.mass, f.com, f.inertia), pin.SE3.Identity())
+    return model
+
+
+def pid_gains(m: _core.SimModel, device, q0, bandwidth_hz: float = 4.0, zeta: float = 0.9,
+              space: str = "joint", integral: bool = True):
+    """PID gains that place each axis at ``bandwidth_hz`` with damping ``zeta`` on its own inertia
+    (joint-space diagonal of Lᵀ M L + reflected rotors, or motor-space), at configuration q0."""
+    pm = _pin_model(m, device)
+    L, c = np.array(m.L), np.array(m.c)
+    Mt = pin.crba(pm, pm.createData(), L @ q0 + c)
+    Mt = np.triu(Mt) + np.triu(Mt, 1).T
+    Ma = L.T @ Mt @ L
+    na = m.na
+    if m.drive == _core.DriveKind.Tendon:
+        Gm = np.array(m.tendon.motor_from_joint_position)
+        Ma = Ma + Gm.T @ np.diag(np.array(m.rotor_inertia)) @ Gm
+    else:
+        Gm = np.diag(np.array(m.ratio))
+        Ma = Ma + Gm.T @ np.diag(np.array(m.rotor_inertia)) @ Gm
+    if space == "motor":
+        Gi = np.linalg.inv(Gm)
+        Ma = Gi.T @ Ma @ Gi
+    inertia = np.diag(Ma)
+    w = 2 * np.pi * bandwidth_hz
+    kp = inertia * w**2
+    kd = 2 * zeta * w * inertia
+    ki = kp * w / 10 if integral else np.zeros(na)
+    return kp, kd, ki
+
+
+def run_on_twin(device, m: _core.SimModel, q0, ref_q, ref_v, ff, ext, *, seed: int, experiment: str,
+                options: dict, log_rate_hz: float, reference_space: str | None = None,
+                progress=None) -> SimRun:
+    """Run the loop and assemble the log (+ truth). ``progress(done, total)`` is called between chunks."""
+    rate = 1.0 / m.dt
+    log_every = int(round(rate / log_rate_hz))
+    if log_every % m.control_decimation:
+        raise ValueError("the log rate must divide the control rate")
+    d = _core.SimData(m)
+    d.reset(np.asarray(q0, float), int(seed))
+    if m.drive == _core.DriveKind.Elastic:  # motors start where the springs are relaxed
+        d.set_motor_position(np.array(m.ratio) * np.asarray(q0, float))
+    ext = np.zeros_like(ref_q) if ext is None else ext
+    raw = _run_chunked(m, d, ref_q, ref_v, ff, ext, log_every, progress)
+    cols = {"time": raw["time"]}
+    na = m.na
+    for i in range(na):
+        cols[f"q_motor_{i + 1}"] = raw["q_motor_meas"][:, i]
+    for i in range(na):
+        cols[f"torque_motor_{i + 1}"] = raw["torque_motor_meas"][:, i]
+    for i in range(na):
+        cols[f"torque_motor_cmd_{i + 1}"] = raw["torque_motor_cmd"][:, i]
+    if reference_space is not None:
+        prefix = "q_ref_" if reference_space == "joint" else "q_motor_ref_"
+        vprefix = "qd_ref_" if reference_space == "joint" else "qd_motor_ref_"
+        for i in range(na):
+            cols[f"{prefix}{i + 1}"] = ref_q[::log_every, i]
+            cols[f"{vprefix}{i + 1}"] = ref_v[::log_every, i]
+    if np.any(ext):
+        for i in range(na):
+            cols[f"torque_joint_ext_{i + 1}"] = ext[::log_every, i]
+    log = make_log(cols, device=device.name, rate_hz=log_rate_hz, seed=int(seed), experiment=experiment,
+                   options=to_jsonable(options))
+    states = {k: raw[k] for k in ("q_joint", "qd_joint", "q_motor", "qd_motor")}
+    return SimRun(log, device_truth(device), states)
+
+
+def _run_chunked(m, d, ref_q, ref_v, ff, ext, log_every, progress, chunks: int = 40):
+    """sim_run over consecutive chunks (same state), so long runs can report progress."""
+    n = ref_q.shape[0]
+    size = max(log_every, (n // chunks) // log_every * log_every) if progress else n
+    parts = []
+    for start in range(0, n, size):
+        sl = slice(start, min(n, start + size))
+        parts.append(_core.sim_run(m, d, np.ascontiguousarray(ref_q[sl]), np.ascontiguousarray(ref_v[sl]),
+                                   np.ascontiguousarray(ff[sl]), np.ascontiguousarray(ext[sl]), log_every))
+        if progress:
+            progress(sl.stop, n)
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+# ---- reference profiles --------------------------------------------------------------------------
+
+def constant_velocity_profile(speeds, travel: float, accel: float, dt: float, dwell: float = 0.1):
+    """Back-and-forth moves at each constant speed (trapezoidal velocity): returns (pos, vel).
+
+    speeds [unit/s] > 0, travel [unit] per stroke, accel [unit/s²] for the ramps."""
+    vel = []
+    for v in speeds:
+        t_acc = v / accel
+        cruise = max(travel - v * t_acc, 0.0) / v
+        ramp = np.arange(0.0, t_acc, dt) * accel
+        stroke = np.concatenate([ramp, np.full(int(round(cruise / dt)), v), ramp[::-1],
+                                 np.zeros(int(round(dwell / dt)))])
+        vel += [stroke, -stroke]
+    vel = np.concatenate(vel)
+    pos = np.cumsum(vel) * dt
+    return pos, vel
+
+
+def triangle_wave(t, freq: float, amplitude: float, phase: float = 0.0):
+    """Triangle wave starting at 0 and rising, period 1/freq, ± amplitude: returns (value, slope)."""
+    x = 2 * np.pi * (freq * t + phase)
+    return amplitude * (2 / np.pi) * np.arcsin(np.sin(x)), amplitude * 4 * freq * np.sign(np.cos(x))
+
+
+def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: float, f_sin, a_sin: float,
+                          phase: float = 0.0):
+    """Triangular wave (± amplitude) plus a sum of sines (exciting trajectories, S2 §VI): (pos, vel)."""
+    t = np.arange(int(round(duration / dt))) * dt
+    tri, dtri = triangle_wave(t, f_tri, amplitude, phase)
+    s = sum(a_sin * np.sin(2 * np.pi * f * t) for f in f_sin)
+    ds = sum(a_sin * 2 * np.pi * f * np.cos(2 * np.pi * f * t) for f in f_sin)
+    return tri + s, dtri + ds
+
+
+# ---- experiments ---------------------------------------------------------------------------------
+
+def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", travel: float = 20.0,
+                      accel: float = 200.0, q0=None, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
+                      log_rate_hz: float = 1_000.0, seed: int = 0, bandwidth_hz: float = 6.0, progress=None) -> SimRun:
+    """Constant-velocity moves of one transmission (S0 §III-A) at several motor speeds.
+
+    Parameters
+    ----------
+    transmission : 1-based transmission number
+    speeds : motor speeds [rad/s]
+    strategy : "S1" — every other motor held at zero speed (motor-space PID);
+               "S2" — every other joint held at zero speed (joint-space PID)
+    travel : motor travel per stroke [rad]
+    """
+    if strategy not in ("S1", "S2"):
+        raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    na = m.na
+    j = transmission - 1
+    if not 0 <= j < na:
+        raise ValueError(f"transmission {transmission} does not exist ({na} transmissions)")
+    q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
+    pos, vel = constant_velocity_profile(np.asarray(speeds, float), travel, accel, m.dt)
+    n = pos.size
+    Gm = np.array(m.tendon.motor_from_joint_position) if m.drive == _core.DriveKind.Tendon else np.diag(m.ratio)
+    if strategy == "S1":
+        m.mode = _core.ControlMode.MotorPID
+        ref_q = np.tile(Gm @ q0, (n, 1))
+        ref_v = np.zeros((n, na))
+        ref_q[:, j] += pos
+        ref_v[:, j] = vel
+        space = "motor"
+    else:
+        m.mode = _core.ControlMode.JointPID
+        scale = 1.0 / Gm[j, j]   # joint j speed for motor speed 1 with the other joints still
+        ref_q = np.tile(q0, (n, 1))
+        ref_v = np.zeros((n, na))
+        ref_q[:, j] += pos * scale
+        ref_v[:, j] = vel * scale
+        space = "joint"
+    m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz, space=space)
+    m.velocity_cutoff_hz = 100.0
+    ff = np.zeros((n, na))
+    opts = dict(transmission=transmission, strategy=strategy, speeds_motor=list(map(float, speeds)),
+                travel_motor=travel, accel_motor=accel, q0=q0, bandwidth_hz=bandwidth_hz,
+                rate_hz=rate_hz, control_hz=control_hz)
+    return run_on_twin(device, m, q0, ref_q, ref_v, ff, None, seed=seed, experiment=f"constant_velocity_{strategy}",
+                       options=opts, log_rate_hz=log_rate_hz, reference_space=space, progress=progress)
+
+
+def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
+                        f_sin=(0.5, 1.1, 1.7), a_sin: float = 0.05, rate_hz: float = 5_000.0,
+                        control_hz: float = 1_000.0, log_rate_hz: float = 1_000.0, seed: int = 0,
+                        bandwidth_hz: float = 8.0, progress=None) -> SimRun:
+    """Triangular + sinusoidal joint trajectories (S2 §VI), clipped inside the joint limits, tracked
+    by a joint-space PID. amplitude [rad] of the triangles; a_sin [rad] of each sine."""
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    na = m.na
+    lo, hi = _active_limits(device)
+    q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
+    refs, vels = [], []
+    for i in range(na):
+        room = max(0.0, min(q0[i] - lo[i], hi[i] - q0[i]) - a_sin * len(f_sin) - 0.05)
+        p, v = triangle_sine_profile(duration, m.dt, min(amplitude, room), f_tri * (1 + 0.17 * i), f_sin,
+                                     a_sin, phase=0.1 * i)
+        refs.append(q0[i] + p)
+        vels.append(v)
+    ref_q, ref_v = np.column_stack(refs), np.column_stack(vels)
+    m.mode = _core.ControlMode.JointPID
+    m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz)
+    m.velocity_cutoff_hz = 100.0
+    opts = dict(duration=duration, amplitude=amplitude, f_tri=f_tri, f_sin=list(f_sin), a_sin=a_sin, q0=q0,
+                rate_hz=rate_hz, control_hz=control_hz)
+    return run_on_twin(device, m, ref_q[0], ref_q, ref_v, np.zeros_like(ref_q), None, seed=seed,
+                       experiment="exciting", options=opts, log_rate_hz=log_rate_hz, reference_space="joint",
+                       progress=progress)
+
+
+def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.0, cycles: int = 3, q0=None,
+                 rate_hz: float = 10_000.0, control_hz: float = 1_000.0, log_rate_hz: float = 1_000.0,
+                 seed: int = 0, progress=None) -> SimRun:
+    """Blocked-link test (S2 §V-C): every link blocked, triangular motor torque [N·m] on one motor;
+    the motor rotates against the cable/capstan stiffness (and its friction: hysteresis)."""
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    na = m.na
+    m.lock_joint = np.ones(na)
+    m.finalize()
+    q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
+    n = int(round(cycles * period / m.dt))
+    t = np.arange(n) * m.dt
+    tri, _ = triangle_wave(t, 1.0 / period, torque_amplitude)
+    ff = np.zeros((n, na))
+    ff[:, joint - 1] = tri
+    m.mode = _core.ControlMode.Torque
+    opts = dict(joint=joint, torque_amplitude=torque_amplitude, period=period, cycles=cycles, q0=q0)
+    return run_on_twin(device, m, q0, np.tile(q0, (n, 1)), np.zeros((n, na)), ff, None, seed=seed,
+                       experiment="blocked_link", options=opts, log_rate_hz=log_rate_hz, progress=progress)
+
+
+def stepped_sine(device, transmission: int, freqs_hz, amplitude: float, cycles: int = 6, q0=None,
+                 rate_hz: float = 10_000.0, control_hz: float = 10_000.0, seed: int = 0,
+                 progress=None) -> list[SimRun]:
+    """Sinusoidal motor torque [N·m] on one transmission at each frequency, torque mode, links free."""
+    runs = []
+    for f in freqs_hz:
+        m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+        na = m.na
+        q = np.zeros(na) if q0 is None else np.asarray(q0, float)
+        n = int(round(cycles / f / m.dt))
+        t = np.arange(n) * m.dt
+        ff = np.zeros((n, na))
+        ff[:, transmission - 1] = amplitude * np.sin(2 * np.pi * f * t)
+        m.mode = _core.ControlMode.Torque
+        opts = dict(transmission=transmission, freq_hz=float(f), amplitude=amplitude, cycles=cycles, q0=q)
+        runs.append(run_on_twin(device, m, q, np.tile(q, (n, 1)), np.zeros((n, na)), ff, None, seed=seed,
+                                experiment="stepped_sine", options=opts, log_rate_hz=control_hz,
+                                progress=progress))
+    return runs
+
+
+def _active_limits(device):
+    """Lower/upper limits [rad] of the active joints."""
+    joints = device.kinematics.joints
+    act = [js for js in joints if getattr(js, "mu", None) in (None, 1) and getattr(js, "sigma", 0) != 2]
+    return np.array([js.lower for js in act], float), np.array([js.upper for js in act], float)
