@@ -87,6 +87,73 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def _floats(text: str) -> list[float]:
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+
+
+EXPERIMENTS = ("constant-velocity", "exciting", "blocked-link", "stepped-sine")
+
+
+def cmd_simulate(args) -> int:
+    import time
+
+    from tqdm import tqdm
+
+    from tendyn.io.logs import write_log, write_truth
+    from tendyn.sim import experiments as ex
+
+    dev = _load(args.device)
+    q0 = None if args.q0 is None else np.asarray(args.q0, float)
+    bar = tqdm(total=1, unit="step", unit_scale=True, file=sys.stderr, disable=args.quiet or None,
+               desc=f"{dev.name}: {args.experiment}")
+
+    def progress(done, total):
+        bar.total = total
+        bar.n = done
+        bar.refresh()
+
+    common = dict(rate_hz=args.rate, control_hz=args.control_rate, seed=args.seed, progress=progress)
+    t0 = time.perf_counter()
+    if args.experiment == "constant-velocity":
+        runs = [ex.constant_velocity(dev, args.transmission, args.speeds, strategy=args.strategy, q0=q0,
+                                     log_rate_hz=args.log_rate, **common)]
+    elif args.experiment == "exciting":
+        runs = [ex.exciting_trajectory(dev, duration=args.duration, q0=q0, log_rate_hz=args.log_rate, **common)]
+    elif args.experiment == "blocked-link":
+        runs = [ex.blocked_link(dev, args.joint, args.torque, period=args.period, cycles=args.cycles, q0=q0,
+                                log_rate_hz=args.log_rate, **common)]
+    else:
+        common["control_hz"] = args.rate
+        runs = ex.stepped_sine(dev, args.transmission, args.freqs, args.torque, q0=q0, **common)
+    wall = time.perf_counter() - t0
+    bar.close()
+
+    out = Path(args.out)
+    if out.suffix not in (".parquet", ".csv"):
+        print(f"tendyn: error: --out must end in .parquet or .csv (got {out.name})", file=sys.stderr)
+        return 2
+    written = []
+    for k, run in enumerate(runs):
+        path = out if len(runs) == 1 else out.with_name(f"{out.stem}_{k + 1:02d}{out.suffix}")
+        write_log(run.log, path)
+        truth = write_truth(run.truth, path)
+        written.append({"log": str(path), "truth": str(truth), "n_samples": run.log.n_samples,
+                        "duration_s": float(run.log.time[-1] - run.log.time[0])})
+    simulated = sum(w["duration_s"] for w in written)
+    summary = {"device": dev.name, "experiment": args.experiment, "seed": args.seed, "rate_hz": args.rate,
+               "logs": written, "wall_s": wall, "simulated_s_per_wall_s": simulated / wall if wall else None}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        for w in written:
+            print(f"{w['log']}: {w['n_samples']} samples, {w['duration_s']:.2f} s simulated (truth: {w['truth']})")
+        print(f"wall {wall:.2f} s, {summary['simulated_s_per_wall_s']:.1f} simulated s per wall s")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="tendyn", description="Tendon transmissions: model, simulate, identify, compensate.")
     sub = p.add_subparsers(dest="command", required=True)
@@ -97,6 +164,28 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
     show.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     show.set_defaults(func=cmd_routing_show)
+
+    sim = sub.add_parser("simulate", help="run an experiment on a twin and write its log")
+    sim.add_argument("device", help="device file (.toml) or bundled twin name")
+    sim.add_argument("experiment", choices=EXPERIMENTS)
+    sim.add_argument("--out", required=True, help="log file (.parquet or .csv); the truth goes beside it")
+    sim.add_argument("--seed", type=int, default=0)
+    sim.add_argument("--rate", type=float, default=10_000.0, help="integration rate [Hz] (1–20 kHz)")
+    sim.add_argument("--control-rate", type=float, default=1_000.0, help="controller/sensor rate [Hz]")
+    sim.add_argument("--log-rate", type=float, default=1_000.0, help="log sampling rate [Hz]")
+    sim.add_argument("--q0", type=_floats, help="initial active joint positions [rad], comma-separated")
+    sim.add_argument("--transmission", type=int, default=1, help="1-based transmission (constant-velocity, stepped-sine)")
+    sim.add_argument("--strategy", choices=("S1", "S2"), default="S2", help="S0 identification strategy")
+    sim.add_argument("--speeds", type=_floats, default=[2.0, 5.0, 10.0], help="motor speeds [rad/s]")
+    sim.add_argument("--duration", type=float, default=20.0, help="exciting trajectory length [s]")
+    sim.add_argument("--joint", type=int, default=1, help="1-based joint (blocked-link)")
+    sim.add_argument("--torque", type=float, default=0.1, help="motor torque amplitude [N·m]")
+    sim.add_argument("--period", type=float, default=2.0, help="triangle period [s] (blocked-link)")
+    sim.add_argument("--cycles", type=int, default=3)
+    sim.add_argument("--freqs", type=_floats, default=[1.0, 2.0, 5.0, 10.0], help="frequencies [Hz] (stepped-sine)")
+    sim.add_argument("--quiet", action="store_true", help="no progress bar")
+    sim.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    sim.set_defaults(func=cmd_simulate)
 
     demo = sub.add_parser("demo", help="statics with losses on a device: figure + data")
     demo.add_argument("device", nargs="?", default="lexos")
