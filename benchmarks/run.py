@@ -53,6 +53,38 @@ def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int
                         baseline="numpy recursion (same physics)", baseline_value=bp999 / 1e3, ratio=bp999 / p999))
 
 
+def bench_simulator(results: list, seconds: float = 10.0, rate_hz: float = 10_000.0) -> None:
+    """L-EXOS twin, 10 kHz, 10 simulated seconds, friction on: tendyn's C++ loop vs mujoco.rollout of the
+    same 4-DOF chain (fixed tendons for the coupling, friction loss on tendons and joints)."""
+    from mujoco_lexos import rollout_seconds
+
+    from tendyn.sim.model import sim_model
+
+    dev = load_device(bundled("lexos"))
+    m = sim_model(dev, rate_hz=rate_hz, friction=True, sensors=True)
+    n = int(seconds * rate_hz)
+    t = np.arange(n) / rate_hz
+    ff = np.ascontiguousarray(np.column_stack([0.2 * np.sin(2 * np.pi * f * t) for f in (0.7, 1.1, 1.3, 1.7)]))
+    z = np.zeros_like(ff)
+    q0 = np.array([0.0, 0.3, 0.0, 0.8])
+    best = np.inf
+    print(f"[bench] tendyn simulator, {n} steps x 3 …", file=sys.stderr)
+    for _ in range(3):
+        d = _core.SimData(m)
+        d.reset(q0, 1)
+        t0 = time.perf_counter()
+        _core.sim_run(m, d, z, z, ff, z, m.control_decimation)
+        best = min(best, time.perf_counter() - t0)
+    print(f"[bench] mujoco.rollout, {n} steps x 3 …", file=sys.stderr)
+    base = rollout_seconds(dev, 1.0 / rate_hz, ff, q0)
+    results.append(dict(name="lexos_sim_step_10kHz", value=best / n * 1e6, unit="us/step",
+                        baseline="mujoco.rollout (same chain, fixed tendons, frictionloss)",
+                        baseline_value=base / n * 1e6, ratio=base / best))
+    results.append(dict(name="lexos_sim_realtime_factor", value=seconds / best, unit="sim s/wall s",
+                        baseline="mujoco.rollout (same chain, fixed tendons, frictionloss)",
+                        baseline_value=seconds / base, ratio=base / best))
+
+
 def print_table(results: list) -> None:
     print(f"{'benchmark':<34} {'tendyn':>12} {'baseline':>12} {'unit':>9} {'ratio':>9}  baseline")
     for r in results:
@@ -63,6 +95,10 @@ def print_table(results: list) -> None:
 def main() -> int:
     results: list = []
     bench_feedforward(results)
+    try:
+        bench_simulator(results)
+    except ImportError as exc:  # mujoco is a benchmark-only dependency
+        print(f"[bench] simulator benchmark skipped: {exc}", file=sys.stderr)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)

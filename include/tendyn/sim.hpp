@@ -265,13 +265,32 @@ inline SimData::SimData(const SimModel& m)
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
       vm_prev(Eigen::VectorXd::Zero(m.na)) {}
 
+/// Solve (L Lᵀ) X = B in place, L the lower factor stored in `llt` (small sizes: plain loops,
+/// no blocking, no allocation).
+template <class Mat>
+inline void cholesky_solve_in_place(const Eigen::MatrixXd& llt, Mat& B) {
+  const Eigen::Index n = llt.rows();
+  for (Eigen::Index c = 0; c < B.cols(); ++c) {
+    for (Eigen::Index i = 0; i < n; ++i) {  // L y = b
+      double s = B(i, c);
+      for (Eigen::Index k = 0; k < i; ++k) s -= llt(i, k) * B(k, c);
+      B(i, c) = s / llt(i, i);
+    }
+    for (Eigen::Index i = n - 1; i >= 0; --i) {  // Lᵀ x = y
+      double s = B(i, c);
+      for (Eigen::Index k = i + 1; k < n; ++k) s -= llt(k, i) * B(k, c);
+      B(i, c) = s / llt(i, i);
+    }
+  }
+}
+
 // ---- pieces of a step --------------------------------------------------------------------------
 
 /// Motor position from the state (slaved for tendon drives).
 inline void motor_state(const SimModel& m, SimData& d) {
   if (m.drive == DriveKind::Tendon) {
-    d.qm.noalias() = m.Gm * d.qa;
-    d.vm.noalias() = m.Gm * d.va;
+    d.qm.noalias() = m.Gm.lazyProduct(d.qa);
+    d.vm.noalias() = m.Gm.lazyProduct(d.va);
   }
 }
 
@@ -286,7 +305,7 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
     const double qstep = counts > 0.0 ? 6.283185307179586 / counts : 0.0;
     d.q_motor_meas(i) = qstep > 0.0 ? qstep * std::floor(d.qm(i) / qstep + 0.5) : d.qm(i);
   }
-  d.q_est.noalias() = m.joint_from_motor * d.q_motor_meas;
+  d.q_est.noalias() = m.joint_from_motor.lazyProduct(d.q_motor_meas);
   if (d.first_control) {
     d.q_est_prev = d.q_est;
     d.qm_meas_prev = d.q_motor_meas;
@@ -311,7 +330,7 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
         d.integral(i) += e * Tc;
         d.tmp_na(i) = m.kp(i) * e + m.kd(i) * (ref_v(i) - d.v_est(i)) + m.ki(i) * d.integral(i) + ff(i);
       }
-      d.torque_motor_cmd.noalias() = m.motor_from_joint_torque * d.tmp_na;
+      d.torque_motor_cmd.noalias() = m.motor_from_joint_torque.lazyProduct(d.tmp_na);
       break;
     case ControlMode::MotorPID:
       for (int i = 0; i < m.na; ++i) {
@@ -392,7 +411,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
     d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
   }
   if (scale == 0.0) return 0;  // no friction this step
-  d.u0.noalias() = m.G * d.vfree;
+  d.u0.noalias() = m.G.lazyProduct(d.vfree);
   int it = 0;
   for (; it < m.pgs_max_iterations; ++it) {
     double change = 0.0;
@@ -419,20 +438,20 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
 
   // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
-  d.q_tree.noalias() = m.L * d.qa;
+  d.q_tree.noalias() = m.L.lazyProduct(d.qa);
   d.q_tree += m.c;
-  d.v_tree.noalias() = m.L * d.va;
+  d.v_tree.noalias() = m.L.lazyProduct(d.va);
   pinocchio::crba(m.body.pin, d.body.pin, d.q_tree);
   d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
   pinocchio::nonLinearEffects(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
-  d.ML.noalias() = d.body.pin.M * m.L;
+  d.ML.noalias() = d.body.pin.M.lazyProduct(m.L);
   d.M = m.M_rotor;
-  d.M.topLeftCorner(na, na).noalias() += m.L.transpose() * d.ML;
+  d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
   d.F.setZero();
-  d.F.head(na).noalias() = -m.L.transpose() * d.body.pin.nle;
+  d.F.head(na).noalias() = -m.L.transpose().lazyProduct(d.body.pin.nle);
   for (int i = 0; i < na; ++i) d.F(i) += torque_ext(i) - m.offset_joint(i);
   if (m.drive == DriveKind::Tendon) {
-    d.F.head(na).noalias() += m.Gm.transpose() * d.torque_motor;  // Kᵀ R_m⁻¹ C_m
+    d.F.head(na).noalias() += m.Gm.transpose().lazyProduct(d.torque_motor);  // Kᵀ R_m⁻¹ C_m
   } else {
     for (int i = 0; i < na; ++i) {
       const double spring = m.stiffness_motor(i) * (d.qm(i) - m.ratio(i) * d.qa(i));
@@ -450,22 +469,22 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   d.Mt.noalias() += h * m.D;
   d.llt.compute(d.Mt);
   if (d.llt.info() != Eigen::Success) return Status::InvalidModel;
-  d.rhs.noalias() = d.M * d.v;
+  d.rhs.noalias() = d.M.lazyProduct(d.v);
   d.rhs += h * d.F;
   d.vfree = d.rhs;
-  d.llt.solveInPlace(d.vfree);
+  cholesky_solve_in_place(d.llt.matrixLLT(), d.vfree);
   if (m.n_sites > 0) {
     d.AGt = m.G.transpose();
-    d.llt.solveInPlace(d.AGt);
-    d.W.noalias() = m.G * d.AGt;
+    cholesky_solve_in_place(d.llt.matrixLLT(), d.AGt);
+    d.W.noalias() = m.G.lazyProduct(d.AGt);
     friction_bounds(m, d);
     d.pgs_iterations = solve_friction(m, d);
-    d.vfree.noalias() += d.AGt * d.p;
-    d.u.noalias() = m.G * d.vfree;
+    d.vfree.noalias() += d.AGt.lazyProduct(d.p);
+    d.u.noalias() = m.G.lazyProduct(d.vfree);
     d.dissipated -= d.u.dot(d.p);
   }
   // viscous dissipation and work done by the motors / external torques over the step
-  d.Dv.noalias() = m.D * d.vfree;
+  d.Dv.noalias() = m.D.lazyProduct(d.vfree);
   d.dissipated += h * d.vfree.dot(d.Dv);
   d.vm_prev = d.vm;
   for (int i = 0; i < na; ++i) {
