@@ -1,0 +1,77 @@
+"""The `tendyn` command: JSON contracts of `routing show` and `simulate`, errors, files written."""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from tendyn.cli import main
+from tendyn.io.logs import read_log, read_truth
+
+
+def run_cli(capsys, *argv):
+    code = main(list(argv))
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_routing_show_json_keys(capsys):
+    code, out, _ = run_cli(capsys, "routing", "show", "lexos", "--json")
+    assert code == 0
+    doc = json.loads(out)
+    for key in ("joint_from_motor_position", "motor_from_joint_position", "motor_from_joint_torque",
+                "joint_from_motor_torque", "K"):
+        assert np.asarray(doc[key]).shape == (4, 4), key
+    K = np.asarray(doc["K"])
+    np.testing.assert_allclose(np.asarray(doc["joint_from_motor_position"]) @ np.asarray(doc["motor_from_joint_position"]),
+                               np.eye(4), atol=1e-12)
+    assert K[0, 0] == pytest.approx(0.32)
+    assert doc["routing"][3]["radius_at_joint_m"][:3] == pytest.approx([0.015, -0.015, 0.015])
+
+
+def test_routing_show_text(capsys):
+    code, out, _ = run_cli(capsys, "routing", "show", "lexos")
+    assert code == 0 and "motor_from_joint_torque" in out and "L-EXOS" in out
+
+
+def test_bad_device_is_one_clear_error(capsys, tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("schema = 1\n[device]\nname = 3\n")
+    code, out, err = run_cli(capsys, "routing", "show", str(bad))
+    assert code == 2 and out == ""
+    assert "bad.toml" in err and "kinematics" in err and "missing" in err
+    code, _, err = run_cli(capsys, "routing", "show", "no_such_twin")
+    assert code == 2 and "lexos" in err
+
+
+def test_simulate_writes_log_and_truth_beside(capsys, tmp_path):
+    out_path = tmp_path / "bl.parquet"
+    code, out, _ = run_cli(capsys, "simulate", "lexos", "blocked-link", "--joint", "2", "--torque", "0.1",
+                           "--period", "0.5", "--cycles", "1", "--out", str(out_path), "--json", "--quiet")
+    assert code == 0
+    summary = json.loads(out)
+    assert summary["logs"][0]["log"] == str(out_path)
+    log = read_log(out_path)
+    assert log.meta["experiment"] == "blocked_link" and log.meta["device"] == "L-EXOS"
+    assert log.n_samples == 500 and "torque_motor_2" in log and "q_joint_1" not in log
+    truth = read_truth(out_path)
+    assert "routing" in truth
+    raw = out_path.read_bytes()
+    assert b"tau0" not in raw                        # the truth is beside the log, never inside
+    q = log.stack("q_motor_")
+    assert np.all(np.ptp(q, axis=0) == 0)            # L-EXOS cables are inextensible: blocked links, still motors
+    assert np.ptp(log["torque_motor_cmd_2"]) == pytest.approx(0.2, rel=0.05)
+
+
+def test_simulate_rejects_bad_output_suffix(capsys, tmp_path):
+    code, _, err = run_cli(capsys, "simulate", "lexos", "blocked-link", "--cycles", "1", "--period", "0.2",
+                           "--out", str(tmp_path / "x.txt"), "--quiet")
+    assert code == 2 and ".parquet or .csv" in err
+
+
+def test_console_script_runs():
+    res = subprocess.run([sys.executable, "-m", "tendyn.cli", "routing", "show", "lexos", "--json"],
+                         capture_output=True, text=True, check=True)
+    assert json.loads(res.stdout)["n"] == 4
