@@ -292,3 +292,62 @@ def _active_limits(device):
     joints = device.kinematics.joints
     act = [js for js in joints if getattr(js, "mu", None) in (None, 1) and getattr(js, "sigma", 0) != 2]
     return np.array([js.lower for js in act], float), np.array([js.upper for js in act], float)
+
+
+def joint_friction_trajectory(device, weights, speeds, travel: float = 0.6, accel: float = 4.0, q0=None,
+                              rate_hz: float = 10_000.0, control_hz: float = 1_000.0, log_rate_hz: float = 1_000.0,
+                              seed: int = 0, bandwidth_hz: float = 8.0, experiment: str = "joint_friction",
+                              progress=None) -> SimRun:
+    """Back-and-forth constant-velocity moves of a combination of active joints (joint-space PID).
+
+    weights : per active joint (1-based) → speed multiplier, e.g. {2: 1, 3: 1} moves joints 2 and 3
+        together; joints not listed are held still. speeds [rad/s], travel [rad] per stroke.
+    This is how S2 §V-C builds t1 (q̇5 = q̇2), t2 (q̇5 = 0) and t3 (q̇2 = 0) on the CEA branch."""
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    na = m.na
+    lo, hi = _active_limits(device)
+    q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
+    pos, vel = constant_velocity_profile(np.asarray(speeds, float), travel, accel, m.dt)
+    pos = pos - 0.5 * travel  # centre the strokes on q0
+    ref_q = np.tile(q0, (pos.size, 1))
+    ref_v = np.zeros((pos.size, na))
+    for j, w in weights.items():
+        if not 1 <= j <= na:
+            raise ValueError(f"active joint {j} does not exist ({na} active joints)")
+        ref_q[:, j - 1] += w * pos
+        ref_v[:, j - 1] = w * vel
+    m.mode = _core.ControlMode.JointPID
+    m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz)
+    m.velocity_cutoff_hz = 100.0
+    opts = dict(weights={str(k): float(v) for k, v in weights.items()}, speeds=list(map(float, speeds)),
+                travel=travel, accel=accel, q0=q0, rate_hz=rate_hz, control_hz=control_hz)
+    ref_q[:, :] = np.clip(ref_q, lo, hi)
+    return run_on_twin(device, m, ref_q[0], ref_q, ref_v, np.zeros_like(ref_q), None, seed=seed,
+                       experiment=experiment, options=opts, log_rate_hz=log_rate_hz, reference_space="joint",
+                       progress=progress)
+
+
+def cea_friction_trajectory(device, kind: str, speeds=(0.2, 0.4, 0.8), **kw) -> SimRun:
+    """S2 friction tests on the CEA branch (active joints q1, q2, q5 = active indices 1, 2, 3):
+    t1 — q̇5 = q̇2; t2 — q̇5 = 0; t3 — q̇2 = 0 (C34)."""
+    weights = {"t1": {2: 1.0, 3: 1.0}, "t2": {2: 1.0}, "t3": {3: 1.0}}
+    if kind not in weights:
+        raise ValueError(f"kind must be t1, t2 or t3 (got {kind!r})")
+    return joint_friction_trajectory(device, weights[kind], speeds, experiment=f"friction_{kind}", **kw)
+
+
+def swept_sine(device, transmission: int, amplitude: float, f0: float = 1.0, f1: float = 50.0,
+               duration: float = 10.0, q0=None, rate_hz: float = 10_000.0, seed: int = 0,
+               progress=None) -> SimRun:
+    """Linear chirp of motor torque [N·m] from f0 to f1 [Hz] on one transmission, torque mode, links free."""
+    m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz)
+    na = m.na
+    q = np.zeros(na) if q0 is None else np.asarray(q0, float)
+    n = int(round(duration * rate_hz))
+    t = np.arange(n) / rate_hz
+    ff = np.zeros((n, na))
+    ff[:, transmission - 1] = amplitude * np.sin(2 * np.pi * (f0 * t + 0.5 * (f1 - f0) / duration * t**2))
+    m.mode = _core.ControlMode.Torque
+    opts = dict(transmission=transmission, amplitude=amplitude, f0=f0, f1=f1, duration=duration, q0=q)
+    return run_on_twin(device, m, q, np.tile(q, (n, 1)), np.zeros((n, na)), ff, None, seed=seed,
+                       experiment="swept_sine", options=opts, log_rate_hz=rate_hz, progress=progress)
