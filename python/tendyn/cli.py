@@ -73,6 +73,14 @@ def cmd_demo(args) -> int:
     fig_path = out / "statics_with_losses.png"
     demo.plot(fig_path)
     atomic_write_text(out / "statics_with_losses.json", json.dumps(to_jsonable(demo.to_dict())))
+    sweep = None
+    if dev.transmissions and dev.n_joints >= 2:
+        from tendyn.pipelines.friction_sweep import friction_sweep
+
+        print(f"[demo] constant-velocity tests on the {dev.name} twin (S1, S2) …", file=sys.stderr)
+        sweep = friction_sweep(dev, transmission=1, q0=np.array([0.0, 0.3, 0.0, 0.8])[: dev.n_joints])
+        sweep.plot(out / "constant_velocity_tests.png")
+        atomic_write_text(out / "constant_velocity_tests.json", json.dumps(to_jsonable(sweep.to_dict())))
     if args.json:
         print(json.dumps({"device": dev.name, "figure": str(fig_path),
                           "data": str(out / "statics_with_losses.json")}))
@@ -84,6 +92,11 @@ def cmd_demo(args) -> int:
                   f"(lossless {s.motor_lossless[k]:+.4f}); back-driven at {-s.speed:+.1f} rad/s "
                   f"{s.motor_negative_speed[k]:+.4f} N·m")
         print(f"figure: {fig_path}")
+        if sweep is not None:
+            for name, (v, c) in sweep.points.items():
+                pairs = ", ".join(f"{vi:+.0f} rad/s: {ci:+.4f}" for vi, ci in zip(v, c))
+                print(f"{name}: mean motor-{sweep.transmission} torque [N·m] at {pairs}")
+            print(f"figure: {out / 'constant_velocity_tests.png'}")
     return 0
 
 

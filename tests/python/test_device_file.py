@@ -75,6 +75,15 @@ def mdh_dict() -> dict:
     return base
 
 
+CEA = bundled("cea_branch")
+
+
+def cea_dict() -> dict:
+    """The CEA branch twin (S2): mdh tree with a cut joint, parallelogram constraints and capstan drives."""
+    with CEA.open("rb") as fh:
+        return tomllib.load(fh)
+
+
 def write(tmp_path: Path, content, name: str = "lexos.toml") -> Path:
     p = tmp_path / name
     p.write_text(content if isinstance(content, str) else dumps(content), encoding="utf-8")
@@ -277,6 +286,48 @@ def test_mdh_loads(tmp_path):
     assert tool.sigma == 2 and tool.mass == 0.0 and not tool.actuated
     assert dev.kinematics.joints[1].antecedent == 1
     assert dev.routing_arrays()["K"].shape == (2, 3)
+
+
+def test_cea_branch_loads():
+    dev = load_device(CEA)
+    assert dev.kind == "serial" and dev.kinematics.convention == "mdh"
+    assert dev.transmissions == () and [d.joint for d in dev.drives] == [1, 2, 5]
+    assert [c.joint for c in dev.kinematics.constraints] == [3, 4, 6, 7]
+    c4 = dev.kinematics.constraints[1]
+    assert c4.terms == ((5, -1.0),) and c4.offset == pytest.approx(math.pi / 2)
+    d2 = dev.drives[1]
+    assert d2.ratio == 20.0 and d2.stiffness_motor == 2.0 and d2.servo_stiffness_motor == 2.0
+    assert d2.coulomb_joint == pytest.approx(0.1240) and d2.viscous_joint == pytest.approx(0.032)
+    assert d2.stiffness_joint == pytest.approx(800.0) and d2.total_stiffness_motor == pytest.approx(1.0)
+    assert d2.offset_joint == 0.02 and dev.drives[0].offset_joint == 0.0
+    assert dev.kinematics.joints[7].sigma == 2 and dev.kinematics.joints[7].d == pytest.approx(0.06)
+    assert dev.routing_arrays()["K"].shape == (0, 8)
+    assert load_device(LEXOS).drives == ()
+
+
+def test_drive_defaults(tmp_path):
+    d = cea_dict()
+    for key in ("damping_motor", "coulomb_motor", "viscous_motor", "offset_joint", "servo_stiffness_motor",
+                "name"):
+        del d["drives"][0][key]
+    d1 = load_device(write(tmp_path, d)).drives[0]
+    assert (d1.damping_motor, d1.coulomb_motor, d1.viscous_motor, d1.offset_joint) == (0.0, 0.0, 0.0, 0.0)
+    assert d1.servo_stiffness_motor is None and d1.total_stiffness_motor == 2.0 and d1.name == "drive1"
+
+
+def test_kind_tendon_bench_is_delegated(tmp_path):
+    import importlib.util
+
+    d = lexos_dict()
+    d["device"]["kind"] = "tendon_bench_2n"
+    path = write(tmp_path, d)
+    if importlib.util.find_spec("tendyn.device.tendon_bench") is None:
+        with pytest.raises(DeviceError, match="tendon bench support is not installed"):
+            load_device(path)
+    else:  # the bench loader owns the format: it must not be validated as a serial device here
+        with pytest.raises(Exception) as ei:
+            load_device(path)
+        assert "transmissions" not in str(ei.value) or type(ei.value) is DeviceError
 
 
 URDF = """<?xml version="1.0"?>
@@ -502,6 +553,55 @@ MALFORMED = [
      ["kinematics.joints[3].mu: must be 0 for a cut joint / fixed frame (sigma = 2)"]),
     ("mdh_drive_passive", _set("transmissions/1/joint", 3, base=mdh_dict),
      ["transmissions[2].joint: joint 3 (tool) is not actuated (mu = 0)"]),
+    # device kind, closed-loop constraints and elastic capstan drives (CEA branch, S2)
+    ("kind_unknown", _set("device/kind", "bench", base=cea_dict),
+     ["device.kind: must be one of 'serial', 'tendon_bench_2n' (got 'bench')"]),
+    ("mdh_actuated_massless", _set("kinematics/joints/0/mass", 0.0, base=cea_dict),
+     ["kinematics.joints[1].mass: must be > 0 (got 0.0) for an actuated joint"]),
+    ("constraint_on_active_joint", _set("kinematics/constraints/0/joint", 2, base=cea_dict),
+     ["kinematics.constraints[1].joint: joint 2 (arm) is actuated (mu = 1)"]),
+    ("constraint_on_cut_frame", _set("kinematics/constraints/0/joint", 8, base=cea_dict),
+     ["kinematics.constraints[1].joint: joint 8 (cut_closure) is a cut joint / fixed frame (sigma = 2)"]),
+    ("constraint_no_joint", _set("kinematics/constraints/0/joint", 9, base=cea_dict),
+     ["kinematics.constraints[1].joint: no joint 9: the device has 8 joints"]),
+    ("constraint_twice", _set("kinematics/constraints/2/joint", 3, base=cea_dict),
+     ["kinematics.constraints[3].joint: joint 3 (forearm) is constrained twice (also kinematics.constraints[1])"]),
+    ("constraint_missing", _edit(lambda d: d["kinematics"]["constraints"].pop(2), base=cea_dict),
+     ["kinematics.constraints: joint 6 (rod) is passive (mu = 0) and has no constraint"]),
+    ("constraint_term_passive", _set("kinematics/constraints/0/terms", {"3": 1.0}, base=cea_dict),
+     ["kinematics.constraints[1].terms.3: joint 3 (forearm) is not an active joint"]),
+    ("constraint_term_key", _set("kinematics/constraints/0/terms", {"q2": 1.0}, base=cea_dict),
+     ["kinematics.constraints[1].terms.q2: key must be an active joint number written as a string"]),
+    ("constraint_term_nan", _set("kinematics/constraints/0/terms", {"2": math.nan}, base=cea_dict),
+     ["kinematics.constraints[1].terms.2: must be finite (got nan)"]),
+    ("constraint_terms_empty", _set("kinematics/constraints/1/terms", {}, base=cea_dict),
+     ["kinematics.constraints[2].terms: must have at least one active-joint coefficient"]),
+    ("constraint_with_dh", _set("kinematics/constraints", [{"joint": 2, "terms": {"1": 1.0}}]),
+     ['kinematics.constraints: only allowed with convention = "mdh" (got convention = "dh")']),
+    ("drive_ratio_zero", _set("drives/0/ratio", 0.0, base=cea_dict), ["drives[1].ratio: must be > 0 (got 0.0)"]),
+    ("drive_stiffness_negative", _set("drives/1/stiffness_motor", -2.0, base=cea_dict),
+     ["drives[2].stiffness_motor: must be > 0 (got -2.0)"]),
+    ("drive_coulomb_negative", _set("drives/0/coulomb_motor", -0.01, base=cea_dict),
+     ["drives[1].coulomb_motor: must be >= 0 (got -0.01)"]),
+    ("drive_viscous_nan", _set("drives/2/viscous_motor", math.nan, base=cea_dict),
+     ["drives[3].viscous_motor: must be finite (got nan)"]),
+    ("drive_servo_negative", _set("drives/2/servo_stiffness_motor", -1.0, base=cea_dict),
+     ["drives[3].servo_stiffness_motor: must be >= 0 (got -1.0)"]),
+    ("drive_passive_joint", _set("drives/0/joint", 3, base=cea_dict),
+     ["drives[1].joint: joint 3 (forearm) is not actuated (mu = 0)"]),
+    ("drive_twice", _set("drives/1/joint", 1, base=cea_dict),
+     ["drives[2].joint: joint 1 is driven twice (also drives[1])"]),
+    ("drive_missing_joint", _edit(lambda d: d["drives"].pop(), base=cea_dict),
+     ["drives: joint 5 (lever) is not driven by any drive"]),
+    ("drive_missing_motor", _del("drives/0/motor", base=cea_dict), ["drives[1].motor: missing required field"]),
+    ("drive_motor_field", _set("drives/0/motor/torque_constant", 0.0, base=cea_dict),
+     ["drives[1].motor.torque_constant: must be > 0 (got 0.0)"]),
+    ("drives_and_transmissions", _edit(lambda d: d.update(transmissions=lexos_dict()["transmissions"][:1]),
+                                       base=cea_dict),
+     ["drives: not allowed together with [[transmissions]]"]),
+    ("neither_drives_nor_transmissions", _del("drives", base=cea_dict),
+     ["transmissions: missing required field", "[[drives]]"]),
+    ("no_drives", _set("drives", [], base=cea_dict), ["drives: must list at least one drive"]),
 ]
 
 
@@ -525,6 +625,7 @@ def test_malformed_device_file(tmp_path, case_id, content, fragments):
 
 def test_malformed_table_is_large_enough():
     assert len(MALFORMED) >= 18
+    assert sum(1 for c in MALFORMED if c[0].startswith(("constraint", "drive"))) >= 8
 
 
 def test_error_has_file_and_field_attributes(tmp_path):
@@ -551,7 +652,7 @@ def _leaves(obj, prefix=()):
 _JUNK = ["x", True, -1, 0, 0.0, 1e9, math.nan, -math.inf, [], [1, 2], {}, {"a": 1}]
 
 
-@pytest.mark.parametrize("base", [lexos_dict, mdh_dict], ids=["dh", "mdh"])
+@pytest.mark.parametrize("base", [lexos_dict, mdh_dict, cea_dict], ids=["dh", "mdh", "cea"])
 def test_every_mutation_gives_device_error_or_loads(tmp_path, base):
     """Replace or delete every field of a valid file in turn: the loader either accepts the file or raises a
     DeviceError, never another exception type (deterministic sweep, no randomness)."""

@@ -1,0 +1,85 @@
+"""Simulated constant-velocity sweeps of one L-EXOS transmission under S0's strategies S1 and S2.
+
+Runs the twin (sim.experiments.constant_velocity) and reads the log as an experimenter would: the
+mean measured motor torque over each constant-speed stroke, against the commanded motor speed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tendyn.sim import experiments as ex
+
+
+@dataclass
+class FrictionSweep:
+    device: str
+    transmission: int
+    points: dict = field(default_factory=dict)   # strategy -> (speeds [rad/s], mean torques [N·m])
+
+    def to_dict(self) -> dict:
+        return {"device": self.device, "transmission": self.transmission,
+                "points": {k: {"speed_motor_rad_s": v[0].tolist(), "torque_motor_Nm": v[1].tolist()}
+                           for k, v in self.points.items()}}
+
+    def plot(self, path=None):
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(5.6, 4.2))
+        for (name, (v, c)), marker in zip(self.points.items(), "os"):
+            ax.plot(v, c, marker, ms=6, label=f"strategy {name}")
+        ax.axhline(0, color="0.8", lw=0.8)
+        ax.axvline(0, color="0.8", lw=0.8)
+        ax.set_xlabel(f"motor {self.transmission} speed $\\dot q_m$ [rad/s]")
+        ax.set_ylabel(f"mean measured motor {self.transmission} torque [N·m]")
+        ax.set_title(f"{self.device}: constant-velocity tests, transmission {self.transmission}")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        if path is not None:
+            from io import BytesIO
+
+            from tendyn.io import atomic_write_bytes
+
+            buf = BytesIO()
+            fig.savefig(buf, format="png", dpi=130)
+            atomic_write_bytes(path, buf.getvalue())
+            plt.close(fig)
+        return fig
+
+
+def stroke_means(log, transmission: int, speeds, tol: float = 0.03):
+    """Mean measured motor torque while the commanded motor speed is ±v (cruise only)."""
+    prefix = "qd_motor_ref_" if f"qd_motor_ref_{transmission}" in log else "qd_ref_"
+    ref = log[f"{prefix}{transmission}"]
+    if prefix == "qd_ref_":  # joint-space references (S2): back to motor speed, other joints still
+        ratio = np.max(np.abs(speeds)) / np.max(np.abs(ref))
+        ref = ref * ratio
+    torque = log[f"torque_motor_{transmission}"]
+    v_out, c_out = [], []
+    for v in speeds:
+        for s in (v, -v):
+            sel = np.abs(ref - s) < tol * abs(s)
+            # drop the first 20 % of each cruise (PID transient)
+            idx = np.flatnonzero(sel)
+            if idx.size < 10:
+                continue
+            keep = idx[int(0.2 * idx.size):]
+            v_out.append(s)
+            c_out.append(float(torque[keep].mean()))
+    return np.array(v_out), np.array(c_out)
+
+
+def friction_sweep(device, transmission: int = 2, speeds=(2.0, 5.0, 10.0, 20.0), q0=None, seed: int = 0,
+                   progress=None) -> FrictionSweep:
+    out = FrictionSweep(device.name, transmission)
+    for strategy in ("S1", "S2"):
+        run = ex.constant_velocity(device, transmission, speeds, strategy=strategy, q0=q0, seed=seed,
+                                   progress=progress)
+        out.points[strategy] = stroke_means(run.log, transmission, speeds)
+    return out
