@@ -99,7 +99,10 @@ void expose_sim(nb::module_& m) {
   m.def(
       "sim_run",
       [](const M& mo, D& d, MatRef ref_q, MatRef ref_v, MatRef ff, MatRef ext, int log_every) {
-        if (log_every < 1) throw nb::value_error("sim_run: log_every must be >= 1");
+        if (log_every < 1 || log_every % mo.control_decimation != 0)
+          throw nb::value_error("sim_run: log_every must be a positive multiple of model.control_decimation");
+        if (d.step_count % mo.control_decimation != 0)
+          throw nb::value_error("sim_run: the data is between two control periods (run steps in whole periods)");
         const long rows = (ref_q.rows() + log_every - 1) / log_every;
         Eigen::VectorXd time(rows);
         RowMat qmm(rows, mo.na), tmm(rows, mo.na), tmc(rows, mo.na), qj(rows, mo.na), vj(rows, mo.na),

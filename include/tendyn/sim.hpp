@@ -108,7 +108,7 @@ struct SimModel {
 
   // Friction solver.
   int pgs_max_iterations = 200;
-  double pgs_tolerance = 1e-14;     ///< on the impulse change, relative to the largest bound
+  double pgs_tolerance = 1e-13;     ///< on the impulse change, relative to the largest impulse
 
   // ---- derived at finalize() ----
   int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
@@ -404,26 +404,28 @@ inline void update_tensions(const SimModel& m, SimData& d) {
 /// Projected Gauss–Seidel on the friction impulses p (warm-started). Returns the iterations used.
 inline int solve_friction(const SimModel& m, SimData& d) {
   const double h = m.dt;
-  double scale = 0.0;
+  bool any = false;
   for (int k = 0; k < m.n_sites; ++k) {
     d.lo(k) *= h; d.hi(k) *= h;
-    scale = std::max(scale, std::min(1e6, std::max(std::abs(d.lo(k)), std::abs(d.hi(k)))));
+    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
     d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
   }
-  if (scale == 0.0) return 0;  // no friction this step
+  if (!any) return 0;  // no friction this step
   d.u0.noalias() = m.G.lazyProduct(d.vfree);
   int it = 0;
   for (; it < m.pgs_max_iterations; ++it) {
-    double change = 0.0;
+    double change = 0.0, pmax = 0.0;
     for (int k = 0; k < m.n_sites; ++k) {
       const double Wkk = d.W(k, k);
       if (!(Wkk > 0.0) || (d.lo(k) == 0.0 && d.hi(k) == 0.0)) continue;
       const double uk = d.u0(k) + d.W.row(k).dot(d.p);
       const double pk = std::max(d.lo(k), std::min(d.hi(k), d.p(k) - uk / Wkk));
       change = std::max(change, std::abs(pk - d.p(k)));
+      pmax = std::max(pmax, std::abs(pk));
       d.p(k) = pk;
     }
-    if (change <= m.pgs_tolerance * std::max(scale, 1e-300)) { ++it; break; }
+    // converged when the impulses stop changing, relative to the largest one
+    if (change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
   }
   return it;
 }

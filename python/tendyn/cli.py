@@ -184,7 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--out", required=True, help="log file (.parquet or .csv); the truth goes beside it")
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--rate", type=float, default=10_000.0, help="integration rate [Hz] (1–20 kHz)")
-    sim.add_argument("--control-rate", type=float, default=1_000.0, help="controller/sensor rate [Hz]")
+    sim.add_argument("--control-rate", type=float, default=None,
+                     help="controller/sensor rate [Hz] (default 1 kHz for cable drives, 5 kHz for capstan drives)")
     sim.add_argument("--log-rate", type=float, default=1_000.0, help="log sampling rate [Hz]")
     sim.add_argument("--q0", type=_floats, help="initial active joint positions [rad], comma-separated")
     sim.add_argument("--transmission", type=int, default=1, help="1-based transmission (constant-velocity, stepped-sine)")

@@ -169,7 +169,7 @@ def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: f
 # ---- experiments ---------------------------------------------------------------------------------
 
 def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", travel: float = 20.0,
-                      accel: float = 200.0, q0=None, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
+                      accel: float = 200.0, q0=None, rate_hz: float = 10_000.0, control_hz: float | None = None,
                       log_rate_hz: float = 1_000.0, seed: int = 0, bandwidth_hz: float = 6.0, progress=None) -> SimRun:
     """Constant-velocity moves of one transmission (S0 §III-A) at several motor speeds.
 
@@ -219,7 +219,7 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
 
 def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
                         f_sin=(0.5, 1.1, 1.7), a_sin: float = 0.05, rate_hz: float = 5_000.0,
-                        control_hz: float = 1_000.0, log_rate_hz: float = 1_000.0, seed: int = 0,
+                        control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
                         bandwidth_hz: float = 8.0, progress=None) -> SimRun:
     """Triangular + sinusoidal joint trajectories (S2 §VI), clipped inside the joint limits, tracked
     by a joint-space PID. amplitude [rad] of the triangles; a_sin [rad] of each sine."""
@@ -246,7 +246,7 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
 
 
 def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.0, cycles: int = 3, q0=None,
-                 rate_hz: float = 10_000.0, control_hz: float = 1_000.0, log_rate_hz: float = 1_000.0,
+                 rate_hz: float = 10_000.0, control_hz: float | None = None, log_rate_hz: float = 1_000.0,
                  seed: int = 0, progress=None) -> SimRun:
     """Blocked-link test (S2 §V-C): every link blocked, triangular motor torque [N·m] on one motor;
     the motor rotates against the cable/capstan stiffness (and its friction: hysteresis)."""
@@ -295,7 +295,7 @@ def _active_limits(device):
 
 
 def joint_friction_trajectory(device, weights, speeds, travel: float = 0.6, accel: float = 4.0, q0=None,
-                              rate_hz: float = 10_000.0, control_hz: float = 1_000.0, log_rate_hz: float = 1_000.0,
+                              rate_hz: float = 10_000.0, control_hz: float | None = None, log_rate_hz: float = 1_000.0,
                               seed: int = 0, bandwidth_hz: float = 8.0, experiment: str = "joint_friction",
                               progress=None) -> SimRun:
     """Back-and-forth constant-velocity moves of a combination of active joints (joint-space PID).

@@ -20,19 +20,28 @@ def _active_map(device):
     return np.asarray(L, float), np.asarray(c, float)
 
 
-def sim_model(device, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
+def default_control_hz(device) -> float:
+    """Controller rate [Hz]: 1 kHz for cable drives (S0's servo), 5 kHz for capstan drives, whose light
+    rotors on the capstan spring need a faster collocated loop to damp the ~20 Hz link resonance."""
+    return 5_000.0 if getattr(device, "drives", ()) else 1_000.0
+
+
+def sim_model(device, rate_hz: float = 10_000.0, control_hz: float | None = None,
               friction: bool = True, sensors: bool = True) -> _core.SimModel:
     """The simulator model of ``device``.
 
     Parameters
     ----------
     rate_hz : integration rate [Hz] (1–20 kHz)
-    control_hz : controller and sensor rate [Hz]; rate_hz must be a multiple of it
+    control_hz : controller and sensor rate [Hz] (default: :func:`default_control_hz`); rate_hz must be
+        a multiple of it
     friction : False switches every friction source off (energy checks, FRFs)
     sensors : False gives ideal sensors (no quantisation, no current noise)
     """
     if not 1_000.0 <= rate_hz <= 20_000.0:
         raise ValueError(f"rate_hz must be within 1–20 kHz (got {rate_hz})")
+    if control_hz is None:
+        control_hz = default_control_hz(device)
     decim = rate_hz / control_hz
     if abs(decim - round(decim)) > 1e-9 or round(decim) < 1:
         raise ValueError(f"rate_hz ({rate_hz}) must be a multiple of control_hz ({control_hz})")
