@@ -135,7 +135,46 @@ def joint_frames(device) -> list[JointFrame]:
                 float(js.mass or 0.0), np.asarray(js.com if js.com is not None else (0, 0, 0), float),
                 inertia_matrix(js.inertia if js.inertia is not None else (0,) * 6)))
         return frames
+    if kin.convention == "urdf":
+        return _urdf_frames(device)
     raise NotImplementedError(f"rigid-body model for convention {kin.convention!r} is not built yet")
+
+
+_AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
+
+
+def _urdf_frames(device) -> list[JointFrame]:
+    """Joint frames of a URDF tree, read by Pinocchio's URDF parser (fixed joints merged into their
+    parent bodies by Pinocchio). One-DOF revolute/prismatic joints only: a continuous joint (two
+    coordinates in Pinocchio) or a floating base is refused with a clear message."""
+    import pinocchio as pin
+
+    from tendyn.device.schema import DeviceError
+
+    path = str(device.kinematics.urdf)
+    try:
+        model = pin.buildModelFromUrdf(path)
+    except Exception as exc:  # noqa: BLE001 — Pinocchio raises plain RuntimeError/ValueError
+        raise DeviceError(f"Pinocchio cannot build a model from {path}: {exc}",
+                          file=str(device.path), field="kinematics.urdf") from None
+    frames = []
+    for jid in range(1, model.njoints):
+        joint = model.joints[jid]
+        short = joint.shortname()
+        if joint.nq != 1 or joint.nv != 1:
+            raise DeviceError(f"joint {model.names[jid]!r} is a {short} with {joint.nq} coordinates; only one-DOF "
+                              "revolute or prismatic joints are supported (write a continuous joint as revolute "
+                              "with wide limits)", file=str(device.path), field="kinematics.urdf")
+        prismatic = short.startswith("JointModelP")
+        if short[-1] in _AXES and ("JointModelR" in short or "JointModelP" in short) and "Unaligned" not in short:
+            axis = np.array(_AXES[short[-1]])
+        else:
+            axis = np.asarray(joint.extract().axis, float)
+        inertia = model.inertias[jid]
+        frames.append(JointFrame(model.names[jid], int(model.parents[jid]), model.jointPlacements[jid].homogeneous,
+                                 axis, prismatic, float(inertia.mass), np.array(inertia.lever),
+                                 np.array(inertia.inertia)))
+    return frames
 
 
 @dataclass(frozen=True)
