@@ -113,6 +113,7 @@ struct SimModel {
   // ---- derived at finalize() ----
   int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
   int n_sites = 0;
+  bool identity_map = false;        ///< L = I and c = 0 (serial chain)
   Eigen::MatrixXd Gm;               ///< (na, na) motor velocity from joint velocity (tendon)
   Eigen::MatrixXd joint_from_motor; ///< (na, na) joint estimate from motor positions
   Eigen::MatrixXd motor_from_joint_torque;  ///< (na, na) control: C_m from τ_J (lossless)
@@ -171,6 +172,7 @@ inline Status SimModel::finalize() {
   fill(encoder_counts, 0.0); fill(current_noise, 0.0);
   fill(kp, 0.0); fill(kd, 0.0); fill(ki, 0.0);
   if (!(dt > 0.0) || control_decimation < 1) return Status::InvalidModel;
+  identity_map = L.rows() == na && L.isIdentity(0.0) && c.isZero(0.0);
 
   if (drive == DriveKind::Tendon) {
     if (tendon.n != na || is_error(tendon.validate())) return Status::InvalidModel;
@@ -418,7 +420,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
     for (int k = 0; k < m.n_sites; ++k) {
       const double Wkk = d.W(k, k);
       if (!(Wkk > 0.0) || (d.lo(k) == 0.0 && d.hi(k) == 0.0)) continue;
-      const double uk = d.u0(k) + d.W.row(k).dot(d.p);
+      const double uk = d.u0(k) + d.W.col(k).dot(d.p);  // W symmetric: contiguous column
       const double pk = std::max(d.lo(k), std::min(d.hi(k), d.p(k) - uk / Wkk));
       change = std::max(change, std::abs(pk - d.p(k)));
       pmax = std::max(pmax, std::abs(pk));
@@ -446,11 +448,16 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   pinocchio::crba(m.body.pin, d.body.pin, d.q_tree);
   d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
   pinocchio::nonLinearEffects(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
-  d.ML.noalias() = d.body.pin.M.lazyProduct(m.L);
   d.M = m.M_rotor;
-  d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
   d.F.setZero();
-  d.F.head(na).noalias() = -m.L.transpose().lazyProduct(d.body.pin.nle);
+  if (m.identity_map) {  // serial chain: no projection
+    d.M.topLeftCorner(na, na) += d.body.pin.M;
+    d.F.head(na) = -d.body.pin.nle;
+  } else {
+    d.ML.noalias() = d.body.pin.M.lazyProduct(m.L);
+    d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
+    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(d.body.pin.nle);
+  }
   for (int i = 0; i < na; ++i) d.F(i) += torque_ext(i) - m.offset_joint(i);
   if (m.drive == DriveKind::Tendon) {
     d.F.head(na).noalias() += m.Gm.transpose().lazyProduct(d.torque_motor);  // Kᵀ R_m⁻¹ C_m
