@@ -7,7 +7,7 @@ import numpy as np
 import pinocchio as pin
 
 from tendyn import _core
-from tendyn.device.rigid_body import dh_forward_kinematics, joint_frames, rigid_body_model
+from tendyn.device.rigid_body import dh_forward_kinematics, pinocchio_model, rigid_body_model
 
 
 def random_dh_device(rng, n):
@@ -27,15 +27,6 @@ def random_dh_device(rng, n):
     return SimpleNamespace(kinematics=SimpleNamespace(convention="dh", gravity=g, joints=tuple(joints)))
 
 
-def python_pinocchio_model(device):
-    model = pin.Model()
-    model.gravity.linear = np.asarray(device.kinematics.gravity, float)
-    for f in joint_frames(device):
-        jid = model.addJoint(f.parent, pin.JointModelRZ(), pin.SE3(f.placement[:3, :3], f.placement[:3, 3]), f.name)
-        model.appendBodyToJoint(jid, pin.Inertia(f.mass, f.com, f.inertia), pin.SE3.Identity())
-    return model
-
-
 def potential_energy(device, q):
     frames = dh_forward_kinematics(device, q)
     g = np.asarray(device.kinematics.gravity, float)
@@ -52,7 +43,7 @@ def test_cpp_gravity_matches_python_pinocchio_and_energy(rng):
         dev = random_dh_device(rng, n)
         cpp = rigid_body_model(dev)
         data = _core.RigidBodyData(cpp)
-        py = python_pinocchio_model(dev)
+        py = pinocchio_model(dev)
         pdata = py.createData()
         for _ in range(5):
             q = rng.uniform(-np.pi, np.pi, n)

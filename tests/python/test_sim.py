@@ -7,7 +7,7 @@ import pytest
 
 from tendyn import _core
 from tendyn.device import load_device
-from tendyn.device.rigid_body import joint_frames
+from tendyn.device.rigid_body import pinocchio_model
 from tendyn.devices import bundled
 from tendyn.sim.model import sim_model
 from tendyn.transmission import Transmission
@@ -18,21 +18,12 @@ def lexos():
     return load_device(bundled("lexos"))
 
 
-def python_pinocchio(device):
-    model = pin.Model()
-    model.gravity.linear = np.asarray(device.kinematics.gravity, float)
-    for f in joint_frames(device):
-        jid = model.addJoint(f.parent, pin.JointModelRZ(), pin.SE3(f.placement[:3, :3], f.placement[:3, 3]), f.name)
-        model.appendBodyToJoint(jid, pin.Inertia(f.mass, f.com, f.inertia), pin.SE3.Identity())
-    return model
-
-
 def test_forward_dynamics_matches_pinocchio(lexos, rng):
     """One frictionless step from random states: (v⁺ − v)/h equals the acceleration from Python
     Pinocchio's ABA with the rotor inertias reflected through the lossless routing (S0 eq. 5)."""
     m = sim_model(lexos, friction=False, sensors=False)
     d = _core.SimData(m)
-    py = python_pinocchio(lexos)
+    py = pinocchio_model(lexos)
     pdata = py.createData()
     tr = Transmission.from_device(lexos)
     Gm = tr.matrices()["motor_from_joint_position"]
@@ -170,7 +161,7 @@ def test_friction_in_the_loop_matches_the_statics(lexos):
     m = sim_model(lexos, sensors=False, rate_hz=10_000)
     tr = Transmission.from_device(lexos)
     q0 = np.array([0.0, 0.3, 0.2, 0.8])
-    py = python_pinocchio(lexos)
+    py = pinocchio_model(lexos)
     speed = np.array([0.5, 0.0, 0.0, 0.0])
     # hold joints 2–4 against gravity only through the moving cables: feedforward with losses
     tau = pin.rnea(py, py.createData(), q0, np.zeros(4), np.zeros(4))

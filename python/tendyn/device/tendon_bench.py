@@ -22,6 +22,7 @@ from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from .load import _typename
 from .schema import DeviceError
 
 __all__ = ["BENCH_FIELDS", "KIND", "TendonBench", "load_tendon_bench"]
@@ -128,22 +129,6 @@ class TendonBench:
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
-
-
-def _typename(v: Any) -> str:
-    if isinstance(v, bool):
-        return f"boolean {'true' if v else 'false'}"
-    if isinstance(v, int):
-        return f"integer {v}"
-    if isinstance(v, float):
-        return f"float {v!r}"
-    if isinstance(v, str):
-        return f"string {v!r}"
-    if isinstance(v, dict):
-        return "a table"
-    if isinstance(v, list):
-        return "an array"
-    return type(v).__name__
 
 
 def _unknown(key: str, known: tuple[str, ...] | list[str], fname: str, field: str) -> DeviceError:

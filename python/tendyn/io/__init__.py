@@ -1,6 +1,6 @@
 """Files in and out: atomic writes (nothing half-written), JSON of numpy results, experiment logs."""
 
-from tendyn.io.files import atomic_write_bytes, atomic_write_text, to_jsonable
+from tendyn.io.files import atomic_write_bytes, atomic_write_text, save_png, to_jsonable
 from tendyn.io.logs import (
     COLUMNS,
     Log,
@@ -19,6 +19,7 @@ __all__ = [
     "LogError",
     "atomic_write_bytes",
     "atomic_write_text",
+    "save_png",
     "make_log",
     "read_log",
     "read_truth",

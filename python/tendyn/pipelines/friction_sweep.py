@@ -42,14 +42,9 @@ class FrictionSweep:
         ax.legend()
         fig.tight_layout()
         if path is not None:
-            from io import BytesIO
+            from tendyn.io import save_png
 
-            from tendyn.io import atomic_write_bytes
-
-            buf = BytesIO()
-            fig.savefig(buf, format="png", dpi=130)
-            atomic_write_bytes(path, buf.getvalue())
-            plt.close(fig)
+            save_png(fig, path)
         return fig
 
 

@@ -69,14 +69,9 @@ class StaticsDemo:
             ax.legend(fontsize=7.5, loc="upper left")
         fig.tight_layout()
         if path is not None:
-            from io import BytesIO
+            from tendyn.io import save_png
 
-            from tendyn.io import atomic_write_bytes
-
-            buf = BytesIO()
-            fig.savefig(buf, format="png", dpi=130)
-            atomic_write_bytes(path, buf.getvalue())
-            plt.close(fig)
+            save_png(fig, path)
         return fig
 
 

@@ -13,6 +13,7 @@ import numpy as np
 import pinocchio as pin
 
 from tendyn import _core
+from tendyn.device.rigid_body import pinocchio_model
 from tendyn.io import to_jsonable
 from tendyn.io.logs import Log, make_log
 from tendyn.sim.model import sim_model
@@ -42,22 +43,11 @@ def device_truth(device) -> dict:
     return to_jsonable(out)
 
 
-def _pin_model(m: _core.SimModel, device):
-    from tendyn.device.rigid_body import joint_frames
-
-    model = pin.Model()
-    model.gravity.linear = np.asarray(device.kinematics.gravity, float)
-    for f in joint_frames(device):
-        jid = model.addJoint(f.parent, pin.JointModelRZ(), pin.SE3(f.placement[:3, :3], f.placement[:3, 3]), f.name)
-        model.appendBodyToJoint(jid, pin.Inertia(f.mass, f.com, f.inertia), pin.SE3.Identity())
-    return model
-
-
 def pid_gains(m: _core.SimModel, device, q0, bandwidth_hz: float = 4.0, zeta: float = 0.9,
               space: str = "joint", integral: bool = True):
     """PID gains that place each axis at ``bandwidth_hz`` with damping ``zeta`` on its own inertia
     (joint-space diagonal of Lᵀ M L + reflected rotors, or motor-space), at configuration q0."""
-    pm = _pin_model(m, device)
+    pm = pinocchio_model(device)
     L, c = np.array(m.L), np.array(m.c)
     Mt = pin.crba(pm, pm.createData(), L @ q0 + c)
     Mt = np.triu(Mt) + np.triu(Mt, 1).T
