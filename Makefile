@@ -21,7 +21,9 @@ $(STAMP): $(VPY) $(SOURCES)
 
 install: $(STAMP)
 
-test: install test-python test-cpp
+# C++ first: the Python tests compare the built C/C++ examples with the Python one.
+test: install test-cpp
+	TENDYN_REQUIRE_EXAMPLES=1 $(VPY) -m pytest tests/python -q
 
 test-python: install
 	$(VPY) -m pytest tests/python -q

@@ -1,0 +1,38 @@
+"""The numbered examples give the same numbers in C, C++ and Python (examples/)."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BUILT = REPO / "build" / "cpp" / "examples"
+
+
+def _numbers(text: str) -> np.ndarray:
+    line = next(ln for ln in text.splitlines() if ln.startswith("torque_motor"))
+    return np.array([float(x) for x in line.split()[1:]])
+
+
+def test_example_01_python_runs_and_matches_the_core():
+    out = subprocess.run([sys.executable, str(REPO / "examples/01_feedforward/feedforward.py")],
+                         capture_output=True, text=True, check=True).stdout
+    c = _numbers(out)
+    assert c.shape == (4,) and np.all(np.isfinite(c)) and c[0] > 0
+
+
+def test_example_01_same_numbers_in_c_cpp_python():
+    exes = [BUILT / "example_01_feedforward_c", BUILT / "example_01_feedforward_cpp"]
+    if not all(e.exists() for e in exes):
+        if os.environ.get("TENDYN_REQUIRE_EXAMPLES"):
+            pytest.fail(f"examples not built in {BUILT} (make test builds them first)")
+        pytest.skip("C/C++ examples not built (run `make test`)")
+    py = _numbers(subprocess.run([sys.executable, str(REPO / "examples/01_feedforward/feedforward.py")],
+                                 capture_output=True, text=True, check=True).stdout)
+    for exe in exes:
+        env = dict(os.environ, LD_LIBRARY_PATH=str(REPO / "build" / "cpp"))
+        native = _numbers(subprocess.run([str(exe)], capture_output=True, text=True, check=True, env=env).stdout)
+        np.testing.assert_allclose(native, py, rtol=1e-14, atol=0)
