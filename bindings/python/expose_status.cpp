@@ -8,7 +8,8 @@ void expose_status(nb::module_& m) {
       .value("SelfLocked", Status::SelfLocked)
       .value("NonFiniteInput", Status::NonFiniteInput)
       .value("SizeMismatch", Status::SizeMismatch)
-      .value("InvalidModel", Status::InvalidModel);
+      .value("InvalidModel", Status::InvalidModel)
+      .value("Diverged", Status::Diverged);
   m.def("status_message", &status_message, nb::arg("status"));
 }
 

@@ -24,7 +24,8 @@ typedef enum tendyn_status {
   TENDYN_NON_FINITE_INPUT = -1,
   TENDYN_SIZE_MISMATCH = -2,
   TENDYN_INVALID_MODEL = -3,
-  TENDYN_NULL_ARGUMENT = -4
+  TENDYN_DIVERGED = -4,        /* a simulation state became NaN or Inf */
+  TENDYN_NULL_ARGUMENT = -100  /* a required pointer is NULL (C ABI only) */
 } tendyn_status;
 
 typedef struct tendyn_transmission tendyn_transmission;

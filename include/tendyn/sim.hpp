@@ -506,6 +506,7 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
     }
   }
   motor_state(m, d);
+  if (!all_finite(d.va) || !all_finite(d.vm) || !all_finite(d.qa)) return Status::Diverged;
   for (int i = 0; i < na; ++i) d.work_motor += h * d.torque_motor(i) * d.vm(i);
   update_tensions(m, d);
   d.time += h;

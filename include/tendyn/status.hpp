@@ -18,6 +18,7 @@ enum class Status : int {
   NonFiniteInput = -1,   ///< an input was NaN or Inf
   SizeMismatch = -2,     ///< an input vector does not have the model's size
   InvalidModel = -3,     ///< the model is singular or inconsistent (caught at construction in Python)
+  Diverged = -4,         ///< a simulation state became NaN or Inf (step too large for the motion)
 };
 
 inline const char* status_message(Status s) {
@@ -27,6 +28,8 @@ inline const char* status_message(Status s) {
     case Status::NonFiniteInput: return "an input is NaN or Inf";
     case Status::SizeMismatch: return "an input vector does not have the model's size";
     case Status::InvalidModel: return "the model is singular or inconsistent";
+    case Status::Diverged:
+      return "the simulation diverged (a state is NaN or Inf): reduce the step or check the inputs";
   }
   return "unknown status";
 }

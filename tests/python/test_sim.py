@@ -174,3 +174,17 @@ def test_friction_in_the_loop_matches_the_statics(lexos):
     log = _run(m, d, steps, ff=np.tile(cm, (steps, 1)), log_every=10)
     v = log["qd_joint"][-50:]
     np.testing.assert_allclose(v.mean(axis=0), speed, atol=2e-3)
+
+
+def test_divergence_is_an_error_not_nan():
+    """A capstan spring far too stiff for the step (ω h ≫ 2) makes the explicit step blow up: the run
+    stops with a clear error instead of writing NaN."""
+    m = sim_model(load_device(bundled("cea_branch")), sensors=False, rate_hz=1_000, control_hz=1_000)
+    m.stiffness_motor = np.array(m.stiffness_motor) * 1e4
+    m.finalize()
+    d = _core.SimData(m)
+    q0 = np.array([0.0, 0.3, 1.2])
+    d.reset(q0, 0)
+    d.set_motor_position(np.array(m.ratio) * q0 + 0.01)
+    with pytest.raises(ValueError, match="diverged"):
+        _run(m, d, 20_000)
