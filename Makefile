@@ -39,6 +39,7 @@ test-cpp: install
 demo: install
 	$(VENV)/bin/tendyn routing show lexos
 	$(VENV)/bin/tendyn demo lexos --out out/demo
+	$(VENV)/bin/tendyn demo mcgill_bench --out out/demo
 
 bench: install
 	$(PIP) install -q mujoco

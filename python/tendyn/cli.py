@@ -68,6 +68,8 @@ def cmd_demo(args) -> int:
 
     dev = _load(args.device)
     out = Path(args.out)
+    if getattr(dev, "kind", "serial") == "tendon_bench_2n" or not hasattr(dev, "transmissions"):
+        return _demo_bench(dev, out, args.json)
     print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
     demo = statics_demo(dev)
     fig_path = out / "statics_with_losses.png"
@@ -164,6 +166,26 @@ def cmd_simulate(args) -> int:
         for w in written:
             print(f"{w['log']}: {w['n_samples']} samples, {w['duration_s']:.2f} s simulated (truth: {w['truth']})")
         print(f"wall {wall:.2f} s, {summary['simulated_s_per_wall_s']:.1f} simulated s per wall s")
+    return 0
+
+
+def _demo_bench(bench, out: Path, as_json: bool) -> int:
+    """Demo on a 2N tendon bench: open-loop FRF at several amplitudes vs the analytic plant (S1, C22)."""
+    from tendyn.io import atomic_write_text, to_jsonable
+    from tendyn.pipelines.bench_frf import bench_frf
+
+    print(f"[demo] stepped sines on the {bench.name} twin at 4 amplitudes …", file=sys.stderr)
+    frf = bench_frf(bench)
+    fig_path = out / "bench_frf_amplitudes.png"
+    frf.plot(fig_path)
+    atomic_write_text(out / "bench_frf_amplitudes.json", json.dumps(to_jsonable(frf.to_dict())))
+    peaks = frf.peaks_hz()
+    if as_json:
+        print(json.dumps({"device": bench.name, "figure": str(fig_path), "peak_hz": {str(a): f for a, f in peaks.items()}}))
+    else:
+        for a, f in peaks.items():
+            print(f"input {a:.2f} N: open-loop resonance peak at {f:.0f} Hz")
+        print(f"figure: {fig_path}")
     return 0
 
 

@@ -75,3 +75,13 @@ def test_console_script_runs():
     res = subprocess.run([sys.executable, "-m", "tendyn.cli", "routing", "show", "lexos", "--json"],
                          capture_output=True, text=True, check=True)
     assert json.loads(res.stdout)["n"] == 4
+
+
+def test_demo_on_the_tendon_bench_shows_the_peak_moving(capsys, tmp_path):
+    """C22 through the demo: the open-loop peak rises with input amplitude, inside 12–35 Hz."""
+    code, out, _ = run_cli(capsys, "demo", "mcgill_bench", "--out", str(tmp_path), "--json")
+    assert code == 0
+    doc = json.loads(out)
+    peaks = [f for _, f in sorted((float(a), f) for a, f in doc["peak_hz"].items())]
+    assert peaks == sorted(peaks) and peaks[-1] - peaks[0] >= 12 and 12 <= peaks[0] and peaks[-1] <= 35
+    assert (tmp_path / "bench_frf_amplitudes.png").stat().st_size > 10_000
