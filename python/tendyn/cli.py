@@ -109,7 +109,38 @@ def _floats(text: str) -> list[float]:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
 
 
-EXPERIMENTS = ("constant-velocity", "exciting", "blocked-link", "stepped-sine")
+EXPERIMENTS = ("constant-velocity", "exciting", "blocked-link", "stepped-sine", "swept-sine", "low-speed-loop")
+BENCH_EXPERIMENTS = ("stepped-sine", "swept-sine", "low-speed-loop")
+
+
+def _simulate_bench(bench, args, progress):
+    """Experiments on a 2N tendon bench: (log, truth) pairs."""
+    from tendyn.sim import tendon_bench as tb
+
+    rate = args.rate if args.rate != 10_000.0 else 20_000.0   # the bench's own default step
+    log_every = max(1, int(round(rate / args.log_rate))) if args.log_rate else 1
+    truth = bench.to_dict()
+    if args.experiment == "stepped-sine":
+        out = []
+        for k, f in enumerate(args.freqs):
+            n = int(round(args.cycles * rate / f))
+            u = args.torque * np.sin(2 * np.pi * f * (np.arange(n) + 0.5) / rate)
+            run = tb.simulate(bench, u, rate, args.seed)
+            out.append((tb.bench_log(bench, run, "stepped_sine", {"freq_hz": f, "amplitude_N": args.torque},
+                                     log_every), truth))
+            progress(k + 1, len(args.freqs))
+        return out
+    if args.experiment == "swept-sine":
+        res = tb.swept_sine(bench, f0_hz=min(args.freqs), f1_hz=max(args.freqs), duration_s=args.duration,
+                            amplitude_N=args.torque, rate_hz=rate, seed=args.seed)
+        opts = {"f0_hz": min(args.freqs), "f1_hz": max(args.freqs), "duration_s": args.duration,
+                "amplitude_N": args.torque}
+        return [(tb.bench_log(bench, res.run, "swept_sine", opts, log_every), truth)]
+    n = int(round(args.cycles / 0.2 * rate))
+    u = args.torque * np.sin(2 * np.pi * 0.2 * (np.arange(n) + 0.5) / rate)
+    run = tb.simulate(bench, u, rate, args.seed)
+    return [(tb.bench_log(bench, run, "low_speed_loop", {"freq_hz": 0.2, "amplitude_N": args.torque},
+                          log_every), truth)]
 
 
 def cmd_simulate(args) -> int:
@@ -132,7 +163,18 @@ def cmd_simulate(args) -> int:
 
     common = dict(rate_hz=args.rate, control_hz=args.control_rate, seed=args.seed, progress=progress)
     t0 = time.perf_counter()
-    if args.experiment == "constant-velocity":
+    is_bench = getattr(dev, "kind", "serial") == "tendon_bench_2n" or not hasattr(dev, "transmissions")
+    if is_bench and args.experiment not in BENCH_EXPERIMENTS:
+        print(f"tendyn: error: {dev.name} is a tendon bench: experiments {', '.join(BENCH_EXPERIMENTS)}",
+              file=sys.stderr)
+        return 2
+    if not is_bench and args.experiment == "low-speed-loop":
+        print(f"tendyn: error: low-speed-loop is an experiment of the tendon bench, not of {dev.name}",
+              file=sys.stderr)
+        return 2
+    if is_bench:
+        runs = [ex.SimRun(log, truth) for log, truth in _simulate_bench(dev, args, progress)]
+    elif args.experiment == "constant-velocity":
         runs = [ex.constant_velocity(dev, args.transmission, args.speeds, strategy=args.strategy, q0=q0,
                                      log_rate_hz=args.log_rate, **common)]
     elif args.experiment == "exciting":
@@ -140,6 +182,9 @@ def cmd_simulate(args) -> int:
     elif args.experiment == "blocked-link":
         runs = [ex.blocked_link(dev, args.joint, args.torque, period=args.period, cycles=args.cycles, q0=q0,
                                 log_rate_hz=args.log_rate, **common)]
+    elif args.experiment == "swept-sine":
+        runs = [ex.swept_sine(dev, args.transmission, args.torque, f0=min(args.freqs), f1=max(args.freqs),
+                              duration=args.duration, q0=q0, rate_hz=args.rate, seed=args.seed, progress=progress)]
     else:
         common["control_hz"] = args.rate
         runs = ex.stepped_sine(dev, args.transmission, args.freqs, args.torque, q0=q0, **common)
@@ -158,7 +203,8 @@ def cmd_simulate(args) -> int:
         written.append({"log": str(path), "truth": str(truth), "n_samples": run.log.n_samples,
                         "duration_s": float(run.log.time[-1] - run.log.time[0])})
     simulated = sum(w["duration_s"] for w in written)
-    summary = {"device": dev.name, "experiment": args.experiment, "seed": args.seed, "rate_hz": args.rate,
+    summary = {"device": dev.name, "experiment": args.experiment, "seed": args.seed,
+               "log_rate_hz": runs[0].log.meta["rate_hz"],
                "logs": written, "wall_s": wall, "simulated_s_per_wall_s": simulated / wall if wall else None}
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -213,9 +259,10 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--transmission", type=int, default=1, help="1-based transmission (constant-velocity, stepped-sine)")
     sim.add_argument("--strategy", choices=("S1", "S2"), default="S2", help="S0 identification strategy")
     sim.add_argument("--speeds", type=_floats, default=[2.0, 5.0, 10.0], help="motor speeds [rad/s]")
-    sim.add_argument("--duration", type=float, default=20.0, help="exciting trajectory length [s]")
+    sim.add_argument("--duration", type=float, default=20.0, help="exciting / swept-sine length [s]")
     sim.add_argument("--joint", type=int, default=1, help="1-based joint (blocked-link)")
-    sim.add_argument("--torque", type=float, default=0.1, help="motor torque amplitude [N·m]")
+    sim.add_argument("--torque", type=float, default=0.1,
+                     help="input amplitude: motor torque [N·m] on chains, force command [N] on a tendon bench")
     sim.add_argument("--period", type=float, default=2.0, help="triangle period [s] (blocked-link)")
     sim.add_argument("--cycles", type=int, default=3)
     sim.add_argument("--freqs", type=_floats, default=[1.0, 2.0, 5.0, 10.0], help="frequencies [Hz] (stepped-sine)")

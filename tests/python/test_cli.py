@@ -85,3 +85,18 @@ def test_demo_on_the_tendon_bench_shows_the_peak_moving(capsys, tmp_path):
     peaks = [f for _, f in sorted((float(a), f) for a, f in doc["peak_hz"].items())]
     assert peaks == sorted(peaks) and peaks[-1] - peaks[0] >= 12 and 12 <= peaks[0] and peaks[-1] <= 35
     assert (tmp_path / "bench_frf_amplitudes.png").stat().st_size > 10_000
+
+
+def test_simulate_on_the_tendon_bench(capsys, tmp_path):
+    out_path = tmp_path / "slow.parquet"
+    code, out, _ = run_cli(capsys, "simulate", "mcgill_bench", "low-speed-loop", "--torque", "0.31",
+                           "--cycles", "1", "--out", str(out_path), "--json", "--quiet")
+    assert code == 0
+    log = read_log(out_path)
+    assert list(log.columns) == ["time", "force_cmd", "force_tendon", "x_tendon"]
+    assert log.units["force_tendon"] == "N" and log.meta["rate_hz"] == 1000.0
+    # the dead-band: a 0.31 N input at 0.2 Hz gives a much smaller, clipped output (C21, C24)
+    assert np.ptp(log["force_tendon"]) < 0.8 * np.ptp(log["force_cmd"])
+    assert "friction_c0" in json.dumps(read_truth(out_path))
+    code, _, err = run_cli(capsys, "simulate", "mcgill_bench", "exciting", "--out", str(tmp_path / "x.parquet"))
+    assert code == 2 and "tendon bench" in err

@@ -312,3 +312,16 @@ def low_speed_loop(bench: TendonBench, freq_hz: float = 0.2, amplitude_N: float 
     sl = slice(n0, n1, max(1, int(decimate)))
     return LowSpeedLoop(run.time[sl], run.u[sl], run.force[sl], run.position[sl], float(freq_hz),
                         float(amplitude_N))
+
+
+def bench_log(bench: TendonBench, run: BenchRun, experiment: str, options: dict | None = None,
+              log_every: int = 1):
+    """The log a bench records (tendyn.io.logs schema): command, differential tendon force and tendon
+    displacement as sensed, every ``log_every`` steps. The truth (bench parameters) goes beside it."""
+    from tendyn.io.logs import make_log
+
+    sl = slice(log_every - 1, None, log_every)
+    cols = {"time": run.time[sl], "force_cmd": run.u[sl], "force_tendon": run.force[sl],
+            "x_tendon": run.position[sl]}
+    return make_log(cols, device=bench.name, rate_hz=run.rate_hz / log_every, seed=run.seed,
+                    experiment=experiment, options=options or {})
