@@ -140,7 +140,7 @@ struct SimData {
   Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
-  Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na, tmp_na2;
+  Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
   Eigen::MatrixXd tension;          ///< cable tension estimate at joint b after branch b [N]
   Eigen::VectorXd tension_motor;    ///< tension leaving each motor pulley [N]
   Eigen::VectorXd vm_prev;          ///< motor velocity at the previous step (rotor inertia share)
@@ -153,7 +153,8 @@ struct SimData {
   double dissipated = 0.0;          ///< energy taken by friction and damping [J]
 
   explicit SimData(const SimModel& m);
-  /// Set the state (velocities zero unless given) and reset sensors, controller, diagnostics.
+  /// Set the joint state (velocities zero) and reset sensors, controller, diagnostics. Motor positions
+  /// start at zero: for capstan drives set qm (e.g. N q0 for relaxed springs) after the reset.
   void reset(const Eigen::VectorXd& q0, std::uint64_t seed);
 };
 
@@ -263,7 +264,7 @@ inline SimData::SimData(const SimModel& m)
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
       q_est_prev(Eigen::VectorXd::Zero(m.na)), integral(Eigen::VectorXd::Zero(m.na)),
       v_motor_est(Eigen::VectorXd::Zero(m.na)), qm_meas_prev(Eigen::VectorXd::Zero(m.na)),
-      tmp_na(Eigen::VectorXd::Zero(m.na)), tmp_na2(Eigen::VectorXd::Zero(m.na)),
+      tmp_na(Eigen::VectorXd::Zero(m.na)),
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
       vm_prev(Eigen::VectorXd::Zero(m.na)) {}
 
@@ -436,7 +437,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
 template <class V1, class V2, class V3, class V4>
 inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref_v, const V3& ff,
                    const V4& torque_ext) {
-  const int na = m.na, nv = m.nv;
+  const int na = m.na;
   const double h = m.dt;
   motor_state(m, d);
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
@@ -511,7 +512,6 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   update_tensions(m, d);
   d.time += h;
   ++d.step_count;
-  (void)nv;
   return Status::Ok;
 }
 
