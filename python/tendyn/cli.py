@@ -35,6 +35,12 @@ def cmd_routing_show(args) -> int:
     from tendyn.transmission import Transmission
 
     dev = _load(args.device)
+    if not hasattr(dev, "transmissions"):
+        print(f"tendyn: error: {dev.name} is a tendon bench (one 2N channel): it has no routing to show",
+              file=sys.stderr)
+        return 2
+    if not dev.transmissions:
+        return _show_capstan_drives(dev, args.json)
     tr = Transmission.from_device(dev)
     M = tr.matrices()
     if args.json:
@@ -62,6 +68,63 @@ def cmd_routing_show(args) -> int:
     return 0
 
 
+def _show_capstan_drives(dev, as_json: bool) -> int:
+    """Capstan drives: one motor per active joint through ratio N, q_m = N q, C_m = τ_J / N."""
+    from tendyn.io import to_jsonable
+
+    N = np.array([d.ratio for d in dev.drives], float)
+    M = {"joint_from_motor_position": np.diag(1 / N), "motor_from_joint_position": np.diag(N),
+         "motor_from_joint_torque": np.diag(1 / N), "joint_from_motor_torque": np.diag(N), "K": np.diag(N)}
+    drives = [{"drive": d.name, "joint": d.joint, "ratio": d.ratio, "stiffness_motor_Nm_rad": d.stiffness_motor,
+               "coulomb_motor_Nm": d.coulomb_motor, "viscous_motor_Nms_rad": d.viscous_motor} for d in dev.drives]
+    if as_json:
+        print(json.dumps(to_jsonable({"device": dev.name, "n": len(N), "drives": drives, **M,
+                                      "units": {"K": "- (capstan ratio: q_m = K q)"}}), indent=2))
+        return 0
+    print(f"{dev.name}: {len(N)} capstan drives (motor i drives active joint i through ratio N)")
+    for d in drives:
+        print(f"  {d['drive']}: joint {d['joint']}, N = {d['ratio']:g}, K_T = {d['stiffness_motor_Nm_rad']:g} N·m/rad "
+              f"(motor side), Coulomb {d['coulomb_motor_Nm']:.4g} N·m, viscous {d['viscous_motor_Nms_rad']:.3g} N·m·s/rad")
+    for name, unit in (("joint_from_motor_position", "rad/rad"), ("motor_from_joint_torque", "N·m/N·m")):
+        print(_matrix_text(name, M[name], unit))
+    return 0
+
+
+def _demo_capstan(dev, out: Path, as_json: bool) -> int:
+    """Demo on a capstan device: blocked-link test, motor torque vs motor angle (stiffness + hysteresis)."""
+    from tendyn.io import save_png
+    from tendyn.sim import experiments as ex
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    print(f"[demo] blocked-link tests on the {dev.name} twin …", file=sys.stderr)
+    fig, ax = plt.subplots(figsize=(5.6, 4.2))
+    slopes = {}
+    for k, d in enumerate(dev.drives):
+        run = ex.blocked_link(dev, joint=k + 1, torque_amplitude=0.1, period=2.0, cycles=1)
+        qm = run.states["q_motor"][:, k] - run.states["q_motor"][0, k]
+        tau = run.log[f"torque_motor_cmd_{k + 1}"]
+        slopes[d.name] = float(np.polyfit(qm, tau, 1)[0])
+        ax.plot(qm * 1e3, tau, lw=1.2, label=f"{d.name}: slope {slopes[d.name]:.2f} N·m/rad")
+    ax.set_xlabel("motor angle [mrad] (links blocked)")
+    ax.set_ylabel("motor torque [N·m]")
+    ax.set_title(f"{dev.name}: capstan stiffness and friction hysteresis")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig_path = save_png(fig, out / "blocked_link.png")
+    if as_json:
+        print(json.dumps({"device": dev.name, "figure": str(fig_path), "stiffness_motor_Nm_rad": slopes}))
+    else:
+        for name, k in slopes.items():
+            print(f"{name}: torque/angle slope {k:.3f} N·m/rad (motor side)")
+        print(f"figure: {fig_path}")
+    return 0
+
+
 def cmd_demo(args) -> int:
     from tendyn.io import atomic_write_text, to_jsonable
     from tendyn.pipelines.statics_demo import statics_demo
@@ -70,6 +133,8 @@ def cmd_demo(args) -> int:
     out = Path(args.out)
     if getattr(dev, "kind", "serial") == "tendon_bench_2n" or not hasattr(dev, "transmissions"):
         return _demo_bench(dev, out, args.json)
+    if not dev.transmissions:
+        return _demo_capstan(dev, out, args.json)
     print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
     demo = statics_demo(dev)
     fig_path = out / "statics_with_losses.png"

@@ -100,3 +100,16 @@ def test_simulate_on_the_tendon_bench(capsys, tmp_path):
     assert "friction_c0" in json.dumps(read_truth(out_path))
     code, _, err = run_cli(capsys, "simulate", "mcgill_bench", "exciting", "--out", str(tmp_path / "x.parquet"))
     assert code == 2 and "tendon bench" in err
+
+
+def test_routing_show_and_demo_on_capstan_and_bench_devices(capsys, tmp_path):
+    code, out, _ = run_cli(capsys, "routing", "show", "cea_branch", "--json")
+    assert code == 0
+    doc = json.loads(out)
+    np.testing.assert_allclose(doc["motor_from_joint_position"], np.diag([20.0] * 3))
+    code, _, err = run_cli(capsys, "routing", "show", "mcgill_bench")
+    assert code == 2 and "no routing" in err
+    code, out, _ = run_cli(capsys, "demo", "cea_branch", "--out", str(tmp_path), "--json")
+    assert code == 0
+    slopes = json.loads(out)["stiffness_motor_Nm_rad"]
+    assert all(k == pytest.approx(2.0, rel=0.05) for k in slopes.values())   # K_T, S2 Table 2
