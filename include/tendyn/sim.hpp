@@ -136,7 +136,7 @@ struct SimData {
   Eigen::VectorXd qa, va;           ///< active joint position [rad] / velocity [rad/s] (truth)
   Eigen::VectorXd qm, vm;           ///< motor position / velocity (truth) [rad, rad/s]
   Eigen::VectorXd q_tree, v_tree;
-  Eigen::MatrixXd ML, M, Mt, AGt, W;
+  Eigen::MatrixXd ML, M, Mt, AGt, W;  // AGt holds Y = L⁻¹ Gᵀ
   Eigen::LLT<Eigen::MatrixXd> llt;
   Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
   // control and sensing
@@ -270,23 +270,36 @@ inline SimData::SimData(const SimModel& m)
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
       vm_prev(Eigen::VectorXd::Zero(m.na)) {}
 
-/// Solve (L Lᵀ) X = B in place, L the lower factor stored in `llt` (small sizes: plain loops,
+/// Forward substitution L Y = B in place, L the lower factor stored in `llt` (small sizes: plain loops,
 /// no blocking, no allocation).
 template <class Mat>
-inline void cholesky_solve_in_place(const Eigen::MatrixXd& llt, Mat& B) {
+inline void cholesky_forward_in_place(const Eigen::MatrixXd& llt, Mat& B) {
   const Eigen::Index n = llt.rows();
-  for (Eigen::Index c = 0; c < B.cols(); ++c) {
-    for (Eigen::Index i = 0; i < n; ++i) {  // L y = b
+  for (Eigen::Index c = 0; c < B.cols(); ++c)
+    for (Eigen::Index i = 0; i < n; ++i) {
       double s = B(i, c);
       for (Eigen::Index k = 0; k < i; ++k) s -= llt(i, k) * B(k, c);
       B(i, c) = s / llt(i, i);
     }
-    for (Eigen::Index i = n - 1; i >= 0; --i) {  // Lᵀ x = y
+}
+
+/// Back substitution Lᵀ X = Y in place.
+template <class Mat>
+inline void cholesky_backward_in_place(const Eigen::MatrixXd& llt, Mat& B) {
+  const Eigen::Index n = llt.rows();
+  for (Eigen::Index c = 0; c < B.cols(); ++c)
+    for (Eigen::Index i = n - 1; i >= 0; --i) {
       double s = B(i, c);
       for (Eigen::Index k = i + 1; k < n; ++k) s -= llt(k, i) * B(k, c);
       B(i, c) = s / llt(i, i);
     }
-  }
+}
+
+/// Solve (L Lᵀ) X = B in place.
+template <class Mat>
+inline void cholesky_solve_in_place(const Eigen::MatrixXd& llt, Mat& B) {
+  cholesky_forward_in_place(llt, B);
+  cholesky_backward_in_place(llt, B);
 }
 
 // ---- pieces of a step --------------------------------------------------------------------------
@@ -486,12 +499,15 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   d.vfree = d.rhs;
   cholesky_solve_in_place(d.llt.matrixLLT(), d.vfree);
   if (m.n_sites > 0) {
+    // Delassus W = G (L Lᵀ)⁻¹ Gᵀ = Yᵀ Y with Y = L⁻¹ Gᵀ (one triangular solve instead of two)
     d.AGt = m.G.transpose();
-    cholesky_solve_in_place(d.llt.matrixLLT(), d.AGt);
-    d.W.noalias() = m.G.lazyProduct(d.AGt);
+    cholesky_forward_in_place(d.llt.matrixLLT(), d.AGt);
+    d.W.noalias() = d.AGt.transpose().lazyProduct(d.AGt);
     friction_bounds(m, d);
     d.pgs_iterations = solve_friction(m, d);
-    d.vfree.noalias() += d.AGt.lazyProduct(d.p);
+    d.Dv.noalias() = d.AGt.lazyProduct(d.p);  // v⁺ = v_free + L⁻ᵀ (Y p)
+    cholesky_backward_in_place(d.llt.matrixLLT(), d.Dv);
+    d.vfree += d.Dv;
     d.u.noalias() = m.G.lazyProduct(d.vfree);
     d.dissipated -= d.u.dot(d.p);
   }
