@@ -502,7 +502,8 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
     // Delassus W = G (L Lᵀ)⁻¹ Gᵀ = Yᵀ Y with Y = L⁻¹ Gᵀ (one triangular solve instead of two)
     d.AGt = m.G.transpose();
     cholesky_forward_in_place(d.llt.matrixLLT(), d.AGt);
-    d.W.noalias() = d.AGt.transpose().lazyProduct(d.AGt);
+    for (int j = 0; j < m.n_sites; ++j)  // symmetric: lower half, mirrored; columns of Y are contiguous
+      for (int i = j; i < m.n_sites; ++i) d.W(j, i) = d.W(i, j) = d.AGt.col(i).dot(d.AGt.col(j));
     friction_bounds(m, d);
     d.pgs_iterations = solve_friction(m, d);
     d.Dv.noalias() = d.AGt.lazyProduct(d.p);  // v⁺ = v_free + L⁻ᵀ (Y p)
