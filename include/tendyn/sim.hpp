@@ -24,7 +24,6 @@
 #include <cmath>
 #include <cstdint>
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <pinocchio/algorithm/crba.hpp>
 #include <pinocchio/algorithm/energy.hpp>
@@ -136,8 +135,7 @@ struct SimData {
   Eigen::VectorXd qa, va;           ///< active joint position [rad] / velocity [rad/s] (truth)
   Eigen::VectorXd qm, vm;           ///< motor position / velocity (truth) [rad, rad/s]
   Eigen::VectorXd q_tree, v_tree;
-  Eigen::MatrixXd ML, M, Mt, AGt, W;  // AGt holds Y = L⁻¹ Gᵀ
-  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::MatrixXd ML, M, Mt, AGt, W;  // Mt: M + hD, then its Cholesky factor; AGt holds Y = L⁻¹ Gᵀ
   Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
@@ -256,7 +254,7 @@ inline SimData::SimData(const SimModel& m)
       q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
       ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), AGt(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
-      W(Eigen::MatrixXd::Zero(m.n_sites, m.n_sites)), llt(m.nv),
+      W(Eigen::MatrixXd::Zero(m.n_sites, m.n_sites)),
       F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
       vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), u0(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
@@ -270,36 +268,54 @@ inline SimData::SimData(const SimModel& m)
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
       vm_prev(Eigen::VectorXd::Zero(m.na)) {}
 
-/// Forward substitution L Y = B in place, L the lower factor stored in `llt` (small sizes: plain loops,
+/// Cholesky factor of a small SPD matrix in place (lower triangle; plain loops, no allocation).
+/// Returns false if the matrix is not positive definite.
+inline bool cholesky_in_place(Eigen::MatrixXd& A) {
+  const Eigen::Index n = A.rows();
+  for (Eigen::Index j = 0; j < n; ++j) {
+    double diag = A(j, j);
+    for (Eigen::Index k = 0; k < j; ++k) diag -= A(j, k) * A(j, k);
+    if (!(diag > 0.0)) return false;
+    A(j, j) = std::sqrt(diag);
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      double v = A(i, j);
+      for (Eigen::Index k = 0; k < j; ++k) v -= A(i, k) * A(j, k);
+      A(i, j) = v / A(j, j);
+    }
+  }
+  return true;
+}
+
+/// Forward substitution L Y = B in place, L the lower factor stored in `factor` (small sizes: plain loops,
 /// no blocking, no allocation).
 template <class Mat>
-inline void cholesky_forward_in_place(const Eigen::MatrixXd& llt, Mat& B) {
-  const Eigen::Index n = llt.rows();
+inline void cholesky_forward_in_place(const Eigen::MatrixXd& factor, Mat& B) {
+  const Eigen::Index n = factor.rows();
   for (Eigen::Index c = 0; c < B.cols(); ++c)
     for (Eigen::Index i = 0; i < n; ++i) {
       double s = B(i, c);
-      for (Eigen::Index k = 0; k < i; ++k) s -= llt(i, k) * B(k, c);
-      B(i, c) = s / llt(i, i);
+      for (Eigen::Index k = 0; k < i; ++k) s -= factor(i, k) * B(k, c);
+      B(i, c) = s / factor(i, i);
     }
 }
 
 /// Back substitution Lᵀ X = Y in place.
 template <class Mat>
-inline void cholesky_backward_in_place(const Eigen::MatrixXd& llt, Mat& B) {
-  const Eigen::Index n = llt.rows();
+inline void cholesky_backward_in_place(const Eigen::MatrixXd& factor, Mat& B) {
+  const Eigen::Index n = factor.rows();
   for (Eigen::Index c = 0; c < B.cols(); ++c)
     for (Eigen::Index i = n - 1; i >= 0; --i) {
       double s = B(i, c);
-      for (Eigen::Index k = i + 1; k < n; ++k) s -= llt(k, i) * B(k, c);
-      B(i, c) = s / llt(i, i);
+      for (Eigen::Index k = i + 1; k < n; ++k) s -= factor(k, i) * B(k, c);
+      B(i, c) = s / factor(i, i);
     }
 }
 
 /// Solve (L Lᵀ) X = B in place.
 template <class Mat>
-inline void cholesky_solve_in_place(const Eigen::MatrixXd& llt, Mat& B) {
-  cholesky_forward_in_place(llt, B);
-  cholesky_backward_in_place(llt, B);
+inline void cholesky_solve_in_place(const Eigen::MatrixXd& factor, Mat& B) {
+  cholesky_forward_in_place(factor, B);
+  cholesky_backward_in_place(factor, B);
 }
 
 // ---- pieces of a step --------------------------------------------------------------------------
@@ -492,22 +508,21 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   // (M + hD) v⁺ = M v + h F + Gᵀ p
   d.Mt = d.M;
   d.Mt.noalias() += h * m.D;
-  d.llt.compute(d.Mt);
-  if (d.llt.info() != Eigen::Success) return Status::InvalidModel;
+  if (!cholesky_in_place(d.Mt)) return Status::InvalidModel;  // singular inertia
   d.rhs.noalias() = d.M.lazyProduct(d.v);
   d.rhs += h * d.F;
   d.vfree = d.rhs;
-  cholesky_solve_in_place(d.llt.matrixLLT(), d.vfree);
+  cholesky_solve_in_place(d.Mt, d.vfree);
   if (m.n_sites > 0) {
     // Delassus W = G (L Lᵀ)⁻¹ Gᵀ = Yᵀ Y with Y = L⁻¹ Gᵀ (one triangular solve instead of two)
     d.AGt = m.G.transpose();
-    cholesky_forward_in_place(d.llt.matrixLLT(), d.AGt);
+    cholesky_forward_in_place(d.Mt, d.AGt);
     for (int j = 0; j < m.n_sites; ++j)  // symmetric: lower half, mirrored; columns of Y are contiguous
       for (int i = j; i < m.n_sites; ++i) d.W(j, i) = d.W(i, j) = d.AGt.col(i).dot(d.AGt.col(j));
     friction_bounds(m, d);
     d.pgs_iterations = solve_friction(m, d);
     d.Dv.noalias() = d.AGt.lazyProduct(d.p);  // v⁺ = v_free + L⁻ᵀ (Y p)
-    cholesky_backward_in_place(d.llt.matrixLLT(), d.Dv);
+    cholesky_backward_in_place(d.Mt, d.Dv);
     d.vfree += d.Dv;
     d.u.noalias() = m.G.lazyProduct(d.vfree);
     d.dissipated -= d.u.dot(d.p);
