@@ -143,6 +143,10 @@ class _Parser:
         self.fname = path.name
 
     # -- errors ----------------------------------------------------------------------------------------
+    def no_joint(self, field: str, number: int, n: int) -> DeviceError:
+        """The error for a joint number the device does not have."""
+        return self.err(field, f"no joint {number}: the device has {n} joint{'s' if n != 1 else ''}")
+
     def err(self, field: str | None, problem: str) -> DeviceError:
         return DeviceError(problem, file=self.fname, field=field or None)
 
@@ -361,7 +365,7 @@ class _Parser:
             f = self.table(item, path, CONSTRAINT_FIELDS)
             jn = f["joint"]
             if jn > n:
-                raise self.err(f"{path}.joint", f"no joint {jn}: the device has {n} joint{'s' if n != 1 else ''}")
+                raise self.no_joint(f"{path}.joint", jn, n)
             js = joints[jn - 1]
             if js.sigma == 2:
                 raise self.err(f"{path}.joint", f"joint {jn} ({js.name}) is a cut joint / fixed frame "
@@ -384,7 +388,7 @@ class _Parser:
                     raise self.err(tpath, f"key must be an active joint number written as a string, e.g. \"2\" "
                                           f"(got {key!r})")
                 if not 1 <= kn <= n:
-                    raise self.err(tpath, f"no joint {kn}: the device has {n} joint{'s' if n != 1 else ''}")
+                    raise self.no_joint(tpath, kn, n)
                 ks = joints[kn - 1]
                 if not ks.actuated or ks.sigma == 2:
                     raise self.err(tpath, f"joint {kn} ({ks.name}) is not an active joint (mu = 0): constraint "
@@ -529,7 +533,7 @@ class _Parser:
         name, joint = f["name"], f["joint"]
         n = kin.n_joints
         if joint > n:
-            raise self.err(f"{path}.joint", f"no joint {joint}: the device has {n} joint{'s' if n != 1 else ''}")
+            raise self.no_joint(f"{path}.joint", joint, n)
         js = kin.joints[joint - 1]
         if not js.actuated:
             raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
@@ -589,7 +593,7 @@ class _Parser:
             f = self.table(item, path, DRIVE_FIELDS)
             joint = f["joint"]
             if joint > n:
-                raise self.err(f"{path}.joint", f"no joint {joint}: the device has {n} joint{'s' if n != 1 else ''}")
+                raise self.no_joint(f"{path}.joint", joint, n)
             js = kin.joints[joint - 1]
             if not js.actuated:
                 raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
