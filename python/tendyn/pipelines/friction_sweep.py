@@ -70,8 +70,18 @@ def stroke_means(log, transmission: int, speeds, tol: float = 0.03):
     return np.array(v_out), np.array(c_out)
 
 
+BENT_POSE = (0.0, 0.3, 0.0, 0.8)
+"""Default start [rad]: shoulder flexed and elbow bent (L-EXOS joints 2 and 4), so that gravity loads
+the cables differently in S1 and S2; joints past the fourth start at 0."""
+
+
 def friction_sweep(device, transmission: int = 2, speeds=(2.0, 5.0, 10.0, 20.0), q0=None, seed: int = 0,
                    progress=None) -> FrictionSweep:
+    """S1 and S2 constant-velocity runs of one transmission (1-based) at motor speeds [rad/s] from q0
+    [rad] (default :data:`BENT_POSE`)."""
+    if q0 is None:
+        n = device.n_joints
+        q0 = np.concatenate([BENT_POSE, np.zeros(max(0, n - len(BENT_POSE)))])[:n]
     out = FrictionSweep(device.name, transmission)
     for strategy in ("S1", "S2"):
         run = ex.constant_velocity(device, transmission, speeds, strategy=strategy, q0=q0, seed=seed,

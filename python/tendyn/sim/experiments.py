@@ -123,10 +123,27 @@ def _run_chunked(m, d, ref_q, ref_v, ff, ext, log_every, progress, chunks: int =
 
 # ---- reference profiles --------------------------------------------------------------------------
 
+def constant_velocity_duration(speeds, travel: float = 20.0, accel: float = 200.0, dwell: float = 0.1) -> float:
+    """Length [s] of :func:`constant_velocity_profile` (to size a run before it starts)."""
+    total = 0.0
+    for v in speeds:
+        t_acc = v / accel
+        total += 2.0 * (2.0 * t_acc + max(travel - v * t_acc, 0.0) / v + dwell)
+    return total
+
+
+def _check_index(value, n: int, what: str) -> int:
+    """A 1-based index inside 1…n (so that 0 or -1 never wraps to the last entry)."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= n:
+        raise ValueError(f"{what} must be an integer in 1…{n} (got {value!r})")
+    return int(value)
+
+
 def constant_velocity_profile(speeds, travel: float, accel: float, dt: float, dwell: float = 0.1):
     """Back-and-forth moves at each constant speed (trapezoidal velocity): returns (pos, vel).
 
-    speeds [unit/s] > 0, travel [unit] per stroke, accel [unit/s²] for the ramps."""
+    speeds [unit/s] > 0, travel [unit] per stroke, accel [unit/s²] for the ramps; its length is
+    :func:`constant_velocity_duration`."""
     vel = []
     for v in speeds:
         t_acc = v / accel
@@ -175,9 +192,7 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
         raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
-    j = transmission - 1
-    if not 0 <= j < na:
-        raise ValueError(f"transmission {transmission} does not exist ({na} transmissions)")
+    j = _check_index(transmission, na, "transmission") - 1
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
     pos, vel = constant_velocity_profile(np.asarray(speeds, float), travel, accel, m.dt)
     n = pos.size
@@ -242,6 +257,7 @@ def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.
     the motor rotates against the cable/capstan stiffness (and its friction: hysteresis)."""
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
+    _check_index(joint, na, "joint")
     m.lock_joint = np.ones(na)
     m.finalize()
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
@@ -264,6 +280,7 @@ def stepped_sine(device, transmission: int, freqs_hz, amplitude: float, cycles: 
     for f in freqs_hz:
         m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
         na = m.na
+        _check_index(transmission, na, "transmission")
         q = np.zeros(na) if q0 is None else np.asarray(q0, float)
         n = int(round(cycles / f / m.dt))
         t = np.arange(n) * m.dt
@@ -332,6 +349,7 @@ def swept_sine(device, transmission: int, amplitude: float, f0: float = 1.0, f1:
     """Linear chirp of motor torque [N·m] from f0 to f1 [Hz] on one transmission, torque mode, links free."""
     m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz)
     na = m.na
+    _check_index(transmission, na, "transmission")
     q = np.zeros(na) if q0 is None else np.asarray(q0, float)
     n = int(round(duration * rate_hz))
     t = np.arange(n) / rate_hz

@@ -325,3 +325,46 @@ def bench_log(bench: TendonBench, run: BenchRun, experiment: str, options: dict 
             "x_tendon": run.position[sl]}
     return make_log(cols, device=bench.name, rate_hz=run.rate_hz / log_every, seed=run.seed,
                     experiment=experiment, options=options or {})
+
+
+LOW_SPEED_FREQ_HZ = 0.2
+"""Frequency [Hz] of the low-speed loop test (S1 Fig. 10b)."""
+
+
+def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float, rate_hz: float = 20000.0,
+                     log_rate_hz: float = 1000.0, seed: int = 0, freqs_hz: Sequence[float] | None = None,
+                     cycles: int | None = None, duration_s: float | None = None, progress=None) -> list:
+    """One experiment of ``tendyn simulate`` on a bench: a list of (log, truth) pairs.
+
+    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each of
+    ``freqs_hz``, one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``freqs_hz``
+    over ``duration_s`` (then 1 s of zero command); ``"low-speed-loop"``: ``cycles`` cycles at
+    :data:`LOW_SPEED_FREQ_HZ`. Logs sample every ``rate_hz / log_rate_hz`` steps (must be whole).
+    """
+    log_every = rate_hz / log_rate_hz
+    if abs(log_every - round(log_every)) > 1e-9 * log_every or round(log_every) < 1:
+        raise ValueError(f"log_rate_hz ({log_rate_hz:g}) must divide rate_hz ({rate_hz:g})")
+    log_every = int(round(log_every))
+    truth = bench.to_dict()
+
+    def sine_run(f: float, name: str):
+        n = int(round(cycles * rate_hz / f))
+        run = simulate(bench, _sine_command(amplitude_N, f, n, rate_hz), rate_hz, seed)
+        return bench_log(bench, run, name, {"freq_hz": f, "amplitude_N": amplitude_N, "cycles": cycles}, log_every)
+
+    if experiment == "stepped-sine":
+        out = []
+        for k, f in enumerate(freqs_hz):
+            out.append((sine_run(float(f), "stepped_sine"), truth))
+            if progress:
+                progress(k + 1, len(freqs_hz))
+        return out
+    if experiment == "swept-sine":
+        f0, f1 = float(min(freqs_hz)), float(max(freqs_hz))
+        res = swept_sine(bench, f0_hz=f0, f1_hz=f1, duration_s=duration_s, amplitude_N=amplitude_N,
+                         rate_hz=rate_hz, seed=seed)
+        opts = {"f0_hz": f0, "f1_hz": f1, "duration_s": duration_s, "amplitude_N": amplitude_N}
+        return [(bench_log(bench, res.run, "swept_sine", opts, log_every), truth)]
+    if experiment == "low-speed-loop":
+        return [(sine_run(LOW_SPEED_FREQ_HZ, "low_speed_loop"), truth)]
+    raise ValueError(f"unknown bench experiment {experiment!r}")
