@@ -79,14 +79,16 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     show.set_defaults(func=cmd_routing_show)
 
-    sim = sub.add_parser("simulate", help="run an experiment on a twin and write its log")
+    epilog = "experiments: " + "; ".join(f"{e.name} ({'tendon bench' if e.kind != 'serial' else 'chains'}): {e.help}"
+                                         for e in catalogue.EXPERIMENTS.values())
+    sim = sub.add_parser("simulate", help="run an experiment on a twin and write its log", epilog=epilog)
     sim.add_argument("device", help="device file (.toml) or bundled twin name")
     sim.add_argument("experiment", choices=catalogue.EXPERIMENT_NAMES)
     sim.add_argument("--out", required=True, help="log file (.parquet or .csv); the truth goes beside it")
     for name, opt in catalogue.OPTIONS.items():
         unit = f" [{opt.unit}]" if opt.unit not in ("-", "") else ""
         sim.add_argument(flag(name), type=_typed(name), default=None, help=opt.help + unit,
-                         metavar=name.upper())
+                         metavar=_metavar(opt))
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     sim.set_defaults(func=cmd_simulate)
@@ -97,6 +99,10 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--json", action="store_true")
     demo.set_defaults(func=cmd_demo)
     return p
+
+
+def _metavar(opt) -> str:
+    return {"floats": "X,…", "choice": "|".join(opt.choices), "int": "N", "seed": "N"}.get(opt.kind, "X")
 
 
 def _version() -> str:
