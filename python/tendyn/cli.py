@@ -242,9 +242,12 @@ def cmd_simulate(args) -> int:
 
 
 def _check_log_path(text: str) -> Path:
-    from tendyn.io.logs import check_log_path
+    from tendyn.io.logs import LogError, check_log_path
 
-    return check_log_path(text)
+    try:
+        return check_log_path(text)
+    except LogError as exc:
+        raise UsageError(str(exc), "out") from None
 
 
 def _write_run(log, truth, path: Path):

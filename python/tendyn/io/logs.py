@@ -601,9 +601,9 @@ def check_log_path(path) -> Path:
         ``path``.
     """
     path = Path(path)
-    _format(path)
     if path.is_dir():
         raise LogError("is a folder; give a file name ending in .parquet or .csv", file=str(path))
+    _format(path)
     parent = path.parent
     while not parent.exists() and parent.parent != parent:
         parent = parent.parent
