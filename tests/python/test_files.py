@@ -337,6 +337,19 @@ def test_copying_a_pair_keeps_it_a_pair(tmp_path):
     assert read_run(b)[1]["run_id"] == read_log(a).meta["run_id"]
 
 
+def test_read_truth_finds_the_run_id_of_a_hand_written_csv(tmp_path):
+    """read_truth reads only the meta line of a CSV log: after a BOM and other comment lines."""
+    path = tmp_path / "run.csv"
+    write_run(small_log(3), {"k": 1.0}, path)
+    run_id = read_log(path).meta["run_id"]
+    text = path.read_text(encoding="utf-8")
+    path.write_bytes(("\ufeff# written by hand\n" + text).encode("utf-8"))
+    assert read_truth(path)["run_id"] == run_id
+    path.write_bytes(("\ufeff# written by hand\n" + text.replace(run_id, "0" * 32)).encode("utf-8"))
+    with pytest.raises(LogError, match="vs 00000000… in the log"):
+        read_truth(path)
+
+
 def test_truth_without_its_log_reads(tmp_path):
     path = tmp_path / "run.csv"
     write_truth({"k": 1.0, "run_id": "f" * 32}, path)

@@ -976,7 +976,8 @@ def read_truth(log_path) -> dict:
     FileNotFoundError
         If there is no truth file (a measured log has none).
     LogError
-        If it is not a JSON object, or the log and the truth have different run ids (the message names both).
+        If it is not a JSON object, if the log's meta record cannot be read, or if the log and the truth have
+        different run ids (the message names both).
     """
     log_path = Path(log_path)
     p, truth = _load_truth(log_path)
