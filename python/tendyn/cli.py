@@ -135,10 +135,12 @@ def cmd_demo(args) -> int:
         return _demo_bench(dev, out, args.json)
     if not dev.transmissions:
         return _demo_capstan(dev, out, args.json)
+    from tendyn.io import save_png
+
     print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
     demo = statics_demo(dev)
     fig_path = out / "statics_with_losses.png"
-    demo.plot(fig_path)
+    save_png(demo.plot(), fig_path)
     atomic_write_text(out / "statics_with_losses.json", json.dumps(to_jsonable(demo.to_dict())))
     sweep = None
     if dev.transmissions and dev.n_joints >= 2:
@@ -146,7 +148,7 @@ def cmd_demo(args) -> int:
 
         print(f"[demo] constant-velocity tests on the {dev.name} twin (S1, S2) …", file=sys.stderr)
         sweep = friction_sweep(dev, transmission=1, q0=np.array([0.0, 0.3, 0.0, 0.8])[: dev.n_joints])
-        sweep.plot(out / "constant_velocity_tests.png")
+        save_png(sweep.plot(), out / "constant_velocity_tests.png")
         atomic_write_text(out / "constant_velocity_tests.json", json.dumps(to_jsonable(sweep.to_dict())))
     if args.json:
         print(json.dumps({"device": dev.name, "figure": str(fig_path),
@@ -200,7 +202,7 @@ def _simulate_bench(bench, args, progress):
                             amplitude_N=args.torque, rate_hz=rate, seed=args.seed)
         opts = {"f0_hz": min(args.freqs), "f1_hz": max(args.freqs), "duration_s": args.duration,
                 "amplitude_N": args.torque}
-        return [(tb.bench_log(bench, res.run, "swept_sine", opts, log_every), truth)]
+        return [(tb.bench_log(bench, res.runs[0], "swept_sine", opts, log_every), truth)]
     n = int(round(args.cycles / 0.2 * rate))
     u = args.torque * np.sin(2 * np.pi * 0.2 * (np.arange(n) + 0.5) / rate)
     run = tb.simulate(bench, u, rate, args.seed)
@@ -248,11 +250,12 @@ def cmd_simulate(args) -> int:
         runs = [ex.blocked_link(dev, args.joint, args.torque, period=args.period, cycles=args.cycles, q0=q0,
                                 log_rate_hz=args.log_rate, **common)]
     elif args.experiment == "swept-sine":
-        runs = [ex.swept_sine(dev, args.transmission, args.torque, f0=min(args.freqs), f1=max(args.freqs),
+        runs = [ex.swept_sine(dev, args.transmission, args.torque, f0_hz=min(args.freqs), f1_hz=max(args.freqs),
                               duration=args.duration, q0=q0, rate_hz=args.rate, seed=args.seed, progress=progress)]
     else:
         common["control_hz"] = args.rate
-        runs = ex.stepped_sine(dev, args.transmission, args.freqs, args.torque, q0=q0, **common)
+        runs = ex.stepped_sine(dev, args.transmission, omega=2 * np.pi * np.asarray(args.freqs), amplitude=args.torque,
+                               q0=q0, **common)
     wall = time.perf_counter() - t0
     bar.close()
 
@@ -282,13 +285,13 @@ def cmd_simulate(args) -> int:
 
 def _demo_bench(bench, out: Path, as_json: bool) -> int:
     """Demo on a 2N tendon bench: open-loop FRF at several amplitudes vs the analytic plant (S1, C22)."""
-    from tendyn.io import atomic_write_text, to_jsonable
+    from tendyn.io import atomic_write_text, save_png, to_jsonable
     from tendyn.pipelines.bench_frf import bench_frf
 
     print(f"[demo] stepped sines on the {bench.name} twin at 4 amplitudes …", file=sys.stderr)
     frf = bench_frf(bench)
     fig_path = out / "bench_frf_amplitudes.png"
-    frf.plot(fig_path)
+    save_png(frf.plot(), fig_path)
     atomic_write_text(out / "bench_frf_amplitudes.json", json.dumps(to_jsonable(frf.to_dict())))
     peaks = frf.peaks_hz()
     if as_json:
