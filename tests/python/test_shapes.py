@@ -165,6 +165,11 @@ def test_one_frequency_response_for_stepped_and_swept_bench_and_chain(lexos, res
         np.testing.assert_allclose(frf.freq_hz, frf.omega / (2 * math.pi))
         np.testing.assert_allclose(frf.magnitude, np.abs(frf.ratio))
         assert frf.peak_hz() == pytest.approx(frf.freq_hz[np.argmax(frf.magnitude)])
+    # the grids are rad/s: the swept sines span their (f0_hz, f1_hz) band
+    swept = results["swept"]
+    assert 5.0 < swept.freq_hz.min() < 6.0 and 29.0 < swept.freq_hz.max() < 30.0
+    assert 1.0 < chain_swept.freq_hz.min() < 2.0 and 7.0 < chain_swept.freq_hz.max() < 8.0
+    np.testing.assert_allclose(chain_stepped.omega, 2 * math.pi * np.array([2.0, 4.0]))
     # links free, torque in, motor angle out: inertia and damping, so the angle lags by more than 90°
     # and the magnitude falls with frequency
     assert np.all((chain_stepped.phase_deg < -90.0) & (chain_stepped.phase_deg > -180.0))
