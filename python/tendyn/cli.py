@@ -143,11 +143,10 @@ _MATRIX_UNITS = {"K": "m", "R_m": "m", "joint_from_motor_position": "rad/rad", "
 
 
 def cmd_routing_show(args) -> int:
-    from tendyn.sim.catalogue import device_kind
     from tendyn.transmission import Transmission
 
     dev = _load(args.device)
-    if device_kind(dev) != "serial":
+    if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a tendon bench (one 2N channel): it has no routing to show", "device")
     if not dev.transmissions:
         return _show_capstan_drives(dev, args.json)
@@ -275,11 +274,10 @@ def _check_out_folder(text: str) -> Path:
 
 def cmd_demo(args) -> int:
     from tendyn.io.files import all_or_none
-    from tendyn.sim.catalogue import device_kind
 
     dev = _load(args.device)
     out = _check_out_folder(args.out)
-    if device_kind(dev) != "serial":
+    if dev.kind != "serial":
         job = _demo_bench
     elif not dev.transmissions:
         job = _demo_capstan

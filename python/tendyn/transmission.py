@@ -142,9 +142,9 @@ class Transmission:
         _core.branch_displacements(self.model, self.data)
         return np.array(self.data.S)
 
-    def branch_velocities(self, qdot) -> np.ndarray:
-        """Branch velocities Ṡ[i, b] [m/s] at joint velocities q̇ [rad/s]."""
-        _core.velocities_from_joint(self.model, self.data, np.asarray(qdot, dtype=float))
+    def branch_velocities(self, qd) -> np.ndarray:
+        """Branch velocities Ṡ[i, b] [m/s] at joint velocities qd [rad/s]."""
+        _core.velocities_from_joint(self.model, self.data, np.asarray(qd, dtype=float))
         return np.array(self.data.Sdot)
 
     # ---- statics -----------------------------------------------------------------------------
@@ -154,8 +154,8 @@ class Transmission:
                              np.array(d.tension_motor), np.array(d.tension),
                              np.array(d.stuck, dtype=bool), np.array(d.self_locked, dtype=bool), status)
 
-    def feedforward(self, torque_joint, qdot=None, losses: bool = True) -> StaticsResult:
-        """Motor torques to command for joint torques wanted at joint velocity q̇ [rad/s].
+    def feedforward(self, torque_joint, qd=None, losses: bool = True) -> StaticsResult:
+        """Motor torques to command for joint torques wanted at joint velocity qd [rad/s].
 
         ``losses=False`` gives the lossless statics C_m = R_m K⁻ᵀ τ_J (S0 eq. 5, corrected).
         """
@@ -163,17 +163,17 @@ class Transmission:
         if not losses:
             status = _core.motor_torque_lossless(self.model, self.data, tj)
         else:
-            qd = np.zeros(self.n) if qdot is None else np.asarray(qdot, dtype=float)
+            qd = np.zeros(self.n) if qd is None else np.asarray(qd, dtype=float)
             status = _core.motor_torque_feedforward(self.model, self.data, tj, qd)
         return self._result(status)
 
-    def forward(self, torque_motor, qdot=None, losses: bool = True) -> StaticsResult:
-        """Joint torques delivered by motor torques [N·m] at joint velocity q̇ [rad/s]."""
+    def forward(self, torque_motor, qd=None, losses: bool = True) -> StaticsResult:
+        """Joint torques delivered by motor torques [N·m] at joint velocity qd [rad/s]."""
         tm = np.asarray(torque_motor, dtype=float)
         if not losses:
             status = _core.joint_torque_lossless(self.model, self.data, tm)
         else:
-            qd = np.zeros(self.n) if qdot is None else np.asarray(qdot, dtype=float)
+            qd = np.zeros(self.n) if qd is None else np.asarray(qd, dtype=float)
             status = _core.joint_torque_forward(self.model, self.data, tm, qd)
         return self._result(status)
 

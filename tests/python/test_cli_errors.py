@@ -233,3 +233,13 @@ def test_docs_list_every_option_and_experiment_as_declared():
     for (kind, name), exp in catalogue.EXPERIMENTS.items():
         line = next(ln for ln in text.splitlines() if ln.startswith(f"| {kind} | `{name}` |"))
         assert line.split("|")[3].strip() == ", ".join(f"`{flag(u)}`" for u in exp.uses)
+
+
+@pytest.mark.parametrize("name", ["lexos", "cea_branch", "mcgill_bench"])
+def test_catalogue_covers_exactly_the_experiments_each_device_kind_declares(name):
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+    from tendyn.sim import catalogue
+
+    dev = load_device(bundled(name))
+    assert set(dev.experiments) == {e.name for (k, _), e in catalogue.EXPERIMENTS.items() if k == dev.kind}

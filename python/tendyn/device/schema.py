@@ -17,9 +17,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
+
+from .base import Device
 
 SCHEMA_VERSION = 1
 """The schema version this package reads (``schema = 1`` at the top of the file)."""
@@ -467,7 +469,7 @@ class Sensors:
 
 
 @dataclass(frozen=True)
-class Transmission:
+class TransmissionSpec:
     """One cable from a motor to its driven joint.
 
     joint is the driven joint number (1-based); crosses are the (1-based) joints crossed on idle pulleys
@@ -566,24 +568,32 @@ BEARING_ARRAY_NAMES = ("count", "radius", "wrap", "alpha", "beta", "h0", "h1", "
 
 
 @dataclass(frozen=True, eq=False)
-class Device:
-    """A validated device description (see :func:`tendyn.device.load_device`).
+class SerialDevice(Device):
+    """A validated serial (or tree) device description (see :func:`tendyn.device.load_device`).
 
     name, description : str
     path : Path of the device file
     kinematics : :class:`Kinematics`
-    transmissions : tuple of :class:`Transmission`, sorted by driven joint (empty for a drive device)
+    transmissions : tuple of :class:`TransmissionSpec`, sorted by driven joint (empty for a drive device)
     drives : tuple of :class:`Drive`, sorted by driven joint (empty for a transmission device)
-    kind : "serial" (the only kind this loader builds; see ``DEVICE_KINDS``)
+    kind : "serial" (class attribute; see :class:`tendyn.device.base.Device`)
+    experiments : the experiments of a chain twin (class attribute)
     """
 
     name: str
     description: str
     path: Path
     kinematics: Kinematics
-    transmissions: tuple[Transmission, ...] = field(default_factory=tuple)
+    transmissions: tuple[TransmissionSpec, ...] = field(default_factory=tuple)
     drives: tuple[Drive, ...] = field(default_factory=tuple)
-    kind: str = "serial"
+    kind: ClassVar[str] = "serial"
+    experiments: ClassVar[tuple[str, ...]] = ("constant-velocity", "exciting", "blocked-link", "stepped-sine",
+                                              "swept-sine")
+
+    @property
+    def source(self) -> str:
+        """The device file, as text."""
+        return str(self.path)
 
     @property
     def n_joints(self) -> int:

@@ -1,34 +1,28 @@
-"""Build the C++ simulator model of a device (tendyn._core.SimModel) from its description."""
+"""Assemble the C++ simulator model of a device (tendyn._core.SimModel) from its compiled form.
+
+The rigid body, the active-coordinate map and the transmission come from
+:func:`tendyn.device.compile_device` (built once per device); this module only copies them into a new
+``SimModel`` per run and sets the run's rates, friction and sensors.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from tendyn import _core
-from tendyn.device.rigid_body import rigid_body_model
+from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.transmission import Transmission
 
 
-def _active_map(device):
-    """q_tree = L q_a + c: identity for a serial chain, the loop constraints for a closed one."""
-    try:
-        from tendyn.device.closed_loop import active_coordinate_map
-    except ImportError:  # closed loops not available: serial only
-        n = device.n_joints
-        return np.eye(n), np.zeros(n)
-    _, L, c = active_coordinate_map(device)
-    return np.asarray(L, float), np.asarray(c, float)
-
-
-def default_control_hz(device) -> float:
+def default_control_hz(device: Device | CompiledDevice) -> float:
     """Controller rate [Hz]: 1 kHz for cable drives (S0's servo), 5 kHz for capstan drives, whose light
     rotors on the capstan spring need a faster collocated loop to damp the ~20 Hz link resonance."""
-    return 5_000.0 if getattr(device, "drives", ()) else 1_000.0
+    return 5_000.0 if compile_device(device).device.drives else 1_000.0
 
 
-def sim_model(device, rate_hz: float = 10_000.0, control_hz: float | None = None,
+def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, control_hz: float | None = None,
               friction: bool = True, sensors: bool = True) -> _core.SimModel:
-    """The simulator model of ``device``.
+    """A new simulator model of ``device`` (a Device or its CompiledDevice; nothing is rebuilt).
 
     Parameters
     ----------
@@ -45,15 +39,17 @@ def sim_model(device, rate_hz: float = 10_000.0, control_hz: float | None = None
     decim = rate_hz / control_hz
     if abs(decim - round(decim)) > 1e-9 or round(decim) < 1:
         raise ValueError(f"rate_hz ({rate_hz}) must be a multiple of control_hz ({control_hz})")
+    compiled = compile_device(device)
+    device = compiled.device
     m = _core.SimModel()
-    m.body = rigid_body_model(device)
-    L, c = _active_map(device)
-    m.L, m.c = L, c
+    m.body = compiled.rigid_body          # copied into the SimModel
+    m.L, m.c = compiled.active_map
     m.dt = 1.0 / rate_hz
     m.control_decimation = int(round(decim))
-    drives = getattr(device, "drives", ())
+    drives = device.drives
     if device.transmissions:
-        tr = Transmission.from_device(device)
+        # the compiled transmission, or a private copy when the lines below switch its losses off
+        tr = compiled.transmission if friction else Transmission.from_device(device)
         if not friction:
             for name in ("tau0", "nu", "beta", "bearing_count"):
                 setattr(tr.model, name, np.zeros((tr.n, tr.n)))
