@@ -154,11 +154,11 @@ def test_stuck_node_state_in_data(bench):
     model = tb.bench_model(bench, RATE)
     data = _core.TendonBenchData(model, 0)
     for _ in range(100):
-        _core.tendon_bench_step(model, data, 0.5 * bench.friction_at_rest)
+        _core.step(model, data, 0.5 * bench.friction_at_rest)
     assert data.stuck_a and data.stuck_b and data.x_a == 0.0
     assert data.friction_a == pytest.approx(0.5 * bench.friction_at_rest)
     with pytest.raises(ValueError, match="NaN or Inf"):
-        _core.tendon_bench_step(model, data, float("nan"))
+        _core.step(model, data, float("nan"))
 
 
 def test_noise_deterministic(bench):

@@ -21,10 +21,11 @@ import pinocchio as pin
 
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.device.schema import TRANSMISSION_MODEL_FIELDS
 from tendyn.io import to_jsonable
 from tendyn.io.logs import Log, make_log
 from tendyn.results import FrequencyResponse
-from tendyn.sim.model import sim_model
+from tendyn.sim.model import run_log, sim_model
 
 
 @dataclass
@@ -41,8 +42,7 @@ def device_truth(device) -> dict:
     out = {"device": device.name}
     if device.transmissions:
         arr = device.routing_arrays()
-        out["routing"] = {k: arr[k] for k in ("motor_radius", "K", "reducer_ratio", "reducer_efficiency",
-                                             "tau0", "nu", "beta", "pretension")}
+        out["routing"] = {f.name: arr[f.name] for f in TRANSMISSION_MODEL_FIELDS}
     drives = getattr(device, "drives", ())
     if drives:
         out["drives"] = [{k: getattr(d, k) for k in ("joint", "ratio", "stiffness_motor", "damping_motor",
@@ -122,14 +122,13 @@ def run_on_twin(device: Device | CompiledDevice, m: _core.SimModel, q0, ref_q, r
 
 
 def _run_chunked(m, d, ref_q, ref_qd, ff, ext, log_every, progress, chunks: int = 40):
-    """sim_run over consecutive chunks (same state), so long runs can report progress."""
+    """run_log over consecutive chunks (same state), so long runs can report progress."""
     n = ref_q.shape[0]
     size = max(log_every, (n // chunks) // log_every * log_every) if progress else n
     parts = []
     for start in range(0, n, size):
         sl = slice(start, min(n, start + size))
-        parts.append(_core.sim_run(m, d, np.ascontiguousarray(ref_q[sl]), np.ascontiguousarray(ref_qd[sl]),
-                                   np.ascontiguousarray(ff[sl]), np.ascontiguousarray(ext[sl]), log_every))
+        parts.append(run_log(m, d, ref_q[sl], ref_qd[sl], ff[sl], ext[sl], log_every))
         if progress:
             progress(sl.stop, n)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}

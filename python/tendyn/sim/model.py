@@ -48,12 +48,7 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
     m.control_decimation = int(round(decim))
     drives = device.drives
     if device.transmissions:
-        # the compiled transmission, or a private copy when the lines below switch its losses off
-        tr = compiled.transmission if friction else Transmission.from_device(device)
-        if not friction:
-            for name in ("tau0", "nu", "beta", "bearing_count"):
-                setattr(tr.model, name, np.zeros((tr.n, tr.n)))
-            tr.model.reducer_efficiency = np.ones(tr.n)
+        tr = compiled.transmission if friction else Transmission.from_device(device, losses=False)
         m.drive = _core.DriveKind.Tendon
         m.tendon = tr.model
         motors = [t.motor for t in device.transmissions]
@@ -79,3 +74,35 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
         m.current_noise = np.array([s.current_noise for s in sens], float)
     m.finalize()
     return m
+
+
+LOG_FIELDS = ("time", "q_motor_meas", "torque_motor_meas", "torque_motor_cmd", "q_joint", "qd_joint", "q_motor",
+              "qd_motor")
+"""The channels :func:`tendyn._core.run` writes, in the order of the C++ ``SimLog`` fields."""
+
+
+def run_log(model: _core.SimModel, data: _core.SimData, ref_q, ref_v, ff, torque_ext, log_every: int) -> dict:
+    """Run ``len(ref_q)`` steps of the simulator and return its log as a dict of arrays.
+
+    Parameters
+    ----------
+    ref_q, ref_v, ff, torque_ext : (steps, na) references [rad, rad/s], feedforward motor torques [N·m],
+        external joint torques [N·m]
+    log_every : log one row every this many steps (a multiple of ``model.control_decimation``)
+
+    Returns
+    -------
+    dict
+        ``time`` (rows,) [s] and ``q_motor_meas``, ``torque_motor_meas``, ``torque_motor_cmd``, ``q_joint``,
+        ``qd_joint``, ``q_motor``, ``qd_motor`` (rows, na), rows = ceil(steps / log_every).
+    """
+    arrays = [np.ascontiguousarray(np.asarray(a, dtype=float)) for a in (ref_q, ref_v, ff, torque_ext)]
+    steps, na = arrays[0].shape[0], model.na
+    if int(log_every) < 1:
+        raise ValueError(f"log_every must be >= 1 (got {log_every})")
+    rows = (steps + int(log_every) - 1) // int(log_every)
+    out = {"time": np.empty(rows)}
+    for name in LOG_FIELDS[1:]:
+        out[name] = np.empty((rows, na))
+    _core.run(model, data, *arrays, int(log_every), *(out[k] for k in LOG_FIELDS))
+    return out

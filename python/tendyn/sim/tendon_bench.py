@@ -1,6 +1,6 @@
 """Experiments on the McGill 2N tendon bench twin (S1): stepped sine, swept sine, low-speed loop.
 
-The time stepping runs in C++ (:func:`tendyn._core.tendon_bench_run`, one call per experiment run, no
+The time stepping runs in C++ (:func:`tendyn._core.run`, one call per experiment run, no
 Python loop per step); this module builds command sequences and demodulates the outputs.
 
 Conventions
@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import _core
 from ..device import CompiledDevice, compile_device
-from ..device.tendon_bench import TendonBench
+from ..device.tendon_bench import BENCH_FIELDS, TendonBench
 from ..io.logs import make_log
 from ..results import FrequencyResponse, Result, format_table
 
@@ -53,12 +53,12 @@ def bench_model(bench: TendonBench | CompiledDevice, rate_hz: float = 20000.0) -
     if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
         raise ValueError(f"rate_hz must be a positive number (got {rate_hz!r})")
     m = _core.TendonBenchModel()
-    for name in ("ratio", "k1", "k2", "mass_motor", "damping_motor", "mass_load", "k_z", "pretension",
-                 "friction_c0", "friction_mu_tension", "amplifier_lag", "noise_force", "noise_position"):
-        setattr(m, name, float(getattr(bench, name)))
+    for name in BENCH_FIELDS:  # every file field; each write is validated by the core (ValueError names it)
+        value = getattr(bench, name)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise TypeError(f"TendonBench.{name} must be a number (got {type(value).__name__} {value!r})")
+        setattr(m, name, float(value))
     m.dt = 1.0 / float(rate_hz)
-    if m.validate() != _core.Status.Ok:
-        raise ValueError("invalid tendon bench parameters: " + _core.status_message(m.validate()))
     return m
 
 
@@ -96,7 +96,7 @@ def simulate(bench: TendonBench | CompiledDevice, u: Any, rate_hz: float = 20000
     data = _core.TendonBenchData(model, int(seed))
     n = u.size
     out = [np.empty(n) for _ in range(7)]
-    _core.tendon_bench_run(model, data, u, *out)
+    _core.run(model, data, u, *out)
     time = (np.arange(n) + 1.0) / float(rate_hz)
     return BenchRun(time, u, *out, rate_hz=float(rate_hz), seed=int(seed))
 
@@ -163,7 +163,7 @@ def stepped_sine(bench: TendonBench | CompiledDevice, *, omega: Sequence[float],
         u = _sine_command(amplitude_N, f, n1, rate_hz)
         data = _core.TendonBenchData(model, int(seed) + i)
         out = [np.empty(n1) for _ in range(7)]
-        _core.tendon_bench_run(model, data, u, *out)
+        _core.run(model, data, u, *out)
         force = out[0][n0:n1]
         t_end = (np.arange(n0, n1) + 1.0) * h  # outputs are the state at the end of each step
         kernel = np.exp(-2j * math.pi * f * t_end)
