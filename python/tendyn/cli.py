@@ -98,7 +98,21 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="out/demo", help="output folder [default: out/demo]")
     demo.add_argument("--json", action="store_true")
     demo.set_defaults(func=cmd_demo)
+    _register_commands(sub)
     return p
+
+
+def _register_commands(sub) -> None:
+    """The subcommands of :mod:`tendyn.commands`, one module each, found without a list to keep."""
+    import importlib
+    import pkgutil
+
+    import tendyn.commands as commands
+
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
+        module = importlib.import_module(f"tendyn.commands.{info.name}")
+        if hasattr(module, "register"):
+            module.register(sub)
 
 
 def _metavar(opt) -> str:
