@@ -100,21 +100,21 @@ tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const double* q, d
 }
 
 tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
-                                              const double* qdot, double* torque_motor) {
-  if (!t || !torque_joint || !qdot || !torque_motor) return TENDYN_NULL_ARGUMENT;
+                                              const double* qd, double* torque_motor) {
+  if (!t || !torque_joint || !qd || !torque_motor) return TENDYN_NULL_ARGUMENT;
   const int n = t->model.n;
   const tendyn::Status s =
-      tendyn::motor_torque_feedforward(t->model, t->data, CVecMap(torque_joint, n), CVecMap(qdot, n));
+      tendyn::motor_torque_feedforward(t->model, t->data, CVecMap(torque_joint, n), CVecMap(qd, n));
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = t->data.torque_motor;
   return to_c(s);
 }
 
 tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
-                                          const double* qdot, double* torque_joint) {
-  if (!t || !torque_motor || !qdot || !torque_joint) return TENDYN_NULL_ARGUMENT;
+                                          const double* qd, double* torque_joint) {
+  if (!t || !torque_motor || !qd || !torque_joint) return TENDYN_NULL_ARGUMENT;
   const int n = t->model.n;
   const tendyn::Status s =
-      tendyn::joint_torque_forward(t->model, t->data, CVecMap(torque_motor, n), CVecMap(qdot, n));
+      tendyn::joint_torque_forward(t->model, t->data, CVecMap(torque_motor, n), CVecMap(qd, n));
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_joint, n) = t->data.torque_joint;
   return to_c(s);
 }

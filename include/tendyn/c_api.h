@@ -67,10 +67,10 @@ TENDYN_API tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const d
 
 /* Feedforward: joint torques wanted + joint velocity -> motor torques to command (with losses). */
 TENDYN_API tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
-                                                         const double* qdot, double* torque_motor);
+                                                         const double* qd, double* torque_motor);
 /* Forward: motor torques + joint velocity -> joint torques delivered (with losses). */
 TENDYN_API tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
-                                                     const double* qdot, double* torque_joint);
+                                                     const double* qd, double* torque_joint);
 
 TENDYN_API const char* tendyn_status_message(tendyn_status s);
 
