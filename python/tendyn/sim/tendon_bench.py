@@ -331,12 +331,12 @@ LOW_SPEED_FREQ_HZ = 0.2
 
 
 def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float, rate_hz: float = 20000.0,
-                     log_rate_hz: float = 1000.0, seed: int = 0, freqs_hz: Sequence[float] | None = None,
+                     log_rate_hz: float = 1000.0, seed: int = 0, omega: Sequence[float] | None = None,
                      cycles: int | None = None, duration_s: float | None = None, progress=None) -> list:
     """One experiment of ``tendyn simulate`` on a bench: a list of (log, truth) pairs.
 
-    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each of
-    ``freqs_hz``, one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``freqs_hz``
+    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each frequency
+    of ``omega`` [rad/s], one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``omega``
     over ``duration_s`` (then 1 s of zero command); ``"low-speed-loop"``: ``cycles`` cycles at
     :data:`LOW_SPEED_FREQ_HZ`. Logs sample every ``rate_hz / log_rate_hz`` steps (must be whole).
     """
@@ -353,13 +353,14 @@ def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float,
 
     if experiment == "stepped-sine":
         out = []
+        freqs_hz = np.asarray(omega, float) / (2.0 * math.pi)
         for k, f in enumerate(freqs_hz):
             out.append((sine_run(float(f), "stepped_sine"), truth))
             if progress:
                 progress(k + 1, len(freqs_hz))
         return out
     if experiment == "swept-sine":
-        f0, f1 = float(min(freqs_hz)), float(max(freqs_hz))
+        f0, f1 = float(min(omega)) / (2.0 * math.pi), float(max(omega)) / (2.0 * math.pi)
         res = swept_sine(bench, f0_hz=f0, f1_hz=f1, duration_s=duration_s, amplitude_N=amplitude_N,
                          rate_hz=rate_hz, seed=seed)
         opts = {"f0_hz": f0, "f1_hz": f1, "duration_s": duration_s, "amplitude_N": amplitude_N}
