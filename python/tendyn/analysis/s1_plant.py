@@ -224,7 +224,8 @@ def sensitivity(params: Any = None, *, omega, which=PARAMETERS, **grid) -> dict:
     -----
     G = k_e Q / D with P = m1 s² + c1 s, Q = I_c s² + k_z, D = P (Q + k_e) + k_e Q. Logarithmic derivatives:
     ∂ln G/∂k_e = 1/k_e − (P + Q)/D, ∂ln G/∂k_z = 1/Q − (P + k_e)/D, ∂ln G/∂I_c = s²/Q − s² (P + k_e)/D,
-    ∂ln G/∂m1 = −s² (Q + k_e)/D, ∂ln G/∂c1 = −s (Q + k_e)/D. Chain rule: S_IM = m1 ∂ln G/∂m1,
+    ∂ln G/∂m1 = −s² (Q + k_e)/D, ∂ln G/∂c1 = −s (Q + k_e)/D; the first three are evaluated in their
+    cancellation-free forms k_e ∂ln G/∂k_e = P Q/D, 1/Q − (P + k_e)/D = k_e P/(Q D). Chain rule: S_IM = m1 ∂ln G/∂m1,
     S_B = c1 ∂ln G/∂c1, S_r = 2 (S_IM + S_B), S_k1 = S_ke k2/(k1 + k2), S_k2 = S_ke k1/(k1 + k2)
     (S1 eq. 4, corrected: ERRATA).
     """
@@ -250,18 +251,17 @@ def sensitivity(params: Any = None, *, omega, which=PARAMETERS, **grid) -> dict:
         if "r" in need:
             out["r"] = 2.0 * (s_im + s_b)
     if need & {"k1", "k2"}:
-        s_ke = 1.0 - ke * (P + Q) * inv_d
+        s_ke = P * Q * inv_d          # = 1 − k_e (P + Q)/D, without the cancellation at low frequency
         if "k1" in need:
             out["k1"] = s_ke * (k2 / (k1 + k2))
         if "k2" in need:
             out["k2"] = s_ke * (k1 / (k1 + k2))
     if need & {"k_z", "I_c"}:
-        pk = (P + ke) * inv_d
-        inv_q = 1.0 / Q
+        common = ke * P * inv_d / Q   # = 1/Q − (P + k_e)/D
         if "k_z" in need:
-            out["k_z"] = k_z * (inv_q - pk)
+            out["k_z"] = k_z * common
         if "I_c" in need:
-            out["I_c"] = I_c * s2 * (inv_q - pk)
+            out["I_c"] = I_c * s2 * common
     return {n: out[n] for n in which}
 
 
@@ -368,6 +368,14 @@ class RatioTradeoff(Result):
     _panels = 4
     _figsize = (3.6, 3.2)
 
+    I_M: float = 0.0
+    k_e: float = 0.0
+
+    def r_resonance(self) -> float:
+        """r at which the stiff-load resonance sqrt(k_e/(r² I_M)) equals ``freq_hz``: above it the drive is
+        inertia-dominated at that frequency and effort/friction grows like r²."""
+        return math.sqrt(self.k_e / self.I_M) / (2 * math.pi * self.freq_hz)
+
     def r_saturation(self) -> float:
         """Smallest r of the grid above the torque minimum where the band torque exceeds τ_max (nan if none)."""
         k0 = int(np.argmin(self.torque_Nm))
@@ -399,7 +407,7 @@ class RatioTradeoff(Result):
 
     def to_dict(self) -> dict:
         return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()} | {
-            "r_saturation": self.r_saturation(), "note": "S1 eq. 3 is dimensionally wrong (ERRATA); not used"}
+            "r_saturation": self.r_saturation(), "r_resonance": self.r_resonance(), "note": "S1 eq. 3 is dimensionally wrong (ERRATA); not used"}
 
     def table(self) -> str:
         idx = np.unique(np.linspace(0, self.r.size - 1, 8).round().astype(int))
@@ -425,4 +433,4 @@ def ratio_tradeoff(params: Any = None, *, r=None, output_N: float = 1.0, freq_hz
         g0[k] = abs(g[0])
     mass = r**2 * p.I_M
     return RatioTradeoff(r, effort, effort / friction_N, torque, r * torque_max_Nm * g0, mass, mass / (1 + loop_gain),
-                         float(torque_max_Nm), float(freq_hz), float(loop_gain))
+                         float(torque_max_Nm), float(freq_hz), float(loop_gain), float(p.I_M), float(p.k_e))
