@@ -318,3 +318,53 @@ def test_C28_closed_loop_spread_within_1_db_and_loop_area_near_zero(s1_json):
 def test_C27_80_hz_target_breaks_robust_performance_and_amplifies_noise_above_40_hz(s1_json):
     assert s1_json["robust_performance_exact_inverse_80hz"] > 1.0 > s1_json["robust_performance_exact_inverse"]
     assert s1_json["noise_amplification_db"] > 3.0
+
+
+# ---- 8. design sweeps -----------------------------------------------------------------------------------
+
+def test_sweep_param_grammar_and_grid():
+    from tendyn.pipelines.sweep import design_grid, parse_param
+
+    name, g = parse_param("k1=1e3:1e6:4")
+    assert name == "k1" and np.allclose(g, [1e3, 1e4, 1e5, 1e6])           # log-spaced over > 1 decade
+    assert np.allclose(parse_param("friction_c0=0.1:0.2:3")[1], [0.1, 0.15, 0.2])
+    for bad in ("k1", "k1=1:2", "k1=2:1:3", "k1=a:2:3", "k1=1:2:0"):
+        with pytest.raises(ValueError):
+            parse_param(bad)
+    assert len(design_grid({"a": [1, 2], "b": [3, 4, 5]})) == 6
+
+
+def test_sweep_design_point_shows_the_C22_peak_shift_with_friction_only(bench):
+    from tendyn.pipelines.sweep import evaluate_design
+
+    fields = {k: v for k, v in bench.to_dict().items() if k not in ("name", "description", "source")}
+    freqs = list(np.arange(12.0, 34.0, 2.0))
+    with_f = evaluate_design(fields, {"friction_c0": 0.1}, (0.31, 2.0), freqs)
+    without = evaluate_design(fields, {"friction_c0": 0.0, "friction_mu_tension": 0.0}, (0.31, 2.0), freqs)
+    assert with_f["peak_shift_hz"] >= 8 and without["peak_shift_hz"] <= 2.0   # one grid step
+
+
+@pytest.mark.parametrize("argv, problem", [
+    (["--param", "k1=1:2"], "--param"), (["--param", "nope=1:2:2"], "unknown bench field"),
+    (["--param", "k1=1e3:1e4:2", "--out", "x.csv"], ".parquet")])
+def test_sweep_cli_usage_errors(tmp_path, capsys, argv, problem):
+    from tendyn.cli import main
+
+    if "--out" not in argv:
+        argv = argv + ["--out", str(tmp_path / "t.parquet")]
+    assert main(["sweep", "mcgill_bench", *argv]) == 2
+    assert problem in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_sweep_cli_on_a_local_dask_cluster(tmp_path):
+    import pyarrow.parquet as pq
+
+    from tendyn.cli import main
+
+    out = tmp_path / "t.parquet"
+    assert main(["sweep", "mcgill_bench", "--param", "friction_c0=0.0:0.1:2", "--amplitudes", "0.31,2",
+                 "--quiet", "--out", str(out)]) == 0
+    t = pq.read_table(out).to_pylist()
+    assert len(t) == 2 and t[1]["peak_shift_hz"] > t[0]["peak_shift_hz"]
+    assert out.with_suffix(".png").exists()
