@@ -110,6 +110,10 @@ def main() -> int:
         bench_simulator(results)
     except ImportError as exc:  # mujoco is a benchmark-only dependency
         print(f"[bench] simulator benchmark skipped: {exc}", file=sys.stderr)
+    from s1_bench import bench_dask_sweep, bench_sensitivity_sweep
+
+    bench_sensitivity_sweep(results)
+    bench_dask_sweep(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)
