@@ -34,7 +34,8 @@ def device_truth(device) -> dict:
     if device.transmissions:
         arr = device.routing_arrays()
         out["routing"] = {k: arr[k] for k in ("motor_radius", "K", "reducer_ratio", "reducer_efficiency",
-                                             "tau0", "nu", "beta", "pretension")}
+                                             "tau0", "nu", "beta", "pretension")
+                          + tuple(k for k in arr if k.startswith("bearing_"))}
     drives = getattr(device, "drives", ())
     if drives:
         out["drives"] = [{k: getattr(d, k) for k in ("joint", "ratio", "stiffness_motor", "damping_motor",

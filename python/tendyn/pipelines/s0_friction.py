@@ -1,0 +1,223 @@
+"""S0 friction identification on the L-EXOS twin: strategies S1 and S2 on every transmission (C7, C8).
+
+For each transmission the twin runs constant-velocity moves (sim.experiments.constant_velocity) at
+≥ 5 motor speeds per direction under S1 and under S2; :class:`tendyn.ident.TransmissionFriction` fits
+C_m0 and ν from the logs alone; this pipeline — the one place that may read the twin's truth — computes
+the true global values and compares.
+
+True global values (S0 eqs. 18–19, corrected: ERRATA; bearings and reducers included). With no joint
+torque and transmission i moving alone, the tension climbs from the driven pulley (0: a reducer passes
+no loss without load) to the motor branch by branch; on a sliding branch (S0 eq. 11, corrected: ERRATA)
+y = (x + a_b + ν_b Ṡ) / (1 − b_b) with a_b = τ_0 + bearing constants at the branch speed, b_b = β + bearing
+load terms, Ṡ = k'_b q̇_m = r_m q̇_m (ERRATA eq. 16). Without β and bearings this is exactly
+C_m0 = Σ τ_0,b |k'_b| and ν = Σ ν_b k'_b² (eqs. 18–19). C(q̇_m) = r_m y_0 is fitted by C_m0 sgn + ν q̇_m
+over the speeds of the test (exact when the law is affine, i.e. without the h1 n^{2/3} bearing term).
+An independent route (:func:`true_global_feedforward`) runs the core's statics with losses,
+``Transmission.feedforward`` at zero joint torque; the tests check that both agree.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tendyn.ident.friction import (FrictionFit, TransmissionFriction, isolated_move_joint_speeds,
+                                   residual_error_bound)
+from tendyn.sim import experiments as ex
+
+BENT_POSE = (0.0, 0.3, 0.0, 0.8)
+"""Centre of the strokes [rad] (shoulder flexed, elbow bent: gravity loads the cables)."""
+
+DEFAULT_SPEEDS = (2.0, 4.0, 6.0, 8.0, 10.0)
+"""Motor speeds [rad/s], one forward and one backward pass each (≥ 5 per direction, issue 8)."""
+
+
+# ---- truth ---------------------------------------------------------------------------------------
+
+def _branch_law(arr, i, b, sdot):
+    """(a, b) of branch b of transmission i at branch speed sdot (as the core's branch_friction)."""
+    a, bb = float(arr["tau0"][i, b]), float(arr["beta"][i, b])
+    count = float(arr.get("bearing_count", np.zeros_like(arr["tau0"]))[i, b])
+    if count > 0:
+        r = float(arr["bearing_radius"][i, b])
+        k = 2.0 * math.sin(0.5 * float(arr["bearing_wrap"][i, b]))
+        n = abs(sdot / r)
+        h = float(arr["bearing_h0"][i, b]) if n < float(arr["bearing_n0"][i, b]) \
+            else float(arr["bearing_h1"][i, b]) * n ** (2.0 / 3.0)
+        coef = float(arr["bearing_beta"][i, b])
+        a += count * (coef * k * float(arr["pretension"][i]) + h) / r
+        bb += count * coef * k / r
+    return a, bb
+
+
+def true_motor_friction(arr, i: int, qdot_motor: float) -> float:
+    """True motor torque [N·m] that moves transmission i (0-based) alone at motor speed q̇_m > 0 with no
+    joint torque, from the twin's routing/friction arrays (module docstring)."""
+    r_m = float(arr["motor_radius"][i])
+    sdot = r_m * qdot_motor          # k'_b = r_m on every branch (ERRATA eq. 16)
+    y = 0.0
+    for b in range(i, -1, -1):
+        a, bb = _branch_law(arr, i, b, sdot)
+        y = (y + a + float(arr["nu"][i, b]) * sdot) / (1.0 - bb)
+    return r_m * y
+
+
+def _affine(speeds, torques):
+    v = np.asarray(speeds, float)
+    W = np.column_stack([np.ones_like(v), v])
+    x, *_ = np.linalg.lstsq(W, np.asarray(torques, float), rcond=None)
+    return float(x[0]), float(x[1])
+
+
+def true_global_friction(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, float]:
+    """(C_m0 [N·m], ν [N·m·s/rad]) of transmission i (0-based): eqs. 18–19 with β, bearings, reducers."""
+    return _affine(speeds, [true_motor_friction(arr, i, v) for v in speeds])
+
+
+def true_global_feedforward(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, float]:
+    """The same from the core's statics with losses (independent route): motor torque of
+    ``Transmission.feedforward(0, q̇)`` with only joint i moving at r_m q̇_m / r_i^i."""
+    from tendyn.transmission import Transmission
+
+    fields = ("tau0", "nu", "beta", "bearing_count", "bearing_radius", "bearing_wrap", "bearing_alpha",
+              "bearing_beta", "bearing_h0", "bearing_h1", "bearing_n0")
+    tr = Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"], arr["reducer_efficiency"],
+                                  arr["pretension"], **{k: arr[k] for k in fields if k in arr})
+    n = tr.n
+    torques = []
+    for v in speeds:
+        qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], i, "S2", v)
+        torques.append(float(tr.feedforward(np.zeros(n), qd).torque_motor[i]))
+    return _affine(speeds, torques)
+
+
+def truth_arrays(truth: dict) -> dict:
+    """numpy arrays from a run's truth record (``SimRun.truth['routing']``)."""
+    return {k: np.asarray(v, float) for k, v in truth["routing"].items()}
+
+
+# ---- the comparison ------------------------------------------------------------------------------
+
+@dataclass
+class StrategyComparison:
+    """S1 vs S2 fits on every transmission against the twin's true global values (C8)."""
+
+    device: str
+    speeds_motor: list
+    truth: dict = field(default_factory=dict)       # transmission -> (C_m0, ν)
+    fits: dict = field(default_factory=dict)        # (transmission, strategy) -> FrictionFit
+    bounds_truth: dict = field(default_factory=dict)  # (transmission, strategy) -> bound from the truth [N·m]
+
+    @property
+    def transmissions(self) -> list[int]:
+        return sorted(self.truth)
+
+    def torque_error(self, t: int, strategy: str) -> float:
+        """RMS over the test speeds of |Ĉ(v) − C(v)| [N·m] (the residual error C_m,err of S0 §III)."""
+        f = self.fits[(t, strategy)]
+        c0, nu = self.truth[t]
+        v = np.asarray(self.speeds_motor, float)
+        return float(np.sqrt(np.mean(((f.coulomb_motor - c0) + (f.viscous_motor - nu) * v) ** 2)))
+
+    def errors_pct(self, t: int, strategy: str) -> tuple[float, float]:
+        f = self.fits[(t, strategy)]
+        c0, nu = self.truth[t]
+        return 100 * (f.coulomb_motor - c0) / c0, 100 * (f.viscous_motor - nu) / nu
+
+    def s2_better(self) -> dict:
+        return {t: self.torque_error(t, "S2") < self.torque_error(t, "S1") for t in self.transmissions}
+
+    def to_dict(self) -> dict:
+        rows = []
+        for t in self.transmissions:
+            c0, nu = self.truth[t]
+            row = {"transmission": t, "true": {"coulomb_motor": c0, "viscous_motor": nu}}
+            for s in ("S1", "S2"):
+                if (t, s) not in self.fits:
+                    continue
+                ec, ev = self.errors_pct(t, s)
+                row[s] = dict(self.fits[(t, s)].to_dict(), coulomb_error_pct=ec, viscous_error_pct=ev,
+                              torque_error_rms=self.torque_error(t, s),
+                              residual_bound_truth=self.bounds_truth.get((t, s)))
+            rows.append(row)
+        return {"device": self.device, "speeds_motor": list(self.speeds_motor), "transmissions": rows}
+
+    def table(self) -> str:
+        h = (f"{'tr':<3}{'strat':<6}{'C_m0 [mN·m]':>12}{'true':>8}{'err %':>8}{'%σ':>7}"
+             f"{'ν [mN·m·s]':>12}{'true':>8}{'err %':>8}{'%σ':>7}{'rms err':>10}{'bound':>9}")
+        lines = [f"{self.device}: S0 friction identification, S1 vs S2 (C8); torques in mN·m", h]
+        for t in self.transmissions:
+            c0, nu = self.truth[t]
+            for s in ("S1", "S2"):
+                f = self.fits[(t, s)]
+                ec, ev = self.errors_pct(t, s)
+                rc, rv = f.rel_std_pct
+                b = self.bounds_truth.get((t, s))
+                lines.append(f"{t:<3}{s:<6}{1e3 * f.coulomb_motor:>12.3f}{1e3 * c0:>8.3f}{ec:>8.1f}{rc:>7.2f}"
+                             f"{1e3 * f.viscous_motor:>12.4f}{1e3 * nu:>8.4f}{ev:>8.1f}{rv:>7.2f}"
+                             f"{1e3 * self.torque_error(t, s):>10.3f}{'' if b is None else f'{1e3 * b:.3f}':>9}")
+        better = self.s2_better()
+        lines.append("S2 smaller error: " + ", ".join(f"t{t} {'yes' if v else 'NO'}" for t, v in better.items()))
+        return "\n".join(lines)
+
+    __str__ = table
+
+    def plot(self, ax=None):
+        """RMS torque error of S1 and S2 per transmission (bars); into ``ax`` or a new Figure."""
+        if ax is None:
+            from matplotlib.figure import Figure
+
+            fig = Figure(figsize=(5.6, 4.2))
+            ax = fig.add_subplot()
+        fig = ax.figure
+        ts = self.transmissions
+        x = np.arange(len(ts))
+        for k, s in enumerate(("S1", "S2")):
+            ax.bar(x + (k - 0.5) * 0.38, [1e3 * self.torque_error(t, s) for t in ts], 0.38, label=f"strategy {s}")
+        ax.set_xticks(x, [f"t{t}" for t in ts])
+        ax.set_ylabel("friction error at the motor, rms over speeds [mN·m]")
+        ax.set_title(f"{self.device}: S1 vs S2 against the twin's truth")
+        ax.legend()
+        ax.grid(alpha=0.3, axis="y")
+        return fig
+
+
+def stroke_plan(device, transmission: int, travel_joint: float = 0.5, centre=BENT_POSE):
+    """(q0 [rad], motor travel [rad]) for transmission ``transmission`` (1-based): strokes of
+    ``travel_joint`` at the driven joint, centred on ``centre``."""
+    arr = device.routing_arrays()
+    j = transmission - 1
+    ratio = arr["K"][j, j] / arr["motor_radius"][j]
+    n = device.n_joints
+    q0 = np.concatenate([centre, np.zeros(max(0, n - len(centre)))])[:n].astype(float)
+    q0[j] -= 0.5 * travel_joint
+    return q0, travel_joint * ratio
+
+
+def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_joint: float = 0.5,
+                       seed: int = 0, gravity: str = "pairs", rate_hz: float = 10_000.0, progress=None,
+                       keep_runs: bool = False):
+    """Run S1 and S2 on each transmission, fit, compare with the truth. Returns a
+    :class:`StrategyComparison` (and the runs when ``keep_runs``)."""
+    transmissions = list(range(1, device.n_transmissions + 1)) if transmissions is None else list(transmissions)
+    out = StrategyComparison(device.name, [float(v) for v in speeds])
+    runs = {}
+    for t in transmissions:
+        q0, travel = stroke_plan(device, t, travel_joint)
+        for s in ("S1", "S2"):
+            run = ex.constant_velocity(device, t, speeds, strategy=s, travel=travel, q0=q0, seed=seed,
+                                       rate_hz=rate_hz)
+            est = TransmissionFriction(t, gravity=gravity, device=device if gravity != "pairs" else None)
+            fit: FrictionFit = est.fit([run.log]).result_
+            out.fits[(t, s)] = fit
+            arr = truth_arrays(run.truth)
+            out.truth[t] = true_global_friction(arr, t - 1, speeds)
+            out.bounds_truth[(t, s)] = residual_error_bound(arr["K"], arr["motor_radius"], t - 1, s,
+                                                            arr["tau0"], arr["nu"], max(speeds))
+            if keep_runs:
+                runs[(t, s)] = run
+            if progress:
+                progress(t, s)
+    return (out, runs) if keep_runs else out
