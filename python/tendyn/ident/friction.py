@@ -47,8 +47,9 @@ class FrictionFit:
 
     coulomb_motor C_m0 [N·m], viscous_motor ν [N·m·s/rad], their standard deviations, %σ, cond(W),
     residual standard deviation σ̂ [N·m], the strategy of the logs (``"S1"``, ``"S2"`` or ``None``), the
-    motor speeds used [rad/s] (magnitudes, one per direction pair/plateau), the observations (speed,
-    torque) the line was fitted to, and the strategy's residual-error bound [N·m] when known (ERRATA
+    motor speeds used [rad/s] (magnitudes, one per direction pair/plateau), the observations (speed [rad/s],
+    torque [N·m], weight [samples]) the line was fitted to (weighted least squares: a bin's weight is the
+    number of samples it averages), and the strategy's residual-error bound [N·m] when known (ERRATA
     eq. 15; :func:`residual_error_bound`).
     """
 
@@ -63,7 +64,7 @@ class FrictionFit:
     gravity: str
     speeds_motor: list
     n_points: int
-    points: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 2)))
+    points: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 3)))
     residual_bound: float | None = None
 
     @property
@@ -130,13 +131,21 @@ def _axes(ax):
     return ax, ax.figure
 
 
-def least_squares(W, y):
-    """x̂, Cov, σ̂, cond(W) with σ̂² = ‖y − Wx̂‖²/(r − b) (S2 eq. 5, corrected: ERRATA — the square)."""
+def least_squares(W, y, weights=None):
+    """x̂, Cov, σ̂, cond(W) with σ̂² = ‖y − Wx̂‖²/(r − b) and Cov = σ̂²(WᵀW)⁻¹ (S2 eqs. 4–6, corrected:
+    ERRATA — the square).
+
+    ``weights`` (r,) > 0 make it weighted: every row of W and y is scaled by √w first (w ∝ 1/variance of
+    the observation, e.g. the number of samples a bin averages), so the formulas above hold for the scaled
+    rows; σ̂ is then the standard deviation of an observation of unit weight."""
     W = np.asarray(W, float)
     y = np.asarray(y, float)
     r, b = W.shape
     if r <= b:
         raise IdentificationError(f"{r} observations for {b} parameters")
+    if weights is not None:
+        sw = np.sqrt(np.asarray(weights, float))
+        W, y = W * sw[:, None], y * sw
     x, *_ = np.linalg.lstsq(W, y, rcond=None)
     res = y - W @ x
     s2 = float(res @ res) / (r - b)
@@ -238,7 +247,7 @@ class TransmissionFriction:
     """
 
     def __init__(self, transmission: int, gravity: str = "pairs", device=None, min_speeds: int = 5,
-                 bins: int = 16, window_s: float = 0.04, tol: float = 0.03, min_speed: float = 0.2,
+                 bins: int = 16, window_s: float = 0.04, tol: float = 0.02, min_speed: float = 0.2,
                  min_duration_s: float = 0.15, trim_s: float = 0.05, speed_match: float = 0.05):
         self.transmission = transmission
         self.gravity = gravity
@@ -301,9 +310,9 @@ class TransmissionFriction:
         elif len(speeds) < need:
             raise IdentificationError(f"transmission {i}: forward/backward pairs at {len(speeds)} speeds, "
                                       f"need at least {need} per direction")
-        v, y = points[:, 0], points[:, 1]
+        v, y, w = points[:, 0], points[:, 1], points[:, 2]
         W = np.column_stack([np.sign(v), v])
-        x, cov, s, cond = least_squares(W, y)
+        x, cov, s, cond = least_squares(W, y, w / w.mean())
         self.params_ = x
         self.stderr_ = np.sqrt(np.diag(cov))
         self.rel_stderr_ = np.array([_pct(self.stderr_[k], x[k]) for k in range(2)])
@@ -330,8 +339,8 @@ class TransmissionFriction:
             for b in range(self.bins):
                 sel = idx == b
                 if sel.sum() >= 3:
-                    rows.append((s.plateau.speed, float(s.c[sel].mean())))
-        return np.array(rows, float).reshape(-1, 2)
+                    rows.append((s.plateau.speed, float(s.c[sel].mean()), float(sel.sum())))
+        return np.array(rows, float).reshape(-1, 3)
 
     def _bins_pairs(self, strokes):
         """Half-differences of forward and backward passes, bin by bin over their common path."""
@@ -354,9 +363,12 @@ class TransmissionFriction:
             for b in range(self.bins):
                 a_sel = (s.q >= edges[b]) & (s.q < edges[b + 1])
                 b_sel = (best.q >= edges[b]) & (best.q < edges[b + 1])
-                if a_sel.sum() >= 3 and b_sel.sum() >= 3:
-                    rows.append((vbar, 0.5 * float(s.c[a_sel].mean() - best.c[b_sel].mean())))
-        return np.array(rows, float).reshape(-1, 2)
+                na, nb = a_sel.sum(), b_sel.sum()
+                if na >= 3 and nb >= 3:
+                    # weight ∝ 1 / variance of the half-difference of two means: 1 / (1/na + 1/nb)
+                    rows.append((vbar, 0.5 * float(s.c[a_sel].mean() - best.c[b_sel].mean()),
+                                 1.0 / (1.0 / na + 1.0 / nb)))
+        return np.array(rows, float).reshape(-1, 3)
 
 
 def _distinct(values, rel: float) -> list[float]:

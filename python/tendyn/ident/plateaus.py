@@ -8,9 +8,10 @@ reference, so the segments are found from the encoder:
    differentiated sample by sample is useless: one count per several samples at low speed);
 2. a sample is *flat* when it moves (|v| above ``min_speed``) and the windowed speed stays within
    ``tol`` (relative) of its neighbours' over one more window — accelerations and PID transients fail;
-3. contiguous flat runs are split where their speed drifts by more than ``tol``, trimmed by one
-   window plus ``trim_s`` at both ends (the window blends the ramps in), and kept when they last at
-   least ``min_duration_s``;
+3. contiguous flat runs are trimmed by half a window plus ``trim_s`` at both ends (the window blends
+   the ramps in), split where their speed drifts by more than ``tol``, and the pieces kept when they
+   last at least ``min_duration_s`` and a quarter of the longest piece of their run (a short piece
+   beside a long one is a controller transient);
 4. each kept plateau's speed is the least-squares slope of the encoder over the whole plateau.
 """
 
@@ -83,7 +84,7 @@ def _ls_slope(t, q) -> float:
     return float(np.dot(tc, q - q.mean()) / np.dot(tc, tc))
 
 
-def find_plateaus(t, q, *, window_s: float = 0.04, tol: float = 0.03, min_speed: float = 0.2,
+def find_plateaus(t, q, *, window_s: float = 0.04, tol: float = 0.02, min_speed: float = 0.2,
                   min_duration_s: float = 0.15, trim_s: float = 0.05) -> list[Plateau]:
     """Constant-speed segments of an encoder signal.
 
@@ -119,12 +120,18 @@ def find_plateaus(t, q, *, window_s: float = 0.04, tol: float = 0.03, min_speed:
     trim = w // 2 + int(round(trim_s / dt))
     min_len = max(3, int(round(min_duration_s / dt)))
     for a, b in _runs(flat):
-        for a2, b2 in _split(v, a, b, tol, floor):
-            a3, b3 = a2 + trim, b2 - trim
-            if b3 - a3 < min_len:
+        a, b = a + trim, b - trim          # the run's ends are where the window blends ramps in
+        if b - a < min_len:
+            continue
+        pieces = [(a2, b2) for a2, b2 in _split(v, a, b, tol, floor) if b2 - a2 >= min_len]
+        if not pieces:
+            continue
+        longest = max(b2 - a2 for a2, b2 in pieces)
+        for a2, b2 in pieces:
+            if b2 - a2 < 0.25 * longest:   # a short piece beside a long one is a transient
                 continue
-            seg = slice(a3, b3)
-            out.append(Plateau(a3, b3, _ls_slope(t[seg], q[seg]), float(np.std(v[seg]))))
+            seg = slice(a2, b2)
+            out.append(Plateau(int(a2), int(b2), _ls_slope(t[seg], q[seg]), float(np.std(v[seg]))))
     return out
 
 

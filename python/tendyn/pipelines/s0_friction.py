@@ -33,6 +33,10 @@ BENT_POSE = (0.0, 0.3, 0.0, 0.8)
 DEFAULT_SPEEDS = (2.0, 4.0, 6.0, 8.0, 10.0)
 """Motor speeds [rad/s], one forward and one backward pass each (≥ 5 per direction, issue 8)."""
 
+BANDWIDTH_HZ = 12.0
+"""Position-loop bandwidth of the tests [Hz]: at the experiment's default (6 Hz) the integral action
+leaves a speed drift of ~10 % over a short stroke; at 12 Hz the speed is flat within 1 % after ~0.1 s."""
+
 
 # ---- truth ---------------------------------------------------------------------------------------
 
@@ -93,6 +97,93 @@ def true_global_feedforward(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, 
     return _affine(speeds, torques)
 
 
+def _upstream(x, sdot, a, b, nu):
+    """Motor-side tension of a sliding branch from its joint-side tension x (S0 eq. 11, corrected:
+    ERRATA): y − s·b·max(|x|, |y|) = x + s·a + ν Ṡ, s = sgn Ṡ."""
+    s = 1.0 if sdot > 0 else -1.0
+    sb = s * b
+    c = x + s * a + nu * sdot
+    if c < -abs(x) * (1.0 + sb):
+        return c / (1.0 + sb)
+    if c <= abs(x) * (1.0 - sb):
+        return c + sb * abs(x)
+    return c / (1.0 - sb)
+
+
+def motor_torques_with_losses(arr, torque_joint, qdot) -> np.ndarray:
+    """Motor torques [N·m] for joint torques τ_J [N·m] at joint speeds q̇ [rad/s] with every loss of the
+    twin: joint equilibrium (S0 eq. 4), reducer efficiency (eqs. 9–10: ÷ η_d n driving, × η_i / n
+    back-driven), the tension climbing each sliding branch (eq. 11 with τ_0, β, bearings, ν); a still
+    branch passes its tension unchanged (static friction not compensated, S0 §III)."""
+    K = arr["K"]
+    n = K.shape[0]
+    T = np.zeros((n, n))
+    out = np.zeros(n)
+    for i in range(n - 1, -1, -1):
+        own = torque_joint[i] - sum(K[k, i] * T[k, i] for k in range(i + 1, n))
+        ratio, eta = float(arr["reducer_ratio"][i]), float(arr["reducer_efficiency"][i])
+        power = own * qdot[i]
+        pulley = own / ratio
+        if power > 0:
+            pulley = own / (eta * ratio)
+        elif power < 0:
+            pulley = 0.0 if eta <= 0.5 else (2 * eta - 1) / eta * own / ratio
+        t = pulley / (K[i, i] / ratio)
+        T[i, i] = t
+        for b in range(i, -1, -1):
+            sdot = float(np.dot(K[i, b:i + 1], qdot[b:i + 1]))
+            if sdot != 0.0:
+                a, bb = _branch_law(arr, i, b, sdot)
+                t = _upstream(t, sdot, a, bb, float(arr["nu"][i, b]))
+            if b > 0:
+                T[i, b - 1] = t
+        out[i] = float(arr["motor_radius"][i]) * t
+    return out
+
+
+def true_global_at_load(arr, device, transmission: int, q0, travel_motor: float, speeds=DEFAULT_SPEEDS,
+                        route: str = "python", points: int = 21) -> tuple[float, float]:
+    """True (C_m0, ν) of transmission ``transmission`` (1-based) under the gravity load of the test:
+    the isolated move (only its joint moving, from q0 over the middle 80 % of the stroke) at each speed
+    forward and backward, motor torques with every loss (``route="python"``:
+    :func:`motor_torques_with_losses`; ``"core"``: ``Transmission.feedforward``), gravity g(q) of the
+    twin's rigid body; half the difference at the same position (S0's gravity removal), averaged, then
+    fitted by C_m0 + ν|q̇_m|. The reducers' efficiency and β make the friction depend on the load, so this
+    — not the zero-load value of eqs. 18–19 — is what a perfect test at that pose measures."""
+    import pinocchio as pin
+
+    from tendyn.device.rigid_body import pinocchio_model
+
+    pm = pinocchio_model(device)
+    pd = pm.createData()
+    j = transmission - 1
+    n = arr["K"].shape[0]
+    per_motor = float(arr["motor_radius"][j] / arr["K"][j, j])
+    if route == "core":
+        from tendyn.transmission import Transmission
+
+        fields = [k for k in arr if k in ("tau0", "nu", "beta") or k.startswith("bearing_")]
+        tr = Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"],
+                                      arr["reducer_efficiency"], arr["pretension"], **{k: arr[k] for k in fields})
+        torques = lambda g, qd: tr.feedforward(g, qd).torque_motor   # noqa: E731
+    elif route == "python":
+        torques = lambda g, qd: motor_torques_with_losses(arr, g, qd)   # noqa: E731
+    else:
+        raise ValueError(f"route must be 'python' or 'core' (got {route!r})")
+    halves = []
+    for v in speeds:
+        d = []
+        for s in np.linspace(0.1, 0.9, points) * travel_motor:
+            q = np.array(q0, float).copy()
+            q[j] += s * per_motor
+            g = pin.computeGeneralizedGravity(pm, pd, q)
+            qd = np.zeros(n)
+            qd[j] = v * per_motor
+            d.append(0.5 * (torques(g, qd)[j] - torques(g, -qd)[j]))
+        halves.append(np.mean(d))
+    return _affine(speeds, halves)
+
+
 def truth_arrays(truth: dict) -> dict:
     """numpy arrays from a run's truth record (``SimRun.truth['routing']``)."""
     return {k: np.asarray(v, float) for k, v in truth["routing"].items()}
@@ -106,7 +197,8 @@ class StrategyComparison:
 
     device: str
     speeds_motor: list
-    truth: dict = field(default_factory=dict)       # transmission -> (C_m0, ν)
+    truth: dict = field(default_factory=dict)       # transmission -> (C_m0, ν) at the test's load
+    truth_zero_load: dict = field(default_factory=dict)  # transmission -> (C_m0, ν) of eqs. 18–19
     fits: dict = field(default_factory=dict)        # (transmission, strategy) -> FrictionFit
     bounds_truth: dict = field(default_factory=dict)  # (transmission, strategy) -> bound from the truth [N·m]
 
@@ -133,7 +225,9 @@ class StrategyComparison:
         rows = []
         for t in self.transmissions:
             c0, nu = self.truth[t]
-            row = {"transmission": t, "true": {"coulomb_motor": c0, "viscous_motor": nu}}
+            z0, zn = self.truth_zero_load.get(t, (None, None))
+            row = {"transmission": t, "true": {"coulomb_motor": c0, "viscous_motor": nu},
+                   "true_zero_load": {"coulomb_motor": z0, "viscous_motor": zn}}
             for s in ("S1", "S2"):
                 if (t, s) not in self.fits:
                     continue
@@ -184,36 +278,47 @@ class StrategyComparison:
         return fig
 
 
-def stroke_plan(device, transmission: int, travel_joint: float = 0.5, centre=BENT_POSE):
+def stroke_plan(device, transmission: int, travel_joint: float | None = None, centre=BENT_POSE,
+                max_travel: float = 1.0, margin: float = 0.1, travel_motor: float | None = None):
     """(q0 [rad], motor travel [rad]) for transmission ``transmission`` (1-based): strokes of
-    ``travel_joint`` at the driven joint, centred on ``centre``."""
+    ``travel_joint`` [rad] at the driven joint (or ``travel_motor`` [rad] at the motor), centred on
+    ``centre``. Neither given: the longest stroke that stays ``margin`` inside the joint limits, at most
+    ``max_travel`` (longer strokes average more noise)."""
     arr = device.routing_arrays()
     j = transmission - 1
     ratio = arr["K"][j, j] / arr["motor_radius"][j]
+    if travel_motor is not None:
+        travel_joint = travel_motor / ratio
     n = device.n_joints
     q0 = np.concatenate([centre, np.zeros(max(0, n - len(centre)))])[:n].astype(float)
+    if travel_joint is None:
+        js = device.kinematics.joints[j]
+        room = 2.0 * min(q0[j] - js.lower, js.upper - q0[j]) - 2.0 * margin
+        travel_joint = max(0.05, min(max_travel, room))
     q0[j] -= 0.5 * travel_joint
     return q0, travel_joint * ratio
 
 
-def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_joint: float = 0.5,
-                       seed: int = 0, gravity: str = "pairs", rate_hz: float = 10_000.0, progress=None,
-                       keep_runs: bool = False):
+def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_joint: float | None = None,
+                       travel_motor: float | None = None,
+                       seed: int = 0, gravity: str = "pairs", rate_hz: float = 10_000.0,
+                       bandwidth_hz: float = BANDWIDTH_HZ, progress=None, keep_runs: bool = False):
     """Run S1 and S2 on each transmission, fit, compare with the truth. Returns a
     :class:`StrategyComparison` (and the runs when ``keep_runs``)."""
     transmissions = list(range(1, device.n_transmissions + 1)) if transmissions is None else list(transmissions)
     out = StrategyComparison(device.name, [float(v) for v in speeds])
     runs = {}
     for t in transmissions:
-        q0, travel = stroke_plan(device, t, travel_joint)
+        q0, travel = stroke_plan(device, t, travel_joint, travel_motor=travel_motor)
         for s in ("S1", "S2"):
             run = ex.constant_velocity(device, t, speeds, strategy=s, travel=travel, q0=q0, seed=seed,
-                                       rate_hz=rate_hz)
+                                       rate_hz=rate_hz, bandwidth_hz=bandwidth_hz)
             est = TransmissionFriction(t, gravity=gravity, device=device if gravity != "pairs" else None)
             fit: FrictionFit = est.fit([run.log]).result_
             out.fits[(t, s)] = fit
             arr = truth_arrays(run.truth)
-            out.truth[t] = true_global_friction(arr, t - 1, speeds)
+            out.truth[t] = true_global_at_load(arr, device, t, q0, travel, speeds)
+            out.truth_zero_load[t] = true_global_friction(arr, t - 1, speeds)
             out.bounds_truth[(t, s)] = residual_error_bound(arr["K"], arr["motor_radius"], t - 1, s,
                                                             arr["tau0"], arr["nu"], max(speeds))
             if keep_runs:
