@@ -1,0 +1,1 @@
+"""Command-line logic of subcommands, kept out of cli.py (which parses and dispatches)."""
