@@ -326,3 +326,56 @@ def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel
             if progress:
                 progress(t, s)
     return (out, runs) if keep_runs else out
+
+
+def run_s0_friction(out_dir, device=None, seed: int = 0, progress=None) -> StrategyComparison:
+    """The full C7–C9 pipeline on the L-EXOS twin: S1 and S2 on every transmission (default speeds,
+    longest strokes inside the limits), the comparison table (``s0_friction.txt``), its figure
+    (``s0_friction.png``: rms error per transmission and strategy), the JSON (``s0_friction.json``), the
+    S2 FRICTION.json (``friction_S2.json``) and its decomposition with the default shares
+    (``decomposition_S2.json``, with the check of eqs. 18–19). Returns the comparison."""
+    import json
+    from pathlib import Path
+
+    from matplotlib.figure import Figure
+
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+    from tendyn.ident.decomposition import decompose
+    from tendyn.ident.friction_file import friction_document, write_friction
+    from tendyn.io import atomic_write_text, save_png, to_jsonable
+
+    device = load_device(bundled("lexos")) if device is None else device
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    cmp = compare_strategies(device, seed=seed, progress=progress)
+    fig = Figure(figsize=(11.2, 4.2))
+    ax1, ax2 = fig.subplots(1, 2)
+    cmp.plot(ax1)
+    for s, marker in (("S1", "o"), ("S2", "s")):
+        ts = cmp.transmissions
+        ax2.plot(ts, [cmp.errors_pct(t, s)[0] for t in ts], marker + "-", label=f"{s}: C_m0")
+        ax2.plot(ts, [cmp.errors_pct(t, s)[1] for t in ts], marker + "--", label=f"{s}: ν")
+    ax2.axhline(0, color="0.6", lw=0.8)
+    ax2.set_xticks(cmp.transmissions)
+    ax2.set_xlabel("transmission")
+    ax2.set_ylabel("error against the twin's truth [%]")
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    save_png(fig, out / "s0_friction.png")
+    atomic_write_text(out / "s0_friction.txt", cmp.table() + "\n")
+    atomic_write_text(out / "s0_friction.json", json.dumps(to_jsonable(cmp.to_dict()), indent=2) + "\n")
+    fits = [cmp.fits[(t, "S2")] for t in cmp.transmissions]
+    write_friction(friction_document(device.name, fits), out / "friction_S2.json")
+    dec = decompose(device, [f.coulomb_motor for f in fits], [f.viscous_motor for f in fits])
+    atomic_write_text(out / "decomposition_S2.json", json.dumps(to_jsonable(dec.to_dict()), indent=2) + "\n")
+    return cmp
+
+
+if __name__ == "__main__":   # python -m tendyn.pipelines.s0_friction OUT_DIR
+    import sys
+
+    result = run_s0_friction(sys.argv[1] if len(sys.argv) > 1 else "out/s0_friction",
+                             progress=lambda t, s: print(f"transmission {t} {s} done", file=sys.stderr))
+    print(result.table())
