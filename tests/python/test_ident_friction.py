@@ -222,6 +222,15 @@ def test_residual_bound_eq15_by_hand(lexos):
     assert b == pytest.approx(1.0 * kp + 10.0 * kp ** 2 * 10.0)
 
 
+def test_estimator_reports_the_bound_of_its_strategy(lexos):
+    arr = lexos.routing_arrays()
+    log = synthetic_log(experiment="constant_velocity_S2")
+    est = TransmissionFriction(1, device=lexos, bound_tau0=arr["tau0"], bound_nu=arr["nu"]).fit(log)
+    assert est.residual_bound_ == pytest.approx(2.25e-3) and est.result_.to_dict()["residual_bound"] == est.residual_bound_
+    assert TransmissionFriction(1).fit(log).residual_bound_ is None
+    assert "ERRATA eq. 15) 0.00225 N·m" in str(est.result_)
+
+
 # ---- C9: decomposition --------------------------------------------------------------------------------
 
 def test_C9_decomposition_reproduces_the_global_values_exactly(comparison, lexos):

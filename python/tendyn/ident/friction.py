@@ -237,18 +237,24 @@ class TransmissionFriction:
         Plateau detection, see :func:`tendyn.ident.plateaus.find_plateaus`.
     speed_match : float
         Relative speed difference allowed between the two passes of a pair [-].
+    bound_tau0, bound_nu : (n, n) arrays or None
+        Per-branch Coulomb [N] and viscous [N·s/m] values of the device's transmissions (nominal, or
+        decomposed from identified global values: :func:`tendyn.ident.decompose`); with ``device`` they give
+        ``residual_bound_`` (ERRATA eq. 15, :func:`residual_error_bound`) for the logs' strategy.
 
     Learned attributes
     ------------------
     params_ : (2,) [C_m0 N·m, ν N·m·s/rad];  stderr_ : (2,) their σ;  rel_stderr_ : (2,) %σ;
     cond_ : cond(W);  coulomb_motor_, viscous_motor_ ;  residual_std_ : σ̂ [N·m];
     speeds_ : distinct speed magnitudes used [rad/s];  plateaus_ : per log, the plateaus found;
-    strategy_ : "S1", "S2" or None (from the logs' meta);  result_ : :class:`FrictionFit`.
+    strategy_ : "S1", "S2" or None (from the logs' meta);  residual_bound_ : [N·m] or None;
+    result_ : :class:`FrictionFit`.
     """
 
     def __init__(self, transmission: int, gravity: str = "pairs", device=None, min_speeds: int = 5,
                  bins: int = 16, window_s: float = 0.04, tol: float = 0.02, min_speed: float = 0.2,
-                 min_duration_s: float = 0.15, trim_s: float = 0.05, speed_match: float = 0.05):
+                 min_duration_s: float = 0.15, trim_s: float = 0.05, speed_match: float = 0.05,
+                 bound_tau0=None, bound_nu=None):
         self.transmission = transmission
         self.gravity = gravity
         self.device = device
@@ -260,11 +266,13 @@ class TransmissionFriction:
         self.min_duration_s = min_duration_s
         self.trim_s = trim_s
         self.speed_match = speed_match
+        self.bound_tau0 = bound_tau0
+        self.bound_nu = bound_nu
 
     def get_params(self, deep: bool = True) -> dict:
         return {k: getattr(self, k) for k in ("transmission", "gravity", "device", "min_speeds", "bins",
                                               "window_s", "tol", "min_speed", "min_duration_s", "trim_s",
-                                              "speed_match")}
+                                              "speed_match", "bound_tau0", "bound_nu")}
 
     # ---- fit ----
     def fit(self, logs) -> "TransmissionFriction":
@@ -326,6 +334,12 @@ class TransmissionFriction:
         self.result_ = FrictionFit(i, float(x[0]), float(x[1]), float(self.stderr_[0]), float(self.stderr_[1]),
                                    s, cond, self.strategy_, self.gravity, [float(u) for u in speeds],
                                    int(points.shape[0]), points)
+        self.residual_bound_ = None
+        if self.device is not None and self.bound_tau0 is not None and self.strategy_ in STRATEGIES:
+            arr = self.device.routing_arrays()
+            self.residual_bound_ = residual_error_bound(arr["K"], arr["motor_radius"], i - 1, self.strategy_,
+                                                        self.bound_tau0, self.bound_nu, max(speeds))
+        self.result_.residual_bound = self.residual_bound_
         return self
 
     def predict(self, qdot_motor) -> np.ndarray:
