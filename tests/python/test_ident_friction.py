@@ -377,3 +377,14 @@ def test_identify_friction_and_decompose_commands(comparison, tmp_path, capsys):
     assert dec["max_relative_mismatch"] < 1e-12 and len(dec["transmissions"][3]["tau0_branch"]) == 4
     with pytest.raises(UsageError, match="no constant-velocity log for transmission 4"):
         s0.run_identify_friction(_parse(["identify-friction", "lexos", *paths[:3], "--out", str(out)]))
+
+
+def test_ident_imports_no_simulator_and_reads_no_truth():
+    """DESIGN: ident/ imports device/, io/ and the core, never sim/; an estimator never reads a twin's truth."""
+    import pathlib
+
+    import tendyn.ident
+
+    for path in pathlib.Path(tendyn.ident.__file__).parent.glob("*.py"):
+        text = path.read_text(encoding="utf-8")
+        assert "tendyn.sim" not in text and "read_truth" not in text and "truth_path" not in text, path.name
