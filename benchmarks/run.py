@@ -7,7 +7,10 @@ and prints it as a table. Machines are shared and noisy: only same-run ratios me
 from __future__ import annotations
 
 import json
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -19,6 +22,7 @@ sys.path.insert(0, str(HERE))
 from numpy_statics import motor_torque_feedforward as numpy_feedforward  # noqa: E402
 
 from tendyn import _core  # noqa: E402
+from tendyn.sim.model import run_log  # noqa: E402
 from tendyn.device import load_device  # noqa: E402
 from tendyn.devices import bundled  # noqa: E402
 from tendyn.io import atomic_write_text  # noqa: E402
@@ -37,15 +41,22 @@ def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int
     for k in range(50):
         np.testing.assert_allclose(numpy_feedforward(arr, tau[k], qd[k]),
                                    tr.feedforward(tau[k], qd[k]).torque_motor, rtol=1e-10, atol=1e-12)
-    print(f"[bench] C++ feedforward, {calls} calls timed one by one …", file=sys.stderr)
-    ns = np.asarray(_core.time_motor_torque_feedforward(tr.model, tr.data, tau, qd))
+    timer = os.environ.get("TENDYN_FEEDFORWARD_TIMER", str(HERE.parent / "build/bench/benchmarks/feedforward_timer"))
+    if not Path(timer).exists():
+        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/feedforward_timer.cpp)")
+    print(f"[bench] C++ feedforward, {calls} calls timed one by one ({Path(timer).name}) …", file=sys.stderr)
+    with tempfile.TemporaryDirectory() as tmp:
+        model_file = Path(tmp) / "lexos.model"
+        tr.export(model_file)  # the timer runs exactly this model
+        out = subprocess.run([timer, str(model_file), str(calls), "7"], capture_output=True, text=True, check=True)
+    timed = json.loads(out.stdout)
     print(f"[bench] numpy baseline, {baseline_calls} calls …", file=sys.stderr)
     base = np.empty(baseline_calls)
     for k in range(baseline_calls):
         t0 = time.perf_counter_ns()
         numpy_feedforward(arr, tau[k], qd[k])
         base[k] = time.perf_counter_ns() - t0
-    med, p999 = np.median(ns), np.percentile(ns, 99.9)
+    med, p999 = timed["median_ns"], timed["p999_ns"]
     bmed, bp999 = np.median(base), np.percentile(base, 99.9)
     results.append(dict(name="lexos_feedforward_median", value=med / 1e3, unit="us/call",
                         baseline="numpy recursion (same physics)", baseline_value=bmed / 1e3, ratio=bmed / med))
@@ -73,7 +84,7 @@ def bench_simulator(results: list, seconds: float = 10.0, rate_hz: float = 10_00
         d = _core.SimData(m)
         d.reset(q0, 1)
         t0 = time.perf_counter()
-        _core.sim_run(m, d, z, z, ff, z, m.control_decimation)
+        run_log(m, d, z, z, ff, z, m.control_decimation)
         best = min(best, time.perf_counter() - t0)
     print(f"[bench] mujoco.rollout, {n} steps x 3 …", file=sys.stderr)
     base = rollout_seconds(dev, 1.0 / rate_hz, ff, q0)

@@ -1,9 +1,12 @@
 // tendyn — C ABI over the header-only core (the only C++ source file of the library).
 #include "tendyn/c_api.h"
 
+#include <cstring>
 #include <new>
+#include <string>
 
 #include "tendyn/losses.hpp"
+#include "tendyn/model_file.hpp"
 
 struct tendyn_transmission {
   tendyn::TransmissionModel model;
@@ -17,6 +20,15 @@ using RowMat = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowM
 using CVecMap = Eigen::Map<const Eigen::VectorXd>;
 
 tendyn_status to_c(tendyn::Status s) { return static_cast<tendyn_status>(static_cast<int>(s)); }
+
+thread_local std::string last_error;
+
+void copy_message(const std::string& text, char* message, unsigned long size) {
+  if (!message || size == 0) return;
+  const std::size_t k = text.size() < size - 1 ? text.size() : size - 1;
+  std::memcpy(message, text.data(), k);
+  message[k] = '\0';
+}
 
 }  // namespace
 
@@ -38,11 +50,34 @@ tendyn_status tendyn_transmission_create(int n, const double* motor_radius, cons
   if (tau0) m.tau0 = Eigen::Map<const RowMat>(tau0, n, n);
   if (nu) m.nu = Eigen::Map<const RowMat>(nu, n, n);
   if (beta) m.beta = Eigen::Map<const RowMat>(beta, n, n);
-  const tendyn::Status s = m.validate();
-  if (tendyn::is_error(s)) return to_c(s);
+  last_error.clear();
+  tendyn::ValidationIssue issue;
+  if (m.first_issue(&issue)) {
+    last_error = tendyn::describe(issue);
+    return TENDYN_INVALID_MODEL;
+  }
   *out = new (std::nothrow) tendyn_transmission(std::move(m));
   return *out ? TENDYN_OK : TENDYN_INVALID_MODEL;
 }
+
+tendyn_status tendyn_transmission_load(const char* path, tendyn_transmission** out, char* message,
+                                       unsigned long message_size) {
+  if (!out || !path) return TENDYN_NULL_ARGUMENT;
+  *out = nullptr;
+  tendyn::TransmissionModel m;
+  std::string error;
+  if (!tendyn::load_transmission_model(path, &m, &error)) {
+    last_error = error;
+    copy_message(error, message, message_size);
+    return TENDYN_INVALID_MODEL;
+  }
+  last_error.clear();
+  copy_message("", message, message_size);
+  *out = new (std::nothrow) tendyn_transmission(std::move(m));
+  return *out ? TENDYN_OK : TENDYN_INVALID_MODEL;
+}
+
+const char* tendyn_last_error(void) { return last_error.c_str(); }
 
 void tendyn_transmission_destroy(tendyn_transmission* t) { delete t; }
 
@@ -65,21 +100,21 @@ tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const double* q, d
 }
 
 tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
-                                              const double* qdot, double* torque_motor) {
-  if (!t || !torque_joint || !qdot || !torque_motor) return TENDYN_NULL_ARGUMENT;
+                                              const double* qd, double* torque_motor) {
+  if (!t || !torque_joint || !qd || !torque_motor) return TENDYN_NULL_ARGUMENT;
   const int n = t->model.n;
   const tendyn::Status s =
-      tendyn::motor_torque_feedforward(t->model, t->data, CVecMap(torque_joint, n), CVecMap(qdot, n));
+      tendyn::motor_torque_feedforward(t->model, t->data, CVecMap(torque_joint, n), CVecMap(qd, n));
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = t->data.torque_motor;
   return to_c(s);
 }
 
 tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
-                                          const double* qdot, double* torque_joint) {
-  if (!t || !torque_motor || !qdot || !torque_joint) return TENDYN_NULL_ARGUMENT;
+                                          const double* qd, double* torque_joint) {
+  if (!t || !torque_motor || !qd || !torque_joint) return TENDYN_NULL_ARGUMENT;
   const int n = t->model.n;
   const tendyn::Status s =
-      tendyn::joint_torque_forward(t->model, t->data, CVecMap(torque_motor, n), CVecMap(qdot, n));
+      tendyn::joint_torque_forward(t->model, t->data, CVecMap(torque_motor, n), CVecMap(qd, n));
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_joint, n) = t->data.torque_joint;
   return to_c(s);
 }

@@ -1,5 +1,3 @@
-#include <chrono>
-
 #include "common.hpp"
 #include "tendyn/losses.hpp"
 
@@ -15,15 +13,17 @@ void expose_losses(nb::module_& m) {
         nb::arg("speed"), "S0 eq. 8 [N m]; speed [rad/s].");
   m.def(
       "bearing_friction_torque",
-      [](double alpha, double beta, double h0, double h1, double n0, double load, double speed,
-         double applied) {
+      [](double static_coefficient, double dynamic_coefficient, double h0, double h1, double n0, double load,
+         double speed, double applied) {
         bool stuck = false;
-        const double t = bearing_friction_torque(alpha, beta, h0, h1, n0, load, speed, applied, &stuck);
+        const double t = bearing_friction_torque(static_coefficient, dynamic_coefficient, h0, h1, n0, load,
+                                                 speed, applied, &stuck);
         return nb::make_tuple(t, stuck);
       },
-      nb::arg("alpha"), nb::arg("beta"), nb::arg("h0"), nb::arg("h1"), nb::arg("n0"),
+      nb::arg("static_coefficient"), nb::arg("dynamic_coefficient"), nb::arg("h0"), nb::arg("h1"), nb::arg("n0"),
       nb::arg("load"), nb::arg("speed"), nb::arg("applied"),
-      "S0 eq. 7: returns (opposing torque [N m], stuck).");
+      "S0 eq. 7: returns (opposing torque [N m], stuck). Coefficients [m] (S0 alpha, beta), load [N], "
+      "speed [rad/s], applied [N m].");
   m.def("capstan_tension_out", &capstan_tension_out, nb::arg("tension_in"), nb::arg("mu"), nb::arg("wrap"));
   m.def("capstan_beta", &capstan_beta, nb::arg("mu"), nb::arg("wrap"));
   nb::class_<BranchFriction>(m, "BranchFriction")
@@ -40,35 +40,12 @@ void expose_losses(nb::module_& m) {
         [](const M& mo, D& d, VecRef tj, VecRef qd) {
           return check(motor_torque_feedforward(mo, d, tj, qd), "motor_torque_feedforward");
         },
-        nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"), nb::arg("qdot"));
+        nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"), nb::arg("qd"));
   m.def("joint_torque_forward",
         [](const M& mo, D& d, VecRef tm, VecRef qd) {
           return check(joint_torque_forward(mo, d, tm, qd), "joint_torque_forward");
         },
-        nb::arg("model"), nb::arg("data"), nb::arg("torque_motor"), nb::arg("qdot"));
-
-  // Benchmark helper: time each feedforward call on its own (steady_clock, overhead included).
-  m.def(
-      "time_motor_torque_feedforward",
-      [](const M& mo, D& d, const Eigen::MatrixXd& torque_joint, const Eigen::MatrixXd& qdot) {
-        if (torque_joint.cols() != mo.n || qdot.cols() != mo.n || qdot.rows() != torque_joint.rows())
-          throw nb::value_error("time_motor_torque_feedforward: inputs must be (calls, n)");
-        const Eigen::Index calls = torque_joint.rows();
-        Eigen::VectorXd ns(calls);
-        const Eigen::MatrixXd tj = torque_joint.transpose(), qd = qdot.transpose();  // columns = calls
-        double sink = 0.0;
-        for (Eigen::Index k = 0; k < calls; ++k) {
-          const auto t0 = std::chrono::steady_clock::now();
-          motor_torque_feedforward(mo, d, tj.col(k), qd.col(k));
-          const auto t1 = std::chrono::steady_clock::now();
-          sink += d.torque_motor(0);
-          ns(k) = std::chrono::duration<double, std::nano>(t1 - t0).count();
-        }
-        if (sink == 12345.6789) ns(0) += 0.0;  // keep the calls observable
-        return ns;
-      },
-      nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"), nb::arg("qdot"),
-      "Per-call wall time [ns] of motor_torque_feedforward over the rows of the inputs.");
+        nb::arg("model"), nb::arg("data"), nb::arg("torque_motor"), nb::arg("qd"));
 }
 
 }  // namespace tendyn::py

@@ -1,50 +1,139 @@
+#include <string>
+
+#include <nanobind/ndarray.h>
+#include <nanobind/stl/string.h>
+
 #include "common.hpp"
+#include "tendyn/model_file.hpp"
 #include "tendyn/routing.hpp"
 
 namespace tendyn::py {
 
+namespace {
+/// A read-only numpy view of an Eigen member of a model owned by `owner` (no copy; writes raise).
+template <class Mat>
+nb::object read_only_view(const Mat& a, nb::handle owner) {
+  const std::size_t shape[2] = {static_cast<std::size_t>(a.rows()), static_cast<std::size_t>(a.cols())};
+  const int64_t strides[2] = {1, static_cast<int64_t>(a.rows())};  // Eigen is column-major
+  const std::size_t ndim = Mat::ColsAtCompileTime == 1 ? 1 : 2;
+  return nb::cast(nb::ndarray<nb::numpy, const double>(a.data(), ndim, shape, owner, strides));
+}
+}  // namespace
+
 void expose_routing(nb::module_& m) {
   using M = TransmissionModel;
   using D = TransmissionData;
-  nb::class_<M>(m, "TransmissionModel",
-                "n tendon transmissions on an n-joint chain (routing + loss parameters).")
-      .def(nb::init<const Eigen::VectorXd&, const Eigen::MatrixXd&, const Eigen::VectorXd&,
-                    const Eigen::VectorXd&>(),
-           nb::arg("motor_radius"), nb::arg("idle"), nb::arg("driven_radius"),
-           nb::arg("reducer_ratio"),
-           "motor_radius [m] (n); idle [m] (n, n) signed idle radii in the strict lower part; "
-           "driven_radius [m] (n); reducer_ratio [-] (n).")
-      .def_ro("n", &M::n)
-      .def_rw("motor_radius", &M::motor_radius)
-      .def_rw("K", &M::K)
-      .def_rw("driven_radius", &M::driven_radius)
-      .def_rw("reducer_ratio", &M::reducer_ratio)
-      .def_rw("reducer_efficiency", &M::reducer_efficiency)
-      .def_rw("pretension", &M::pretension)
-      .def_rw("tau0", &M::tau0)
-      .def_rw("nu", &M::nu)
-      .def_rw("beta", &M::beta)
-      .def_rw("bearing_count", &M::bearing_count)
-      .def_rw("bearing_radius", &M::bearing_radius)
-      .def_rw("bearing_wrap", &M::bearing_wrap)
-      .def_rw("bearing_alpha", &M::bearing_alpha)
-      .def_rw("bearing_beta", &M::bearing_beta)
-      .def_rw("bearing_h0", &M::bearing_h0)
-      .def_rw("bearing_h1", &M::bearing_h1)
-      .def_rw("bearing_n0", &M::bearing_n0)
-      .def_ro("joint_from_motor_position", &M::joint_from_motor_position)
-      .def_ro("motor_from_joint_position", &M::motor_from_joint_position)
-      .def_ro("motor_from_joint_torque", &M::motor_from_joint_torque)
-      .def_ro("joint_from_motor_torque", &M::joint_from_motor_torque)
-      .def("update_matrices", &M::update_matrices)
-      .def("validate", &M::validate);
+  using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  auto cls = nb::class_<M>(m, "TransmissionModel",
+                "n tendon transmissions on an n-joint chain (routing + loss parameters), read-only once built.\n\n"
+                "Build it from a dict of arrays named as the core fields (TransmissionModel.fields()):\n"
+                "motor_radius, K, driven_radius, reducer_ratio are required, the rest default to lossless.\n"
+                "The model is validated once; an invalid one raises ValueError naming field and 0-based index,\n"
+                "e.g. 'beta[2,1] = 1.5: must be < 1'. Fields are read-only numpy views; to change a value,\n"
+                "build a new model.");
+  cls.def(
+         "__init__",
+         [](M* self, nb::dict arrays) {
+           if (!arrays.contains("motor_radius"))
+             throw nb::value_error("TransmissionModel: missing required field 'motor_radius'");
+           const Eigen::VectorXd r_m = nb::cast<Eigen::VectorXd>(arrays["motor_radius"]);
+           M model(static_cast<int>(r_m.size()));
+           for (auto [key, value] : arrays) {
+             const std::string name = nb::cast<std::string>(key);
+             const FieldInfo* info = nullptr;
+             for (const auto& f : transmission_fields)
+               if (name == f.name) info = &f;
+             if (!info) {
+               std::string known;
+               for (const auto& f : transmission_fields) known += std::string(known.empty() ? "" : ", ") + f.name;
+               throw nb::value_error(("TransmissionModel: unknown field '" + name + "' (known: " + known + ")").c_str());
+             }
+             RowMatrixXd a;
+             if (info->dims == 1) {
+               const Eigen::VectorXd v = nb::cast<Eigen::VectorXd>(value);
+               a = v;
+             } else {
+               a = nb::cast<RowMatrixXd>(value);
+             }
+             const int cols = info->dims == 1 ? 1 : model.n;
+             if (a.rows() != model.n || a.cols() != cols)
+               throw nb::value_error(("TransmissionModel: " + name + " has shape (" + std::to_string(a.rows()) +
+                                      (info->dims == 1 ? "" : ", " + std::to_string(a.cols())) + "), expected (" +
+                                      std::to_string(model.n) + (info->dims == 1 ? ",)" : ", " + std::to_string(model.n) + ")"))
+                                         .c_str());
+             model.set_field(info->name, a.data(), static_cast<int>(a.rows()), static_cast<int>(a.cols()));
+           }
+           for (const char* req : {"K", "driven_radius"})
+             if (!arrays.contains(req))
+               throw nb::value_error((std::string("TransmissionModel: missing required field '") + req + "'").c_str());
+           ValidationIssue issue;
+           if (model.first_issue(&issue))
+             throw nb::value_error(("invalid transmission model: " + describe(issue) +
+                                    " (indices 0-based: [transmission] or [transmission, joint/branch])").c_str());
+           model.update_matrices();
+           new (self) M(std::move(model));
+         },
+         nb::arg("arrays"))
+      .def_ro("n", &M::n);
+#define TENDYN_BIND_FIELD(name, dims, unit, doc)                                                        \
+  cls.def_prop_rw(                                                                                      \
+      #name, [](nb::handle_t<M> self) { return read_only_view(nb::inst_ptr<M>(self)->name, self); },   \
+      [](M&, nb::handle) {                                                                              \
+        throw nb::attribute_error("TransmissionModel." #name " is read-only (the model was validated "   \
+                                  "when built): build a new one, e.g. Transmission.from_arrays(..., " #name "=...)"); \
+      },                                                                                                \
+      "[" unit "] " doc " (read-only)");
+  TENDYN_TRANSMISSION_FIELDS(TENDYN_BIND_FIELD)
+#undef TENDYN_BIND_FIELD
+#define TENDYN_BIND_MATRIX(name) \
+  cls.def_prop_ro(#name, [](nb::handle_t<M> self) { return read_only_view(nb::inst_ptr<M>(self)->name, self); });
+  TENDYN_BIND_MATRIX(joint_from_motor_position)
+  TENDYN_BIND_MATRIX(motor_from_joint_position)
+  TENDYN_BIND_MATRIX(motor_from_joint_torque)
+  TENDYN_BIND_MATRIX(joint_from_motor_torque)
+#undef TENDYN_BIND_MATRIX
+  cls
+      .def("validate", &M::validate)
+      .def_static(
+          "fields",
+          []() {
+            nb::list out;
+            for (const auto& f : transmission_fields) out.append(nb::make_tuple(f.name, f.dims, f.unit, f.doc));
+            return out;
+          },
+          "The parameter table: (name, dims, unit, doc) per field, in order (dims 1: (n), 2: (n, n)).");
+  m.def(
+      "validate_report",
+      [](const M& mo) {
+        nb::list out;
+        for (const auto& is : validate_report(mo)) out.append(describe(is));
+        return out;
+      },
+      nb::arg("model"), "Every problem of the model as text ('beta[2,1] = 1.5: must be < 1', 0-based); [] if valid.");
+  m.def(
+      "save_transmission_model",
+      [](const M& mo, const std::string& path) {
+        std::string error;
+        if (!save_transmission_model(mo, path, &error)) throw nb::value_error(error.c_str());
+      },
+      nb::arg("model"), nb::arg("path"), "Write the model file (include/tendyn/model_file.hpp) atomically.");
+  m.def(
+      "load_transmission_model",
+      [](const std::string& path) {
+        M mo;
+        std::string error;
+        if (!load_transmission_model(path, &mo, &error)) throw nb::value_error(error.c_str());
+        return mo;
+      },
+      nb::arg("path"), "Read and validate a model file; ValueError names the file, line and field.");
+  m.def("transmission_model_text", &transmission_model_text, nb::arg("model"));
 
   nb::class_<D>(m, "TransmissionData", "Preallocated workspace and outputs of the transmission calls.")
       .def(nb::init<const M&>(), nb::arg("model"))
       .def_ro("q", &D::q)
-      .def_ro("qdot", &D::qdot)
+      .def_ro("qd", &D::qd)
       .def_ro("q_motor", &D::q_motor)
-      .def_ro("qdot_motor", &D::qdot_motor)
+      .def_ro("qd_motor", &D::qd_motor)
       .def_ro("S", &D::S)
       .def_ro("Sdot", &D::Sdot)
       .def_ro("tension", &D::tension)
@@ -62,8 +151,8 @@ void expose_routing(nb::module_& m) {
         nb::arg("model"), nb::arg("data"), nb::arg("q"));
   m.def("branch_displacements", &branch_displacements, nb::arg("model"), nb::arg("data"));
   m.def("velocities_from_joint",
-        [](const M& mo, D& d, VecRef qdot) { return check(velocities_from_joint(mo, d, qdot), "velocities_from_joint"); },
-        nb::arg("model"), nb::arg("data"), nb::arg("qdot"));
+        [](const M& mo, D& d, VecRef qd) { return check(velocities_from_joint(mo, d, qd), "velocities_from_joint"); },
+        nb::arg("model"), nb::arg("data"), nb::arg("qd"));
   m.def("motor_torque_lossless",
         [](const M& mo, D& d, VecRef tj) { return check(motor_torque_lossless(mo, d, tj), "motor_torque_lossless"); },
         nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"));

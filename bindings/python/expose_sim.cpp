@@ -10,6 +10,8 @@ void expose_sim(nb::module_& m) {
   using D = SimData;
   using RowMat = RowMatrixXd;
   using MatRef = Eigen::Ref<const RowMat>;
+  using OutVec = Eigen::Ref<Eigen::VectorXd>;
+  using OutMat = Eigen::Ref<RowMat>;
 
   nb::enum_<DriveKind>(m, "DriveKind").value("Tendon", DriveKind::Tendon).value("Elastic", DriveKind::Elastic);
   nb::enum_<ControlMode>(m, "ControlMode")
@@ -69,10 +71,10 @@ void expose_sim(nb::module_& m) {
       .def("reset", &D::reset, nb::arg("q0"), nb::arg("seed"))
       .def_ro("time", &D::time)
       .def_ro("step_count", &D::step_count)
-      .def_ro("qa", &D::qa)
-      .def_ro("va", &D::va)
-      .def_ro("qm", &D::qm)
-      .def_ro("vm", &D::vm)
+      .def_ro("q", &D::q)
+      .def_ro("qd", &D::qd)
+      .def_ro("q_motor", &D::q_motor)
+      .def_ro("qd_motor", &D::qd_motor)
       .def_ro("q_motor_meas", &D::q_motor_meas)
       .def_ro("torque_motor_meas", &D::torque_motor_meas)
       .def_ro("torque_motor_cmd", &D::torque_motor_cmd)
@@ -85,50 +87,49 @@ void expose_sim(nb::module_& m) {
       .def_ro("work_external", &D::work_external)
       .def_ro("dissipated", &D::dissipated)
       .def("set_velocity",
-           [](D& d, VecRef va, VecRef vm) { d.va = va; d.vm = vm; d.vm_prev = vm; },
-           nb::arg("va"), nb::arg("vm"))
-      .def("set_motor_position", [](D& d, VecRef qm) { d.qm = qm; }, nb::arg("qm"));
+           [](D& d, VecRef qd, VecRef qd_motor) { d.qd = qd; d.qd_motor = qd_motor; d.qd_motor_prev = qd_motor; },
+           nb::arg("qd"), nb::arg("qd_motor"))
+      .def("set_motor_position", [](D& d, VecRef q_motor) { d.q_motor = q_motor; }, nb::arg("q_motor"));
 
-  m.def("sim_step",
+  m.def("step",
         [](const M& mo, D& d, VecRef ref_q, VecRef ref_v, VecRef ff, VecRef ext) {
           if (ref_q.size() != mo.na || ref_v.size() != mo.na || ff.size() != mo.na || ext.size() != mo.na)
-            throw nb::value_error("sim_step: inputs must have na entries");
-          return check(step(mo, d, ref_q, ref_v, ff, ext), "sim_step");
+            throw nb::value_error("step: inputs must have na entries");
+          return check(step(mo, d, ref_q, ref_v, ff, ext), "step");
         },
         nb::arg("model"), nb::arg("data"), nb::arg("ref_q"), nb::arg("ref_v"), nb::arg("ff"), nb::arg("torque_ext"));
   m.def("mechanical_energy", &mechanical_energy, nb::arg("model"), nb::arg("data"));
   m.def(
-      "sim_run",
-      [](const M& mo, D& d, MatRef ref_q, MatRef ref_v, MatRef ff, MatRef ext, int log_every) {
+      "run",
+      [](const M& mo, D& d, MatRef ref_q, MatRef ref_v, MatRef ff, MatRef ext, int log_every, OutVec time,
+         OutMat q_motor_meas, OutMat torque_motor_meas, OutMat torque_motor_cmd, OutMat q_joint, OutMat qd_joint,
+         OutMat q_motor, OutMat qd_motor) {
         if (log_every < 1 || log_every % mo.control_decimation != 0)
-          throw nb::value_error("sim_run: log_every must be a positive multiple of model.control_decimation");
+          throw nb::value_error("run: log_every must be a positive multiple of model.control_decimation");
         if (d.step_count % mo.control_decimation != 0)
-          throw nb::value_error("sim_run: the data is between two control periods (run steps in whole periods)");
+          throw nb::value_error("run: the data is between two control periods (run steps in whole periods)");
         const long rows = (ref_q.rows() + log_every - 1) / log_every;
-        Eigen::VectorXd time(rows);
-        RowMat qmm(rows, mo.na), tmm(rows, mo.na), tmc(rows, mo.na), qj(rows, mo.na), vj(rows, mo.na),
-            qmt(rows, mo.na), vmt(rows, mo.na);
-        SimLog log{time, qmm, tmm, tmc, qj, vj, qmt, vmt};
+        if (time.size() != rows)
+          throw nb::value_error("run: time must have ceil(steps / log_every) entries");
+        for (const auto* o : {&q_motor_meas, &torque_motor_meas, &torque_motor_cmd, &q_joint, &qd_joint, &q_motor,
+                              &qd_motor})
+          if (o->rows() != rows || o->cols() != mo.na)
+            throw nb::value_error("run: every log array must be (ceil(steps / log_every), na), float64, C order");
+        SimLog log{time, q_motor_meas, torque_motor_meas, torque_motor_cmd, q_joint, qd_joint, q_motor, qd_motor};
         Status s;
         {
           nb::gil_scoped_release release;
           s = run(mo, d, ref_q, ref_v, ff, ext, log_every, log);
         }
-        check(s, "sim_run");
-        nb::dict out;
-        out["time"] = time;
-        out["q_motor_meas"] = qmm;
-        out["torque_motor_meas"] = tmm;
-        out["torque_motor_cmd"] = tmc;
-        out["q_joint"] = qj;
-        out["qd_joint"] = vj;
-        out["q_motor"] = qmt;
-        out["qd_motor"] = vmt;
-        return out;
+        return check(s, "run");
       },
       nb::arg("model"), nb::arg("data"), nb::arg("ref_q"), nb::arg("ref_v"), nb::arg("ff"),
-      nb::arg("torque_ext"), nb::arg("log_every"),
-      "Run len(ref_q) steps; inputs (steps, na), row-major. Returns the log as a dict of arrays.");
+      nb::arg("torque_ext"), nb::arg("log_every"), nb::arg("time"), nb::arg("q_motor_meas"),
+      nb::arg("torque_motor_meas"), nb::arg("torque_motor_cmd"), nb::arg("q_joint"), nb::arg("qd_joint"),
+      nb::arg("q_motor"), nb::arg("qd_motor"),
+      "Run len(ref_q) steps; inputs (steps, na), row-major. Writes the log into the preallocated float64 arrays\n"
+      "(time (rows,), the others (rows, na), rows = ceil(steps / log_every)), the fields of C++ SimLog in order.\n"
+      "tendyn.sim.model.run_log allocates them and returns a dict.");
 }
 
 }  // namespace tendyn::py

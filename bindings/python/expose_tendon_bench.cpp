@@ -1,10 +1,12 @@
 // Bindings of include/tendyn/tendon_bench.hpp: the McGill 2N tendon bench (one channel).
+#include <cmath>
 #include <cstdint>
 #include <string>
 
 #include <nanobind/ndarray.h>
 
 #include "common.hpp"
+#include "tendyn/routing.hpp"
 #include "tendyn/tendon_bench.hpp"
 
 namespace tendyn::py {
@@ -15,39 +17,65 @@ using ConstArr = nb::ndarray<const double, nb::ndim<1>, nb::c_contig, nb::device
 
 void check_len(const Arr& a, std::size_t n, const char* name) {
   if (a.shape(0) != n)
-    throw nb::value_error((std::string("tendon_bench_run: ") + name + " must have the length of u").c_str());
+    throw nb::value_error((std::string("run: ") + name + " must have the length of u").c_str());
+}
+
+int index_of(const char* name) {
+  int k = 0;
+  for (const auto& f : tendon_bench_fields) {
+    if (std::string(f.name) == name) return k;
+    ++k;
+  }
+  return -1;
+}
+
+std::string bench_message(const char* name, double v) {
+  const auto& f = tendon_bench_fields[index_of(name)];
+  return std::string("TendonBenchModel.") + name + " = " + format_double(v) + ": must be finite and " +
+         (f.bound == Bound::Positive ? "> 0" : ">= 0") + " [" + f.unit + "]";
 }
 }  // namespace
 
 void expose_tendon_bench(nb::module_& m) {
   using M = TendonBenchModel;
   using D = TendonBenchData;
-  nb::class_<M>(m, "TendonBenchModel",
-                "One 2N tendon channel of the McGill bench (S1), channel-equivalent values in rim units [SI].")
-      .def(nb::init<>())
-      .def_rw("ratio", &M::ratio, "r [-] pulley ratio (informational)")
-      .def_rw("k1", &M::k1, "[N/m] proximal stiffness of the channel (each tendon k1/2)")
-      .def_rw("k2", &M::k2, "[N/m] distal stiffness of the channel (each tendon k2/2)")
-      .def_rw("mass_motor", &M::mass_motor, "m1 = r^2 I_M [kg] (each motor m1/2)")
-      .def_rw("damping_motor", &M::damping_motor, "c1 = r^2 B [N s/m] (each motor c1/2)")
-      .def_rw("mass_load", &M::mass_load, "I_c [kg]")
-      .def_rw("k_z", &M::k_z, "[N/m] load spring to ground")
-      .def_rw("pretension", &M::pretension, "T_pre [N] per tendon (= amplifier bias)")
-      .def_rw("friction_c0", &M::friction_c0, "F_c0 [N] Coulomb friction per motor node")
-      .def_rw("friction_mu_tension", &M::friction_mu_tension, "mu_T [-] friction per newton of tension")
-      .def_rw("amplifier_lag", &M::amplifier_lag, "[s] first-order amplifier lag, 0 = ideal")
-      .def_rw("noise_force", &M::noise_force, "[N rms] sensor noise on F_m")
-      .def_rw("noise_position", &M::noise_position, "[m rms] sensor noise on X_t")
-      .def_rw("dt", &M::dt, "[s] fixed step")
-      .def_rw("clamp_stiffness", &M::clamp_stiffness, "[N/m] k_z at or above which the load is clamped")
-      .def("k_e", &M::k_e, "k_e = k1 k2/(k1 + k2) [N/m]")
+  auto cls = nb::class_<M>(m, "TendonBenchModel",
+                "One 2N tendon channel of the McGill bench (S1), channel-equivalent values in rim units [SI].\n"
+                "Every write re-validates: a non-finite or out-of-range value raises ValueError naming the field.")
+      .def(nb::init<>());
+#define TENDYN_BIND_BENCH(name, def, unit, bnd, doc)                                                  \
+  cls.def_prop_rw(                                                                                      \
+      #name, [](const M& mo) { return mo.name; },                                                       \
+      [](M& mo, double v) {                                                                             \
+        const auto& f = tendon_bench_fields[index_of(#name)];                                           \
+        if (!(std::isfinite(v) && (f.bound == Bound::Positive ? v > 0.0 : v >= 0.0)))                   \
+          throw nb::value_error(bench_message(#name, v).c_str());                                       \
+        mo.name = v;                                                                                    \
+      },                                                                                                \
+      "[" unit "] " doc);
+  TENDYN_TENDON_BENCH_FIELDS(TENDYN_BIND_BENCH)
+#undef TENDYN_BIND_BENCH
+  cls.def("k_e", &M::k_e, "k_e = k1 k2/(k1 + k2) [N/m]")
       .def("load_clamped", &M::load_clamped)
-      .def("validate", &M::validate);
+      .def("validate", &M::validate)
+      .def_static(
+          "fields",
+          []() {
+            nb::list out;
+            for (const auto& f : tendon_bench_fields)
+              out.append(nb::make_tuple(f.name, f.default_value, f.unit,
+                                        f.bound == Bound::Positive ? "> 0" : ">= 0", f.doc));
+            return out;
+          },
+          "The parameter table: (name, default, unit, bound, doc) per field, in order.");
 
   nb::class_<D>(m, "TendonBenchData", "State, derived constants and outputs of one channel.")
       .def("__init__",
            [](D* self, const M& model, std::uint64_t seed) {
-             check(model.validate(), "TendonBenchData");
+             if (const BenchFieldInfo* bad = model.first_issue())
+               throw nb::value_error((std::string("TendonBenchData: invalid model: TendonBenchModel.") + bad->name +
+                                      (bad->bound == Bound::Positive ? " must be finite and > 0" : " must be finite and >= 0"))
+                                         .c_str());
              new (self) D(model, seed);
            },
            nb::arg("model"), nb::arg("seed") = 0)
@@ -74,13 +102,13 @@ void expose_tendon_bench(nb::module_& m) {
       .def_ro("n_sub", &D::n_sub)
       .def_ro("clamped", &D::clamped);
 
-  m.def("tendon_bench_reset",
-        [](const M& mo, D& d, std::uint64_t seed) { return check(tendon_bench_reset(mo, d, seed), "tendon_bench_reset"); },
+  m.def("reset",
+        [](const M& mo, D& d, std::uint64_t seed) { return check(reset(mo, d, seed), "reset"); },
         nb::arg("model"), nb::arg("data"), nb::arg("seed") = 0);
-  m.def("tendon_bench_step",
-        [](const M& mo, D& d, double u) { return check(tendon_bench_step(mo, d, u), "tendon_bench_step"); },
+  m.def("step",
+        [](const M& mo, D& d, double u) { return check(step(mo, d, u), "step"); },
         nb::arg("model"), nb::arg("data"), nb::arg("u"));
-  m.def("tendon_bench_run",
+  m.def("run",
         [](const M& mo, D& d, ConstArr u, Arr force_measured, Arr position_measured, Arr x_a, Arr x_b,
            Arr x_load, Arr tension_a, Arr tension_b) {
           const std::size_t n = u.shape(0);
@@ -94,11 +122,11 @@ void expose_tendon_bench(nb::module_& m) {
           Status s;
           {
             nb::gil_scoped_release release;
-            s = tendon_bench_run(mo, d, u.data(), static_cast<std::int64_t>(n), force_measured.data(),
+            s = run(mo, d, u.data(), static_cast<std::int64_t>(n), force_measured.data(),
                                  position_measured.data(), x_a.data(), x_b.data(), x_load.data(),
                                  tension_a.data(), tension_b.data());
           }
-          return check(s, "tendon_bench_run");
+          return check(s, "run");
         },
         nb::arg("model"), nb::arg("data"), nb::arg("u"), nb::arg("force_measured"),
         nb::arg("position_measured"), nb::arg("x_a"), nb::arg("x_b"), nb::arg("x_load"),

@@ -1,7 +1,7 @@
 /* tendyn — C ABI of the real-time transmission core (routing + statics with losses).
  *
  * One handle holds an immutable model and its preallocated data; after
- * tendyn_transmission_create no call allocates, none throws. Arrays are dense, row-major
+ * tendyn_transmission_load / tendyn_transmission_create no call allocates, none throws. Arrays are dense, row-major
  * for matrices, SI units: radii [m], tensions [N], torques [N·m], velocities [rad/s].
  * Indices are 0-based: transmission i drives joint i and crosses joints 0…i−1.
  */
@@ -30,11 +30,29 @@ typedef enum tendyn_status {
 
 typedef struct tendyn_transmission tendyn_transmission;
 
+/* Load a complete transmission model (routing, reducers, pretension, branch losses and bearings) from a
+ * model file exported by Python: `Transmission.from_device(load_device("lexos.toml")).export(path)`
+ * (format: include/tendyn/model_file.hpp, one line per core field, values that read back exactly, so the
+ * loaded model equals the Python one bit for bit). This is the way to embed an identified model in a controller:
+ * load it once at start-up, then call the functions below in the loop.
+ * On success returns TENDYN_OK and *out owns the handle (free it with tendyn_transmission_destroy).
+ * On failure *out is NULL and, if message is not NULL, message[0 .. message_size) receives a
+ * NUL-terminated text naming the file, the line and the field, e.g.
+ * "lexos.model: line 12: beta[2,1] = 1.5: must be < 1 (no tension passes the branch)" (indices 0-based).
+ * Returns TENDYN_INVALID_MODEL for a missing, unreadable or invalid file. Allocates (setup time). */
+TENDYN_API tendyn_status tendyn_transmission_load(const char* path, tendyn_transmission** out, char* message,
+                                                  unsigned long message_size);
+
+/* Why the last tendyn_transmission_create on this thread failed ("" if it did not): the field and index,
+ * e.g. "driven_radius[1] = 0: must be > 0 (a zero driven radius makes the routing singular)". */
+TENDYN_API const char* tendyn_last_error(void);
+
 /* Create a transmission model. Required: n >= 1, motor_radius (n), idle (n*n, row-major, signed
  * idle radii in the strict lower part), driven_radius (n), reducer_ratio (n). Optional (NULL =
  * defaults): reducer_efficiency (n, default 1), pretension (n, default 0), tau0, nu, beta
- * (n*n row-major, [i*n + b] = branch b <= i of transmission i; default 0).
- * On success *out owns the handle; free it with tendyn_transmission_destroy. */
+ * (n*n row-major, [i*n + b] = branch b <= i of transmission i; default 0). No bearings: a model with
+ * bearings comes from tendyn_transmission_load. On success *out owns the handle; free it with
+ * tendyn_transmission_destroy. On TENDYN_INVALID_MODEL, tendyn_last_error() says which field is wrong. */
 TENDYN_API tendyn_status tendyn_transmission_create(int n, const double* motor_radius, const double* idle,
                                                     const double* driven_radius, const double* reducer_ratio,
                                                     const double* reducer_efficiency, const double* pretension,
@@ -49,10 +67,10 @@ TENDYN_API tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const d
 
 /* Feedforward: joint torques wanted + joint velocity -> motor torques to command (with losses). */
 TENDYN_API tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
-                                                         const double* qdot, double* torque_motor);
+                                                         const double* qd, double* torque_motor);
 /* Forward: motor torques + joint velocity -> joint torques delivered (with losses). */
 TENDYN_API tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
-                                                     const double* qdot, double* torque_joint);
+                                                     const double* qd, double* torque_joint);
 
 TENDYN_API const char* tendyn_status_message(tendyn_status s);
 

@@ -36,25 +36,29 @@ inline double bearing_speed_term(double h0, double h1, double n0, double speed) 
   return n < n0 ? h0 : h1 * std::cbrt(n * n);
 }
 
-/// Friction torque of a radial ball bearing, S0 eq. (7) [N·m].
+/// Friction torque of a radial ball bearing, S0 eq. (7) [N·m] (S0's α is static_coefficient, its
+/// β dynamic_coefficient; both [m], torque per newton of radial load).
+/// @param static_coefficient   break-away torque per radial load [m] (S0 α)
+/// @param dynamic_coefficient  torque per radial load while turning [m] (S0 β)
 /// @param load    radial load p on the bearing [N]
 /// @param speed   angular speed n [rad/s]
 /// @param applied external torque M_ext trying to turn the bearing [N·m]
-/// @param stuck   set to true when the bearing does not turn (|M_ext| < α p at n = 0)
-/// @return the torque the bearing opposes: M_ext when stuck; otherwise (β p + h(n)) with the
-///         sign of the motion (of M_ext at break-away).
-inline double bearing_friction_torque(double alpha, double beta, double h0, double h1, double n0,
-                                      double load, double speed, double applied, bool* stuck) {
+/// @param stuck   set to true when the bearing does not turn (|M_ext| < static_coefficient · p at n = 0)
+/// @return the torque the bearing opposes: M_ext when stuck; otherwise (dynamic_coefficient · p + h(n))
+///         with the sign of the motion (of M_ext at break-away).
+inline double bearing_friction_torque(double static_coefficient, double dynamic_coefficient, double h0,
+                                      double h1, double n0, double load, double speed, double applied,
+                                      bool* stuck) {
   if (speed == 0.0) {
-    if (std::abs(applied) < alpha * load) {
+    if (std::abs(applied) < static_coefficient * load) {
       if (stuck) *stuck = true;
       return applied;
     }
     if (stuck) *stuck = false;
-    return std::copysign(beta * load + h0, applied);
+    return std::copysign(dynamic_coefficient * load + h0, applied);
   }
   if (stuck) *stuck = false;
-  return std::copysign(beta * load + bearing_speed_term(h0, h1, n0, speed), speed);
+  return std::copysign(dynamic_coefficient * load + bearing_speed_term(h0, h1, n0, speed), speed);
 }
 
 /// Capstan (Euler–Eytelwein): tension leaving a wrap of angle θ [rad] with friction μ [-],
@@ -73,7 +77,8 @@ struct BranchFriction {
 };
 
 /// Branch friction of branch b of transmission i at branch speed sdot [m/s].
-/// Sliding (sdot ≠ 0): τ_0 + β|τ| + Σ_bearings (β_b p + h(n))/r; at rest: τ_0 + β|τ| + Σ α p / r
+/// Sliding (sdot ≠ 0): τ_0 + β|τ| + Σ_bearings (dynamic_coefficient p + h(n))/r; at rest:
+/// τ_0 + β|τ| + Σ static_coefficient p / r
 /// (break-away). Bearing load of a pulley wrapped by θ: p = 2 sin(θ/2)(T_pre + |τ|) [N].
 inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, double sdot) {
   BranchFriction f{m.tau0(i, b), m.beta(i, b)};
@@ -82,7 +87,7 @@ inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, 
     const double r = m.bearing_radius(i, b);
     const double k = 2.0 * std::sin(0.5 * m.bearing_wrap(i, b));  // load per unit tension
     const bool moving = sdot != 0.0;
-    const double coef = moving ? m.bearing_beta(i, b) : m.bearing_alpha(i, b);
+    const double coef = moving ? m.bearing_dynamic_coefficient(i, b) : m.bearing_static_coefficient(i, b);
     const double h = moving ? bearing_speed_term(m.bearing_h0(i, b), m.bearing_h1(i, b),
                                                  m.bearing_n0(i, b), sdot / r)
                             : 0.0;
@@ -126,16 +131,16 @@ inline double branch_tension_downstream(double y, double sdot, BranchFriction f,
 /// difference, so it passes the tension unchanged (static friction is not compensated, S0 §III).
 ///
 /// @param torque_joint  τ_J [N·m], (n)
-/// @param qdot          joint velocity [rad/s], (n)
-/// Writes data.qdot, qdot_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
+/// @param qd          joint velocity [rad/s], (n)
+/// Writes data.qd, qd_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
 /// self_locked. Returns SelfLocked when a self-locking reducer holds a back-driving load (the
 /// motor is then asked for nothing at that pulley), an error on bad input.
 template <class V1, class V2>
 inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionData& d,
-                                       const V1& torque_joint, const V2& qdot) {
+                                       const V1& torque_joint, const V2& qd) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(torque_joint)) return Status::NonFiniteInput;
-  const Status sv = velocities_from_joint(m, d, qdot);
+  const Status sv = velocities_from_joint(m, d, qd);
   if (is_error(sv)) return sv;
   Status status = Status::Ok;
   for (int i = m.n - 1; i >= 0; --i) {
@@ -143,7 +148,7 @@ inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionD
     for (int k = i + 1; k < m.n; ++k) own -= m.K(k, i) * d.tension(k, i);
     // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`.
     const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
-    const double power = own * qdot(i);
+    const double power = own * qd(i);
     double pulley = own / ratio;  // at rest: held statically, lossless
     d.self_locked(i) = 0;
     if (power > 0.0) {
@@ -180,13 +185,13 @@ inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionD
 /// break-away it passes the drive minus static friction, in the drive's direction.
 ///
 /// @param torque_motor  C_m [N·m], (n)
-/// @param qdot          joint velocity [rad/s], (n)
+/// @param qd          joint velocity [rad/s], (n)
 template <class V1, class V2>
 inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData& d,
-                                   const V1& torque_motor, const V2& qdot) {
+                                   const V1& torque_motor, const V2& qd) {
   if (torque_motor.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(torque_motor)) return Status::NonFiniteInput;
-  const Status sv = velocities_from_joint(m, d, qdot);
+  const Status sv = velocities_from_joint(m, d, qd);
   if (is_error(sv)) return sv;
   Status status = Status::Ok;
   for (int i = 0; i < m.n; ++i) {
@@ -210,7 +215,7 @@ inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData&
   for (int j = 0; j < m.n; ++j) {
     const double pulley = m.driven_radius(j) * d.tension(j, j);
     const double ratio = m.reducer_ratio(j), eta_d = m.reducer_efficiency(j);
-    const double power = pulley * qdot(j);
+    const double power = pulley * qd(j);
     double own = eta_d * ratio * pulley;  // driving, or at rest with motion impending from the motor
     d.self_locked(j) = 0;
     if (power < 0.0) {

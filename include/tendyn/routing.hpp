@@ -12,17 +12,73 @@
 // motor pulley to joint 0 on the base, branch i ends on the driven pulley of joint i.
 //
 // Model / Data convention: the model is immutable after construction; every call writes into a
-// Data preallocated from it and allocates nothing.
+// Data preallocated from it and allocates nothing. Setup-time helpers (set_field, validate_report,
+// describe, update_matrices) allocate; the real-time calls and validate() do not.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <string_view>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "tendyn/status.hpp"
 
 namespace tendyn {
+
+// ---- the parameter table (one declaration per field) ------------------------------------------
+//
+// X(name, dims, unit, doc) for every input field of TransmissionModel, in this order. dims = 1: (n) per
+// transmission; dims = 2: (n, n), [i, j] = joint j (K) or branch j (loss fields) of transmission i.
+// The bindings (read-only properties), the model file (save/load, C ABI), set_field and the tests that
+// compare it with the Python schema (python/tendyn/device/schema.py: TRANSMISSION_MODEL_FIELDS) all
+// derive from this one list. Bearing fields are "bearing_" + the device-file key of `bearings` entries.
+#define TENDYN_TRANSMISSION_FIELDS(X)                                                                  \
+  X(motor_radius, 1, "m", "motor pulley radius r_m, > 0")                                               \
+  X(K, 2, "m", "transmission matrix, lower-triangular: signed idle radii below, driven_radius * reducer_ratio on the diagonal") \
+  X(driven_radius, 1, "m", "driven pulley radius (without reducer), > 0")                               \
+  X(reducer_ratio, 1, "-", "reducer ratio n in the driven pulley, > 0")                                 \
+  X(reducer_efficiency, 1, "-", "direct efficiency eta_d in (0, 1]; <= 0.5 is self-locking")             \
+  X(pretension, 1, "N", "cable pretension, >= 0 (loads the bearings)")                                  \
+  X(tau0, 2, "N", "constant tension loss tau_0 of the branch (S0 eq. 12), >= 0")                        \
+  X(nu, 2, "N s/m", "viscous tension loss nu of the branch (S0 eqs. 11-12), >= 0")                      \
+  X(beta, 2, "-", "tension-proportional loss beta of the branch (S0 eq. 11), in [0, 1)")                \
+  X(bearing_count, 2, "-", "number of identical bearings on the branch pulley, integer >= 0; 0 = none") \
+  X(bearing_radius, 2, "m", "pulley radius the cable wraps over the bearings, > 0")                     \
+  X(bearing_wrap, 2, "rad", "wrap angle of the cable on that pulley, in (0, 2 pi] where count > 0")     \
+  X(bearing_static_coefficient, 2, "m", "bearing static coefficient (torque per radial load at break-away, S0 eq. 7 alpha)") \
+  X(bearing_dynamic_coefficient, 2, "m", "bearing dynamic coefficient (torque per radial load while turning, S0 eq. 7 beta)") \
+  X(bearing_h0, 2, "N m", "bearing speed term below n0 (S0 eq. 8)")                                     \
+  X(bearing_h1, 2, "N m (rad/s)^(-2/3)", "bearing speed coefficient above n0 (S0 eq. 8)")              \
+  X(bearing_n0, 2, "rad/s", "bearing speed threshold (S0 eq. 8)")
+
+/// One row of the parameter table.
+struct FieldInfo {
+  const char* name;  ///< core field name (also the model-file key and the Python routing-array key)
+  int dims;          ///< 1: (n); 2: (n, n)
+  const char* unit;  ///< SI unit
+  const char* doc;   ///< one-line meaning
+};
+
+#define TENDYN_FIELD_INFO(name, dims, unit, doc) FieldInfo{#name, dims, unit, doc},
+inline constexpr FieldInfo transmission_fields[] = {TENDYN_TRANSMISSION_FIELDS(TENDYN_FIELD_INFO)};
+#undef TENDYN_FIELD_INFO
+inline constexpr int transmission_field_count =
+    static_cast<int>(sizeof(transmission_fields) / sizeof(transmission_fields[0]));
+
+/// One problem found by TransmissionModel validation (setup time). Indices are 0-based, as in the
+/// arrays: [i] transmission, [i, j] transmission i and joint / branch j; -1 = not applicable.
+struct ValidationIssue {
+  const char* field = "";  ///< core field name (e.g. "beta")
+  int i = -1, j = -1;      ///< 0-based index of the offending entry; for a shape issue, the actual shape
+  double value = 0.0;      ///< offending value; for a shape issue, the expected n
+  const char* rule = "";   ///< what it must satisfy, e.g. "must be < 1"
+  bool shape = false;      ///< true: the array has the wrong shape (i, j = rows, cols; value = n)
+};
 
 /// Immutable description of n tendon transmissions on an n-joint serial chain.
 struct TransmissionModel {
@@ -38,15 +94,16 @@ struct TransmissionModel {
   Eigen::MatrixXd tau0;   ///< constant tension loss τ_0 [N] (S0 eq. 12)
   Eigen::MatrixXd nu;     ///< viscous tension loss ν [N·s/m] (S0 eqs. 11–12)
   Eigen::MatrixXd beta;   ///< tension-proportional loss β [-] (S0 eq. 11), in [0, 1)
-  // Bearings of the idle pulleys of a branch (S0 eqs. 7–8); count 0 = none.
-  Eigen::MatrixXd bearing_count;   ///< number of identical bearings [-]
-  Eigen::MatrixXd bearing_radius;  ///< pulley radius the cable wraps [m]
-  Eigen::MatrixXd bearing_wrap;    ///< wrap angle of the cable on that pulley [rad]
-  Eigen::MatrixXd bearing_alpha;   ///< static coefficient α [m] (torque per radial load)
-  Eigen::MatrixXd bearing_beta;    ///< dynamic coefficient β [m]
-  Eigen::MatrixXd bearing_h0;      ///< speed term below n0 [N·m]
-  Eigen::MatrixXd bearing_h1;      ///< speed term coefficient above n0 [N·m·(rad/s)^(-2/3)]
-  Eigen::MatrixXd bearing_n0;      ///< speed threshold [rad/s]
+  // Bearings of the idle pulleys of a branch (S0 eqs. 7–8); count 0 = none (the other bearing
+  // fields of that branch are then ignored).
+  Eigen::MatrixXd bearing_count;                ///< number of identical bearings [-]
+  Eigen::MatrixXd bearing_radius;               ///< pulley radius the cable wraps [m]
+  Eigen::MatrixXd bearing_wrap;                 ///< wrap angle of the cable on that pulley [rad]
+  Eigen::MatrixXd bearing_static_coefficient;   ///< static coefficient (S0 eq. 7 α) [m]: torque per radial load
+  Eigen::MatrixXd bearing_dynamic_coefficient;  ///< dynamic coefficient (S0 eq. 7 β) [m]
+  Eigen::MatrixXd bearing_h0;                   ///< speed term below n0 [N·m]
+  Eigen::MatrixXd bearing_h1;                   ///< speed term coefficient above n0 [N·m·(rad/s)^(-2/3)]
+  Eigen::MatrixXd bearing_n0;                   ///< speed threshold [rad/s]
 
   // Matrices a controller needs, computed once at construction.
   Eigen::MatrixXd joint_from_motor_position;  ///< q = K⁻¹ R_m q_m
@@ -56,30 +113,68 @@ struct TransmissionModel {
 
   TransmissionModel() = default;
 
-  /// Lossless routing: `idle` holds the signed idle radii in its strict lower part [m]
-  /// (entries on and above the diagonal are ignored). Loss parameters start at zero.
-  TransmissionModel(const Eigen::VectorXd& motor_radius_, const Eigen::MatrixXd& idle,
-                    const Eigen::VectorXd& driven_radius_, const Eigen::VectorXd& reducer_ratio_)
-      : n(static_cast<int>(motor_radius_.size())),
-        motor_radius(motor_radius_),
-        K(Eigen::MatrixXd::Zero(n, n)),
-        driven_radius(driven_radius_),
-        reducer_ratio(reducer_ratio_),
-        reducer_efficiency(Eigen::VectorXd::Ones(n)),
-        pretension(Eigen::VectorXd::Zero(n)) {
-    for (auto* m : {&tau0, &nu, &beta, &bearing_count, &bearing_alpha, &bearing_beta, &bearing_h0,
-                    &bearing_h1, &bearing_n0})
+  /// n transmissions with the defaults of every field: lossless, no bearings (count 0, radius 1 m,
+  /// wrap 0), η_d = 1, no pretension, reducer ratio 1; motor_radius, K and driven_radius zero (set them
+  /// with set_field, then call update_matrices()). Setup time (allocates).
+  explicit TransmissionModel(int n_) : n(n_ > 0 ? n_ : 0) {
+    motor_radius.setZero(n);
+    driven_radius.setZero(n);
+    K.setZero(n, n);
+    reducer_ratio.setOnes(n);
+    reducer_efficiency.setOnes(n);
+    pretension.setZero(n);
+    for (auto* m : {&tau0, &nu, &beta, &bearing_count, &bearing_wrap, &bearing_static_coefficient,
+                    &bearing_dynamic_coefficient, &bearing_h0, &bearing_h1, &bearing_n0})
       m->setZero(n, n);
     bearing_radius.setOnes(n, n);
-    bearing_wrap.setConstant(n, n, 3.141592653589793);
+  }
+
+  /// Lossless routing: `idle` holds the signed idle radii in its strict lower part [m]
+  /// (entries on and above the diagonal are ignored). Loss parameters start at their defaults.
+  TransmissionModel(const Eigen::VectorXd& motor_radius_, const Eigen::MatrixXd& idle,
+                    const Eigen::VectorXd& driven_radius_, const Eigen::VectorXd& reducer_ratio_)
+      : TransmissionModel(static_cast<int>(motor_radius_.size())) {
+    motor_radius = motor_radius_;
+    driven_radius = driven_radius_;
+    reducer_ratio = reducer_ratio_;
     if (idle.rows() != n || idle.cols() != n || driven_radius.size() != n ||
         reducer_ratio.size() != n)
-      return;  // validate() reports InvalidModel
+      return;  // validate() reports the shape
     for (int i = 0; i < n; ++i) {
       for (int j = 0; j < i; ++j) K(i, j) = idle(i, j);
       K(i, i) = driven_radius(i) * reducer_ratio(i);  // S0 footnote 1
     }
     update_matrices();
+  }
+
+  /// Call f(info, member) for every field of the parameter table, in table order.
+  template <class F>
+  void for_each_field(F&& f) {
+#define TENDYN_VISIT(name, dims, unit, doc) f(FieldInfo{#name, dims, unit, doc}, name);
+    TENDYN_TRANSMISSION_FIELDS(TENDYN_VISIT)
+#undef TENDYN_VISIT
+  }
+  template <class F>
+  void for_each_field(F&& f) const {
+#define TENDYN_VISIT(name, dims, unit, doc) f(FieldInfo{#name, dims, unit, doc}, name);
+    TENDYN_TRANSMISSION_FIELDS(TENDYN_VISIT)
+#undef TENDYN_VISIT
+  }
+
+  /// Set field `name` from `rows * cols` values, row-major (a (n) field takes rows = n, cols = 1).
+  /// Setup time (allocates). Returns false, and changes nothing, for an unknown name or a wrong shape.
+  /// Call update_matrices() after the routing fields and validate() before use.
+  bool set_field(const char* name, const double* values, int rows, int cols) {
+    bool done = false;
+    for_each_field([&](const FieldInfo& info, auto& member) {
+      if (done || std::string_view(info.name) != name) return;
+      done = true;
+      const int want_cols = info.dims == 1 ? 1 : n;
+      if (rows != n || cols != want_cols || (!values && n > 0)) { done = false; return; }
+      for (int r = 0; r < rows; ++r)
+        for (int c = 0; c < cols; ++c) assign(member, r, c, values[r * cols + c]);
+    });
+    return done;
   }
 
   /// Recompute the four matrices after K or motor_radius changed (setup time; allocates).
@@ -91,15 +186,62 @@ struct TransmissionModel {
     joint_from_motor_torque = K.transpose() * motor_radius.cwiseInverse().asDiagonal();
   }
 
-  /// Ok when the routing is usable: sizes agree, K lower-triangular with a non-zero diagonal,
-  /// positive radii, η_d in (0, 1], β + bearing terms < 1 (otherwise no tension can pass).
-  Status validate() const;
+  /// Visit every problem of the model in a fixed order; `sink(issue)` returns false to stop.
+  /// Returns the number of issues visited. Allocates nothing.
+  template <class Sink>
+  int check(Sink&& sink) const;
+
+  /// The first problem, if any (no allocation; usable anywhere). Returns true when one was found.
+  bool first_issue(ValidationIssue* issue) const {
+    ValidationIssue found;
+    const int k = check([&](const ValidationIssue& is) { found = is; return false; });
+    if (k > 0 && issue) *issue = found;
+    return k > 0;
+  }
+
+  /// Ok when the routing is usable: shapes agree, K lower-triangular with a non-zero diagonal equal
+  /// to driven_radius · reducer_ratio, positive radii, η_d in (0, 1], losses ≥ 0, β + bearing load
+  /// terms < 1 (otherwise no tension can pass). InvalidModel otherwise; first_issue() or
+  /// validate_report() (setup time) say which field and index. Allocates nothing.
+  Status validate() const { return first_issue(nullptr) ? Status::InvalidModel : Status::Ok; }
+
+ private:
+  static void assign(Eigen::VectorXd& v, int r, int, double x) { v(r) = x; }
+  static void assign(Eigen::MatrixXd& m, int r, int c, double x) { m(r, c) = x; }
 };
+
+/// Every problem of the model (setup time; allocates).
+inline std::vector<ValidationIssue> validate_report(const TransmissionModel& m) {
+  std::vector<ValidationIssue> out;
+  m.check([&](const ValidationIssue& is) { out.push_back(is); return true; });
+  return out;
+}
+
+/// Shortest of %.15g / %.17g that reads back to x (1.5 prints as 1.5, not 1.5000000000000000).
+inline std::string format_double(double x) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.15g", x);
+  if (std::strtod(buf, nullptr) != x) std::snprintf(buf, sizeof buf, "%.17g", x);
+  return buf;
+}
+
+/// "beta[2,1] = 1.5: must be < 1" (0-based indices [transmission, joint or branch]), or
+/// "tau0: shape (3, 3): must be (n, n) (n = 4)". Setup time (allocates).
+inline std::string describe(const ValidationIssue& is) {
+  std::string s = is.field;
+  if (is.shape) {
+    s += is.j < 0 ? ": " + std::to_string(is.i) + " entries: "
+                  : ": shape (" + std::to_string(is.i) + ", " + std::to_string(is.j) + "): ";
+    return s + is.rule + " (n = " + std::to_string(static_cast<int>(is.value)) + ")";
+  }
+  if (is.i >= 0) s += "[" + std::to_string(is.i) + (is.j >= 0 ? "," + std::to_string(is.j) : "") + "]";
+  return s + " = " + format_double(is.value) + ": " + is.rule;
+}
 
 /// Preallocated workspace and outputs of the transmission calls.
 struct TransmissionData {
-  Eigen::VectorXd q, qdot;            ///< joint position [rad], velocity [rad/s]
-  Eigen::VectorXd q_motor, qdot_motor;///< motor position [rad], velocity [rad/s]
+  Eigen::VectorXd q, qd;            ///< joint position [rad], velocity [rad/s]
+  Eigen::VectorXd q_motor, qd_motor;///< motor position [rad], velocity [rad/s]
   Eigen::MatrixXd S, Sdot;            ///< branch displacement [m] / velocity [m/s], [i, b]
   Eigen::MatrixXd tension;            ///< tension at joint b after branch b [N], [i, b]
   Eigen::VectorXd tension_motor;      ///< tension leaving the motor pulley [N]
@@ -109,39 +251,93 @@ struct TransmissionData {
   Eigen::VectorXi self_locked;        ///< 1 where a self-locking reducer holds the load
 
   explicit TransmissionData(const TransmissionModel& m)
-      : q(Eigen::VectorXd::Zero(m.n)), qdot(Eigen::VectorXd::Zero(m.n)),
-        q_motor(Eigen::VectorXd::Zero(m.n)), qdot_motor(Eigen::VectorXd::Zero(m.n)),
+      : q(Eigen::VectorXd::Zero(m.n)), qd(Eigen::VectorXd::Zero(m.n)),
+        q_motor(Eigen::VectorXd::Zero(m.n)), qd_motor(Eigen::VectorXd::Zero(m.n)),
         S(Eigen::MatrixXd::Zero(m.n, m.n)), Sdot(Eigen::MatrixXd::Zero(m.n, m.n)),
         tension(Eigen::MatrixXd::Zero(m.n, m.n)), tension_motor(Eigen::VectorXd::Zero(m.n)),
         torque_motor(Eigen::VectorXd::Zero(m.n)), torque_joint(Eigen::VectorXd::Zero(m.n)),
         stuck(Eigen::MatrixXi::Zero(m.n, m.n)), self_locked(Eigen::VectorXi::Zero(m.n)) {}
 };
 
-inline Status TransmissionModel::validate() const {
-  if (n <= 0 || motor_radius.size() != n || K.rows() != n || K.cols() != n ||
-      driven_radius.size() != n || reducer_ratio.size() != n || reducer_efficiency.size() != n ||
-      pretension.size() != n || tau0.rows() != n || nu.rows() != n || beta.rows() != n)
-    return Status::InvalidModel;
-  for (int i = 0; i < n; ++i) {
-    if (!(motor_radius(i) > 0.0) || !(driven_radius(i) > 0.0) || !(reducer_ratio(i) > 0.0))
-      return Status::InvalidModel;
-    if (!(reducer_efficiency(i) > 0.0 && reducer_efficiency(i) <= 1.0)) return Status::InvalidModel;
-    if (K(i, i) == 0.0) return Status::InvalidModel;
-    for (int j = i + 1; j < n; ++j)
-      if (K(i, j) != 0.0) return Status::InvalidModel;
+template <class Sink>
+inline int TransmissionModel::check(Sink&& sink) const {
+  int count = 0;
+  auto report = [&](const char* field, int i, int j, double value, const char* rule, bool shape = false) {
+    ++count;
+    ValidationIssue is;
+    is.field = field; is.i = i; is.j = j; is.value = value; is.rule = rule; is.shape = shape;
+    return sink(is);
+  };
+  if (n <= 0) { report("n", -1, -1, n, "must be >= 1"); return count; }
+  // Shapes first: nothing else can be checked on a wrong shape.
+  bool shapes_ok = true;
+  for_each_field([&](const FieldInfo& info, const auto& member) {
+    if (!shapes_ok) return;
+    const bool ok = info.dims == 1 ? (member.rows() == n && member.cols() == 1)
+                                   : (member.rows() == n && member.cols() == n);
+    if (!ok) {
+      shapes_ok = false;
+      if (info.dims == 1)
+        report(info.name, static_cast<int>(member.size()), -1, n, "must have n entries", true);
+      else
+        report(info.name, static_cast<int>(member.rows()), static_cast<int>(member.cols()), n,
+               "must be (n, n)", true);
+    }
+  });
+  if (!shapes_ok) return count;
+  // Every entry finite (above the diagonal too: nothing undefined hides in the model).
+  bool go = true;
+  for_each_field([&](const FieldInfo& info, const auto& member) {
+    for (int i = 0; go && i < member.rows(); ++i)
+      for (int j = 0; go && j < member.cols(); ++j)
+        if (!std::isfinite(member(i, j))) go = report(info.name, i, info.dims == 1 ? -1 : j, member(i, j), "must be finite");
+  });
+  if (!go) return count;
+  for (int i = 0; i < n && go; ++i) {
+    if (!(motor_radius(i) > 0.0)) go = report("motor_radius", i, -1, motor_radius(i), "must be > 0");
+    if (go && !(driven_radius(i) > 0.0))
+      go = report("driven_radius", i, -1, driven_radius(i), "must be > 0 (a zero driven radius makes the routing singular)");
+    if (go && !(reducer_ratio(i) > 0.0)) go = report("reducer_ratio", i, -1, reducer_ratio(i), "must be > 0");
+    if (go && !(reducer_efficiency(i) > 0.0 && reducer_efficiency(i) <= 1.0))
+      go = report("reducer_efficiency", i, -1, reducer_efficiency(i), "must be in (0, 1]");
+    if (go && !(pretension(i) >= 0.0)) go = report("pretension", i, -1, pretension(i), "must be >= 0");
+    if (go && K(i, i) == 0.0) go = report("K", i, i, K(i, i), "must be nonzero (singular routing)");
+    const double gen = driven_radius(i) * reducer_ratio(i);
+    if (go && !(std::abs(K(i, i) - gen) <= 1e-12 * std::abs(gen)))
+      go = report("K", i, i, K(i, i), "must equal driven_radius[i] * reducer_ratio[i]");
+    for (int j = i + 1; go && j < n; ++j)
+      if (K(i, j) != 0.0) go = report("K", i, j, K(i, j), "must be 0 (K is lower-triangular: a cable does not reach past its driven joint)");
   }
-  if (!all_finite(K) || !all_finite(motor_radius)) return Status::InvalidModel;
-  for (int i = 0; i < n; ++i)
-    for (int b = 0; b <= i; ++b) {
-      if (!(tau0(i, b) >= 0.0) || !(nu(i, b) >= 0.0) || !(beta(i, b) >= 0.0) ||
-          !(bearing_count(i, b) >= 0.0) || !(bearing_radius(i, b) > 0.0))
-        return Status::InvalidModel;
+  for (int i = 0; i < n && go; ++i)
+    for (int b = 0; b <= i && go; ++b) {
+      if (!(tau0(i, b) >= 0.0)) go = report("tau0", i, b, tau0(i, b), "must be >= 0");
+      if (go && !(nu(i, b) >= 0.0)) go = report("nu", i, b, nu(i, b), "must be >= 0");
+      if (go && !(beta(i, b) >= 0.0)) go = report("beta", i, b, beta(i, b), "must be >= 0");
+      if (go && !(beta(i, b) < 1.0)) go = report("beta", i, b, beta(i, b), "must be < 1 (no tension passes the branch)");
+      const double count_b = bearing_count(i, b);
+      if (go && !(count_b >= 0.0 && count_b == std::floor(count_b)))
+        go = report("bearing_count", i, b, count_b, "must be an integer >= 0");
+      if (!go || count_b == 0.0) continue;
+      if (!(bearing_radius(i, b) > 0.0)) go = report("bearing_radius", i, b, bearing_radius(i, b), "must be > 0");
+      if (go && !(bearing_wrap(i, b) > 0.0 && bearing_wrap(i, b) <= 6.283185307179586))
+        go = report("bearing_wrap", i, b, bearing_wrap(i, b), "must be in (0, 2*pi]");
+      if (go && !(bearing_static_coefficient(i, b) >= 0.0))
+        go = report("bearing_static_coefficient", i, b, bearing_static_coefficient(i, b), "must be >= 0");
+      if (go && !(bearing_dynamic_coefficient(i, b) >= 0.0))
+        go = report("bearing_dynamic_coefficient", i, b, bearing_dynamic_coefficient(i, b), "must be >= 0");
+      if (go && !(bearing_h0(i, b) >= 0.0)) go = report("bearing_h0", i, b, bearing_h0(i, b), "must be >= 0");
+      if (go && !(bearing_h1(i, b) >= 0.0)) go = report("bearing_h1", i, b, bearing_h1(i, b), "must be >= 0");
+      if (go && !(bearing_n0(i, b) >= 0.0)) go = report("bearing_n0", i, b, bearing_n0(i, b), "must be >= 0");
+      if (!go) break;
       // Tension-proportional friction must stay below 1, or no tension passes the branch.
       const double k = 2.0 * std::sin(0.5 * bearing_wrap(i, b)) / bearing_radius(i, b);
-      const double coef = std::max(bearing_alpha(i, b), bearing_beta(i, b));
-      if (!(beta(i, b) + bearing_count(i, b) * coef * k < 1.0)) return Status::InvalidModel;
+      const double coef = std::max(bearing_static_coefficient(i, b), bearing_dynamic_coefficient(i, b));
+      const double total = beta(i, b) + count_b * coef * k;
+      if (!(total < 1.0))
+        go = report("beta+bearing", i, b, total,
+                    "beta + bearing_count * max(static, dynamic coefficient) * 2 sin(wrap/2) / radius must be < 1");
     }
-  return Status::Ok;
+  return count;
 }
 
 // ---- kinematics (S0 eqs. 1–2, corrected) ---------------------------------------------------
@@ -185,21 +381,21 @@ inline void branch_displacements(const TransmissionModel& m, TransmissionData& d
 }
 
 /// Joint velocities → motor and branch velocities (same linear maps as positions).
-/// Writes data.qdot, data.qdot_motor, data.Sdot.
+/// Writes data.qd, data.qd_motor, data.Sdot.
 template <class VecIn>
-inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData& d, const VecIn& qdot) {
-  if (qdot.size() != m.n) return Status::SizeMismatch;
-  if (!all_finite(qdot)) return Status::NonFiniteInput;
-  for (int i = 0; i < m.n; ++i) d.qdot(i) = qdot(i);
+inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
+  if (qd.size() != m.n) return Status::SizeMismatch;
+  if (!all_finite(qd)) return Status::NonFiniteInput;
+  for (int i = 0; i < m.n; ++i) d.qd(i) = qd(i);
   for (int i = 0; i < m.n; ++i) {
     double s = 0.0;
-    for (int j = 0; j <= i; ++j) s += m.K(i, j) * qdot(j);
-    d.qdot_motor(i) = s / m.motor_radius(i);
+    for (int j = 0; j <= i; ++j) s += m.K(i, j) * qd(j);
+    d.qd_motor(i) = s / m.motor_radius(i);
     // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
     // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
     for (int b = 0; b <= i; ++b) {
       double sb = 0.0;
-      for (int l = b; l <= i; ++l) sb += m.K(i, l) * qdot(l);
+      for (int l = b; l <= i; ++l) sb += m.K(i, l) * qd(l);
       d.Sdot(i, b) = sb;
     }
   }

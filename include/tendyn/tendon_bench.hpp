@@ -64,10 +64,11 @@
 // splitmix64) and Box–Muller: same seed ⇒ bit-identical output on the same build and platform.
 //
 // Model / Data convention: TendonBenchModel is plain data; TendonBenchData(model) holds state, derived
-// constants and outputs; tendon_bench_step / tendon_bench_run never allocate and never throw.
+// constants and outputs; step / run (overloads on TendonBenchModel) never allocate and never throw.
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 
@@ -75,40 +76,74 @@
 
 namespace tendyn {
 
-/// Parameters of one 2N tendon channel (channel-equivalent values, rim units).
+// The parameter table of TendonBenchModel: X(name, default, unit, lower bound kind, doc), in order.
+// Bound kind: Positive (> 0) or NonNegative (>= 0); every value must be finite. The struct members,
+// the bindings (properties that re-validate on every write), validate() and the test that compares
+// the defaults with Python's TendonBench (python/tendyn/device/tendon_bench.py) derive from this list.
+// The file fields of [bench] are the rows up to noise_position; dt and clamp_stiffness are simulator
+// settings, not device-file fields.
+#define TENDYN_TENDON_BENCH_FIELDS(X)                                                                  \
+  X(ratio, 15.0, "-", Positive, "pulley ratio r (informational: the values below are at the rim)")       \
+  X(k1, 2.566e4, "N/m", Positive, "proximal stiffness of the channel (each tendon k1/2)")              \
+  X(k2, 1.0e5, "N/m", Positive, "distal stiffness of the channel (each tendon k2/2)")                  \
+  X(mass_motor, 0.575, "kg", Positive, "m1 = r^2 I_M of the channel (each motor m1/2)")                \
+  X(damping_motor, 10.8, "N s/m", NonNegative, "c1 = r^2 B of the channel (each motor c1/2)")          \
+  X(mass_load, 0.05, "kg", Positive, "load inertia I_c")                                               \
+  X(k_z, 1.0e9, "N/m", NonNegative, "load spring to ground")                                           \
+  X(pretension, 5.0, "N", NonNegative, "T_pre per tendon at rest (= amplifier bias F_pre)")            \
+  X(friction_c0, 0.1, "N", NonNegative, "Coulomb friction F_c0 per motor node at zero tension")        \
+  X(friction_mu_tension, 0.005, "-", NonNegative, "friction mu_T per newton of tendon tension")        \
+  X(amplifier_lag, 0.0, "s", NonNegative, "first-order lag of the current amplifier, 0 = ideal")       \
+  X(noise_force, 0.0, "N", NonNegative, "sensor noise on F_m, rms")                                    \
+  X(noise_position, 0.0, "m", NonNegative, "sensor noise on X_t, rms")                                 \
+  X(dt, 5.0e-5, "s", Positive, "fixed step (default 20 kHz)")                                          \
+  X(clamp_stiffness, 1.0e7, "N/m", Positive, "k_z at or above which the load is clamped")
+
+/// Lower bound of a tendon bench parameter.
+enum class Bound { Positive, NonNegative };
+
+/// One row of the tendon bench parameter table.
+struct BenchFieldInfo {
+  const char* name;
+  double default_value;
+  const char* unit;
+  Bound bound;
+  const char* doc;
+};
+
+#define TENDYN_BENCH_FIELD_INFO(name, def, unit, bound, doc) BenchFieldInfo{#name, def, unit, Bound::bound, doc},
+inline constexpr BenchFieldInfo tendon_bench_fields[] = {TENDYN_TENDON_BENCH_FIELDS(TENDYN_BENCH_FIELD_INFO)};
+#undef TENDYN_BENCH_FIELD_INFO
+
+/// Parameters of one 2N tendon channel (channel-equivalent values, rim units). Members, units and
+/// defaults: TENDYN_TENDON_BENCH_FIELDS above.
 struct TendonBenchModel {
-  double ratio = 15.0;                 ///< r [-] pulley ratio (informational: values below are at the rim)
-  double k1 = 2.566e4;                 ///< [N/m] proximal stiffness of the channel (each tendon k1/2)
-  double k2 = 1.0e5;                   ///< [N/m] distal stiffness of the channel (each tendon k2/2)
-  double mass_motor = 0.575;           ///< m1 = r² I_M [kg] of the channel (each motor m1/2)
-  double damping_motor = 10.8;         ///< c1 = r² B [N·s/m] of the channel (each motor c1/2)
-  double mass_load = 0.05;             ///< I_c [kg]
-  double k_z = 1.0e9;                  ///< [N/m] load spring to ground
-  double pretension = 5.0;             ///< T_pre [N] per tendon at rest (= amplifier bias F_pre)
-  double friction_c0 = 0.2;            ///< F_c0 [N] Coulomb friction per motor node at zero tension
-  double friction_mu_tension = 0.02;   ///< μ_T [-] friction per newton of tendon tension
-  double amplifier_lag = 0.0;          ///< [s] first-order lag of the current amplifier, 0 = ideal
-  double noise_force = 0.0;            ///< [N rms] sensor noise on F_m
-  double noise_position = 0.0;         ///< [m rms] sensor noise on X_t
-  double dt = 5.0e-5;                  ///< [s] fixed step (default 20 kHz)
-  double clamp_stiffness = 1.0e7;      ///< [N/m] k_z at or above which the load is clamped
+#define TENDYN_BENCH_MEMBER(name, def, unit, bound, doc) double name = def;
+  TENDYN_TENDON_BENCH_FIELDS(TENDYN_BENCH_MEMBER)
+#undef TENDYN_BENCH_MEMBER
 
   /// k_e = k1 k2/(k1 + k2) [N/m] (S1 eq. 1).
   double k_e() const { return k1 * k2 / (k1 + k2); }
   /// Whether the load is treated as clamped (k_z ≥ clamp_stiffness).
   bool load_clamped() const { return k_z >= clamp_stiffness; }
 
-  /// InvalidModel if a value is non-finite or out of range (masses, stiffnesses, dt > 0; the rest ≥ 0).
-  Status validate() const {
-    const double pos[] = {k1, k2, mass_motor, mass_load, dt, clamp_stiffness, ratio};
-    const double nonneg[] = {damping_motor, k_z, pretension, friction_c0, friction_mu_tension,
-                             amplifier_lag, noise_force, noise_position};
-    for (double v : pos)
-      if (!std::isfinite(v) || !(v > 0.0)) return Status::InvalidModel;
-    for (double v : nonneg)
-      if (!std::isfinite(v) || !(v >= 0.0)) return Status::InvalidModel;
-    return Status::Ok;
+  /// The first invalid field (non-finite, or outside its bound), or nullptr. No allocation.
+  const BenchFieldInfo* first_issue() const {
+    const double values[] = {
+#define TENDYN_BENCH_VALUE(name, def, unit, bound, doc) name,
+        TENDYN_TENDON_BENCH_FIELDS(TENDYN_BENCH_VALUE)
+#undef TENDYN_BENCH_VALUE
+    };
+    for (std::size_t k = 0; k < sizeof(values) / sizeof(values[0]); ++k) {
+      const double v = values[k];
+      const bool ok = std::isfinite(v) && (tendon_bench_fields[k].bound == Bound::Positive ? v > 0.0 : v >= 0.0);
+      if (!ok) return &tendon_bench_fields[k];
+    }
+    return nullptr;
   }
+
+  /// InvalidModel if a value is non-finite or out of range (first_issue() names it).
+  Status validate() const { return first_issue() ? Status::InvalidModel : Status::Ok; }
 };
 
 /// State, derived constants and outputs of one channel. Built from a model; no allocation afterwards.
@@ -130,7 +165,7 @@ struct TendonBenchData {
   double force_measured = 0.0;               ///< [N] F_m with sensor noise
   double position_measured = 0.0;            ///< [m] X_t with sensor noise
 
-  // --- derived constants (set by tendon_bench_reset) ---
+  // --- derived constants (set by reset) ---
   double h = 0.0;            ///< [s] step
   double m_node = 0.0;       ///< [kg] mass of one motor node (m1/2)
   double c_node = 0.0;       ///< [N·s/m] damping of one motor node (c1/2)
@@ -231,7 +266,7 @@ inline void update_outputs(const TendonBenchModel& m, TendonBenchData& d) {
 }  // namespace detail
 
 /// Reset the state to rest (both tendons at T_pre), recompute the derived constants and reseed.
-inline Status tendon_bench_reset(const TendonBenchModel& m, TendonBenchData& d, std::uint64_t seed) {
+inline Status reset(const TendonBenchModel& m, TendonBenchData& d, std::uint64_t seed) {
   const Status s = m.validate();
   if (is_error(s)) return s;
   d.x_a = d.v_a = d.x_b = d.v_b = d.x_load = d.v_load = 0.0;
@@ -264,12 +299,12 @@ inline Status tendon_bench_reset(const TendonBenchModel& m, TendonBenchData& d, 
 }
 
 inline TendonBenchData::TendonBenchData(const TendonBenchModel& model, std::uint64_t seed) {
-  tendon_bench_reset(model, *this, seed);
+  reset(model, *this, seed);
 }
 
 /// Advance one step of length model.dt with the current command u [N at the rim]. Writes the state and
 /// the outputs (tensions, F_m, X_t with noise) of the end of the step into d. No allocation.
-inline Status tendon_bench_step(const TendonBenchModel& m, TendonBenchData& d, double u) {
+inline Status step(const TendonBenchModel& m, TendonBenchData& d, double u) {
   if (!std::isfinite(u)) return Status::NonFiniteInput;
   const double h = d.h;
   // Amplifier: exact first-order lag for a command held over the step; the motors get the MEAN of the
@@ -315,12 +350,12 @@ inline Status tendon_bench_step(const TendonBenchModel& m, TendonBenchData& d, d
 /// Run a whole command sequence u[0..n) (one value per step) from the current state and write, per step,
 /// the end-of-step outputs. Any output pointer may be null (not written). No allocation.
 /// Stops at the first non-finite command and returns NonFiniteInput (earlier samples are written).
-inline Status tendon_bench_run(const TendonBenchModel& m, TendonBenchData& d, const double* u, std::int64_t n,
+inline Status run(const TendonBenchModel& m, TendonBenchData& d, const double* u, std::int64_t n,
                                double* force_measured, double* position_measured, double* x_a,
                                double* x_b, double* x_load, double* tension_a, double* tension_b) {
   if (n < 0) return Status::SizeMismatch;
   for (std::int64_t i = 0; i < n; ++i) {
-    const Status s = tendon_bench_step(m, d, u[i]);
+    const Status s = step(m, d, u[i]);
     if (is_error(s)) return s;
     if (force_measured) force_measured[i] = d.force_measured;
     if (position_measured) position_measured[i] = d.position_measured;

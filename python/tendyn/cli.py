@@ -79,14 +79,16 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     show.set_defaults(func=cmd_routing_show)
 
-    sim = sub.add_parser("simulate", help="run an experiment on a twin and write its log")
+    epilog = "experiments: " + "; ".join(f"{e.name} ({'tendon bench' if e.kind != 'serial' else 'chains'}): {e.help}"
+                                         for e in catalogue.EXPERIMENTS.values())
+    sim = sub.add_parser("simulate", help="run an experiment on a twin and write its log", epilog=epilog)
     sim.add_argument("device", help="device file (.toml) or bundled twin name")
     sim.add_argument("experiment", choices=catalogue.EXPERIMENT_NAMES)
     sim.add_argument("--out", required=True, help="log file (.parquet or .csv); the truth goes beside it")
     for name, opt in catalogue.OPTIONS.items():
         unit = f" [{opt.unit}]" if opt.unit not in ("-", "") else ""
         sim.add_argument(flag(name), type=_typed(name), default=None, help=opt.help + unit,
-                         metavar=name.upper())
+                         metavar=_metavar(opt))
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     sim.set_defaults(func=cmd_simulate)
@@ -96,7 +98,25 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="out/demo", help="output folder [default: out/demo]")
     demo.add_argument("--json", action="store_true")
     demo.set_defaults(func=cmd_demo)
+    _register_commands(sub)
     return p
+
+
+def _register_commands(sub) -> None:
+    """The subcommands of :mod:`tendyn.commands`, one module each, found without a list to keep."""
+    import importlib
+    import pkgutil
+
+    import tendyn.commands as commands
+
+    for info in sorted(pkgutil.iter_modules(commands.__path__), key=lambda i: i.name):
+        module = importlib.import_module(f"tendyn.commands.{info.name}")
+        if hasattr(module, "register"):
+            module.register(sub)
+
+
+def _metavar(opt) -> str:
+    return {"floats": "X,…", "choice": "|".join(opt.choices), "int": "N", "seed": "N"}.get(opt.kind, "X")
 
 
 def _version() -> str:
@@ -137,11 +157,10 @@ _MATRIX_UNITS = {"K": "m", "R_m": "m", "joint_from_motor_position": "rad/rad", "
 
 
 def cmd_routing_show(args) -> int:
-    from tendyn.sim.catalogue import device_kind
     from tendyn.transmission import Transmission
 
     dev = _load(args.device)
-    if device_kind(dev) != "serial":
+    if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a tendon bench (one 2N channel): it has no routing to show", "device")
     if not dev.transmissions:
         return _show_capstan_drives(dev, args.json)
@@ -236,9 +255,12 @@ def cmd_simulate(args) -> int:
 
 
 def _check_log_path(text: str) -> Path:
-    from tendyn.io.logs import check_log_path
+    from tendyn.io.logs import LogError, check_log_path
 
-    return check_log_path(text)
+    try:
+        return check_log_path(text)
+    except LogError as exc:
+        raise UsageError(str(exc), "out") from None
 
 
 def _write_run(log, truth, path: Path):
@@ -266,11 +288,10 @@ def _check_out_folder(text: str) -> Path:
 
 def cmd_demo(args) -> int:
     from tendyn.io.files import all_or_none
-    from tendyn.sim.catalogue import device_kind
 
     dev = _load(args.device)
     out = _check_out_folder(args.out)
-    if device_kind(dev) != "serial":
+    if dev.kind != "serial":
         job = _demo_bench
     elif not dev.transmissions:
         job = _demo_capstan

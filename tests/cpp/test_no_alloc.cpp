@@ -18,8 +18,8 @@ int main(int argc, char** argv) {
   m.reducer_efficiency << 0.9, 0.9, 1.0, 0.9;
   m.tau0.setConstant(1.0); m.nu.setConstant(10.0); m.beta.setConstant(0.02);
   m.pretension.setConstant(50.0);
-  m.bearing_count(3, 2) = 2; m.bearing_radius(3, 2) = 0.01; m.bearing_alpha(3, 2) = 2e-4;
-  m.bearing_beta(3, 2) = 1.5e-4; m.bearing_h0(3, 2) = 1e-4; m.bearing_h1(3, 2) = 2e-5; m.bearing_n0(3, 2) = 5;
+  m.bearing_count(3, 2) = 2; m.bearing_radius(3, 2) = 0.01; m.bearing_wrap(3, 2) = 3.141592653589793;
+  m.bearing_static_coefficient(3, 2) = 2e-4; m.bearing_dynamic_coefficient(3, 2) = 1.5e-4; m.bearing_h0(3, 2) = 1e-4; m.bearing_h1(3, 2) = 2e-5; m.bearing_n0(3, 2) = 5;
   if (tendyn::is_error(m.validate())) { std::puts("invalid model"); return 1; }
   tendyn::TransmissionData d(m);
 

@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
   m.k_z = 1e4;  // sub-stepped soft load
   tendyn::TendonBenchData d(m, 7);
   counting::armed = true;
-  for (long s = 0; s < steps; ++s) tendyn::tendon_bench_step(m, d, 2.0 * std::sin(2e-3 * s));
+  for (long s = 0; s < steps; ++s) tendyn::step(m, d, 2.0 * std::sin(2e-3 * s));
   counting::armed = false;
   std::printf("%ld steps, %ld allocations, F_m = %.4f N\n", steps, counting::count, d.force_measured);
   return counting::count == 0 ? 0 : 1;

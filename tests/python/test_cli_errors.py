@@ -215,3 +215,31 @@ def _started(proc) -> bool:
     with open(f"/proc/{proc.pid}/stat") as fh:
         fields = fh.read().rsplit(")", 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK") > 2.0
+
+
+def test_docs_list_every_option_and_experiment_as_declared():
+    """docs/cli.md against the catalogue: each option's row carries its unit, each experiment its options."""
+    from pathlib import Path
+
+    from tendyn.errors import flag
+    from tendyn.sim import catalogue
+
+    text = (Path(__file__).parents[2] / "docs" / "cli.md").read_text()
+    rows = {line.split("|")[1].strip(): [c.strip() for c in line.split("|")[1:-1]]
+            for line in text.splitlines() if line.startswith("| `--")}
+    assert set(rows) == {f"`{flag(n)}`" for n in catalogue.OPTIONS}
+    for name, opt in catalogue.OPTIONS.items():
+        assert rows[f"`{flag(name)}`"][1] == opt.unit, name
+    for (kind, name), exp in catalogue.EXPERIMENTS.items():
+        line = next(ln for ln in text.splitlines() if ln.startswith(f"| {kind} | `{name}` |"))
+        assert line.split("|")[3].strip() == ", ".join(f"`{flag(u)}`" for u in exp.uses)
+
+
+@pytest.mark.parametrize("name", ["lexos", "cea_branch", "mcgill_bench"])
+def test_catalogue_covers_exactly_the_experiments_each_device_kind_declares(name):
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+    from tendyn.sim import catalogue
+
+    dev = load_device(bundled(name))
+    assert set(dev.experiments) == {e.name for (k, _), e in catalogue.EXPERIMENTS.items() if k == dev.kind}

@@ -152,7 +152,7 @@ def test_lexos_routing_arrays_consistent():
     np.testing.assert_allclose(r["tau0"], 1.0 * tril)
     np.testing.assert_allclose(r["nu"], 10.0 * tril)
     np.testing.assert_allclose(r["beta"], 0.02 * tril)
-    for name in ("count", "wrap", "alpha", "beta", "h0", "h1", "n0"):
+    for name in ("count", "wrap", "static_coefficient", "dynamic_coefficient", "h0", "h1", "n0"):
         np.testing.assert_array_equal(r["bearing_" + name], np.zeros((n, n)))
     np.testing.assert_array_equal(r["bearing_radius"], np.ones((n, n)))
 
@@ -265,7 +265,7 @@ def test_self_locking_efficiency_is_kept(tmp_path):
 
 def test_bearings_parsed_into_arrays(tmp_path):
     d = lexos_dict()
-    br = {"count": 2, "radius": 0.01, "wrap": 3.14159, "alpha": 0.002, "beta": 0.0015, "h0": 1e-4,
+    br = {"count": 2, "radius": 0.01, "wrap": 3.14159, "static_coefficient": 0.002, "dynamic_coefficient": 0.0015, "h0": 1e-4,
           "h1": 2e-5, "n0": 5.0}
     d["transmissions"][2]["bearings"] = [{}, br, {}]
     dev = load_device(write(tmp_path, d))
@@ -523,8 +523,8 @@ MALFORMED = [
      ["transmissions[1].friction[1]: must be a table (got float 1.0)"]),
     ("bearings_length", _set("transmissions/1/bearings", [{}]),
      ["transmissions[2].bearings: must have the same length as friction (2, one per branch), got 1"]),
-    ("bearing_wrap", _set("transmissions/0/bearings", [{"count": 1, "radius": 0.01, "wrap": 7.0, "alpha": 0.0,
-                                                        "beta": 0.0, "h0": 0.0, "h1": 0.0, "n0": 0.0}]),
+    ("bearing_wrap", _set("transmissions/0/bearings", [{"count": 1, "radius": 0.01, "wrap": 7.0, "static_coefficient": 0.0,
+                                                        "dynamic_coefficient": 0.0, "h0": 0.0, "h1": 0.0, "n0": 0.0}]),
      ["transmissions[1].bearings[1].wrap: must be in (0, 2*pi] (got 7.0)"]),
     ("bearing_missing_field", _set("transmissions/0/bearings", [{"count": 1}]),
      ["transmissions[1].bearings[1].radius: missing required field"]),

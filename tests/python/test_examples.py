@@ -36,3 +36,17 @@ def test_example_01_same_numbers_in_c_cpp_python():
         env = dict(os.environ, LD_LIBRARY_PATH=str(REPO / "build" / "cpp"))
         native = _numbers(subprocess.run([str(exe)], capture_output=True, text=True, check=True, env=env).stdout)
         np.testing.assert_allclose(native, py, rtol=1e-14, atol=0)
+
+
+def test_example_01_model_file_is_exported_from_lexos_toml(tmp_path):
+    """The C and C++ examples load examples/01_feedforward/lexos.model (no hand-copied numbers): it must be
+    what Python exports from the bundled lexos.toml today. Regenerate with
+    ``Transmission.from_device(load_device(bundled("lexos"))).export("examples/01_feedforward/lexos.model")``."""
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+    from tendyn.transmission import Transmission
+
+    fresh = tmp_path / "lexos.model"
+    Transmission.from_device(load_device(bundled("lexos"))).export(fresh)
+    committed = REPO / "examples" / "01_feedforward" / "lexos.model"
+    assert committed.read_text() == fresh.read_text(), "lexos.model is stale: re-export it (see the docstring)"

@@ -331,7 +331,7 @@ def _parse(argv):
     from tendyn.commands import s0
 
     p = argparse.ArgumentParser(prog="tendyn")
-    s0.add_arguments(p.add_subparsers(dest="command", required=True))
+    s0.register(p.add_subparsers(dest="command", required=True))
     return p.parse_args(argv)
 
 

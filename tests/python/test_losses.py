@@ -133,7 +133,7 @@ def test_C5_bearing_law_every_branch():
 def test_C5_bearings_make_friction_grow_with_tension():
     """A branch with bearings loses more at higher tension (radial load 2 sin(θ/2)(T_pre + |τ|))."""
     kw = dict(bearing_count=[[2]], bearing_radius=[[0.01]], bearing_wrap=[[np.pi]],
-              bearing_alpha=[[2e-4]], bearing_beta=[[1.5e-4]], bearing_h0=[[1e-4]],
+              bearing_static_coefficient=[[2e-4]], bearing_dynamic_coefficient=[[1.5e-4]], bearing_h0=[[1e-4]],
               bearing_h1=[[2e-5]], bearing_n0=[[5.0]], pretension=[20.0])
     tr = _one_joint(**kw)
     losses = [tr.feedforward([t * 0.05], [1.0]).tension_motor[0] - t for t in (10.0, 50.0, 100.0)]

@@ -122,7 +122,7 @@ def test_bad_numeric_input_raises():
     tr = Transmission.from_arrays([0.01, 0.01], [[0.1, 0], [0.02, 0.1]])
     with pytest.raises(ValueError, match="NaN or Inf"):
         tr.joint_from_motor([np.nan, 0.0])
-    with pytest.raises(ValueError, match="size"):
+    with pytest.raises(ValueError, match=r"q must be a 1-D array of 2 finite floats \(got shape \(3,\)\)"):
         tr.motor_from_joint([0.0, 0.0, 0.0])
     with pytest.raises(ValueError, match="NaN or Inf"):
         tr.feedforward([np.inf, 0.0], [0.1, 0.1])

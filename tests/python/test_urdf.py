@@ -9,7 +9,7 @@ from tendyn import _core
 from tendyn.device import DeviceError, load_device
 from tendyn.device.rigid_body import joint_frames, rigid_body_model
 from tendyn.devices import bundled
-from tendyn.sim.model import sim_model
+from tendyn.sim.model import run_log, sim_model
 
 
 def urdf_of(device) -> str:
@@ -63,8 +63,8 @@ def test_urdf_chain_equals_dh_chain(tmp_path, rng):
     sb.reset(q0, 0)
     z = np.zeros((2000, 4))
     ff = np.tile([0.1, -0.05, 0.02, 0.03], (2000, 1))
-    la = _core.sim_run(ma, sa, z, z, ff, z, 10)
-    lb = _core.sim_run(mb, sb, z, z, ff, z, 10)
+    la = run_log(ma, sa, z, z, ff, z, 10)
+    lb = run_log(mb, sb, z, z, ff, z, 10)
     np.testing.assert_allclose(lb["q_joint"], la["q_joint"], atol=1e-9)
 
 

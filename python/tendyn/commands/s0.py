@@ -1,7 +1,7 @@
 """Command-line logic of the S0 friction workflow (issue 8, items 1–4): ``plan``, ``identify-friction``,
-``decompose``. The parser of :mod:`tendyn.cli` registers them with :func:`add_plan_arguments`,
-:func:`add_identify_friction_arguments`, :func:`add_decompose_arguments`; each sets ``func`` to the
-``run_*`` function, which returns the exit code (0) and raises :class:`tendyn.errors.UsageError` for bad
+``decompose``. :func:`register` (found by :func:`tendyn.cli.build_parser`) adds them with
+:func:`add_plan_arguments`, :func:`add_identify_friction_arguments`, :func:`add_decompose_arguments`; each
+sets ``func`` to the ``run_*`` function, which returns the exit code (0) and raises :class:`tendyn.errors.UsageError` for bad
 input (exit 2). No physics here: it calls :mod:`tendyn.sim.experiments` and :mod:`tendyn.ident`.
 
 ::
@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from tendyn.commands import args as conv
 from tendyn.errors import UsageError
 
 PLAN_EXPERIMENTS = ("constant-velocity",)
@@ -28,51 +29,10 @@ DEFAULT_PLAN_SPEEDS = (2.0, 4.0, 6.0, 8.0, 10.0)
 LOG_SUFFIXES = (".csv", ".parquet")
 
 
-# ---- argparse converters (messages without the option name: argparse adds it) -------------------------
-
-def _int_at_least(lo: int):
-    def convert(text: str) -> int:
-        try:
-            v = int(text, 10)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be an integer (got {text!r})") from None
-        if v < lo:
-            raise argparse.ArgumentTypeError(f"must be >= {lo} (got {v})")
-        return v
-    convert.__name__ = "integer"
-    return convert
-
-
-def _positive_float(unit: str, hi: float = 1e6):
-    def convert(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be a number [{unit}] (got {text!r})") from None
-        if not (math.isfinite(v) and 0 < v <= hi):
-            raise argparse.ArgumentTypeError(f"must be finite, > 0 and <= {hi:g} [{unit}] (got {text!r})")
-        return v
-    convert.__name__ = "number"
-    return convert
-
-
-def _floats(unit: str, positive: bool):
-    def convert(text: str) -> tuple[float, ...]:
-        parts = [p.strip() for p in text.split(",")]
-        try:
-            vals = tuple(float(p) for p in parts)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"must be comma-separated numbers [{unit}] (got {text!r})") from None
-        if not all(math.isfinite(v) for v in vals):
-            raise argparse.ArgumentTypeError(f"must be finite numbers [{unit}] (got {text!r})")
-        if positive and not all(v > 0 for v in vals):
-            raise argparse.ArgumentTypeError(f"must all be > 0 [{unit}] (got {text!r})")
-        return vals
-    convert.__name__ = "numbers"
-    return convert
-
+# ---- argparse converters (shared ones from tendyn.commands.args; messages without the option name) ------
 
 def _out_path(suffixes):
+    """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
     def convert(text: str) -> Path:
         p = Path(text)
         if p.suffix.lower() not in suffixes:
@@ -85,13 +45,6 @@ def _out_path(suffixes):
         return p
     convert.__name__ = "path"
     return convert
-
-
-def _existing_file(text: str) -> Path:
-    p = Path(text)
-    if not p.is_file():
-        raise argparse.ArgumentTypeError(f"no such file: {text}")
-    return p
 
 
 def _load_device(text: str):
@@ -117,21 +70,21 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     """``tendyn plan constant-velocity DEVICE --transmission I --strategy S1|S2 [...] --out REF.csv``."""
     p = subparsers.add_parser("plan", help="write the references of a twin experiment for a real controller")
     p.add_argument("experiment", choices=PLAN_EXPERIMENTS, help="the experiment to plan")
-    p.add_argument("device", help="device file (.toml) or bundled twin name")
-    p.add_argument("--transmission", type=_int_at_least(1), required=True, help="1-based transmission to move")
+    p.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
+    p.add_argument("--transmission", type=conv.number(1, integer=True), required=True, help="1-based transmission to move")
     p.add_argument("--strategy", choices=("S1", "S2"), default="S2",
                    help="S1 holds the other motors (motor-space references), S2 the other joints (joint-space); "
                         "default S2")
-    p.add_argument("--speeds", type=_floats("rad/s", True), default=DEFAULT_PLAN_SPEEDS,
+    p.add_argument("--speeds", type=conv.numbers(0.0, 1000.0, lo_open=True, unit="rad/s"), default=DEFAULT_PLAN_SPEEDS,
                    help="motor speeds [rad/s], comma-separated; one forward and one backward pass each "
                         "(identify-friction needs >= 5; default 2,4,6,8,10)")
-    p.add_argument("--travel", type=_positive_float("rad", 1e4), default=20.0,
+    p.add_argument("--travel", type=conv.number(0.0, 1e4, lo_open=True, unit="rad"), default=20.0,
                    help="motor travel per pass [rad] (default 20, as the twin's experiment)")
-    p.add_argument("--accel", type=_positive_float("rad/s^2", 1e6), default=200.0,
+    p.add_argument("--accel", type=conv.number(0.0, 1e6, lo_open=True, unit="rad/s²"), default=200.0,
                    help="motor acceleration of the ramps [rad/s^2] (default 200)")
-    p.add_argument("--q0", type=_floats("rad", False), default=None,
+    p.add_argument("--q0", type=conv.numbers(-10.0, 10.0, unit="rad"), default=None,
                    help="start joint positions [rad], comma-separated (default 0)")
-    p.add_argument("--rate", type=_positive_float("Hz", 1e6), default=1000.0,
+    p.add_argument("--rate", type=conv.number(0.0, 1e6, lo_open=True, unit="Hz"), default=1000.0,
                    help="sample rate of the references [Hz] (the controller's rate; default 1000)")
     p.add_argument("--out", type=_out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
@@ -202,13 +155,13 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
     p = subparsers.add_parser("identify-friction",
                               help="fit C_m = C_m0 sgn(qd_m) + nu qd_m per transmission from constant-velocity logs")
     p.add_argument("device", help="device file (.toml) or bundled twin name")
-    p.add_argument("logs", nargs="+", type=_existing_file, metavar="LOG",
+    p.add_argument("logs", nargs="+", type=conv.existing_file, metavar="LOG",
                    help="constant-velocity logs (.csv/.parquet), one or more per transmission; every "
                         "transmission of the device must be covered")
     p.add_argument("--out", type=_out_path((".json",)), required=True, help="FRICTION.json to write")
     p.add_argument("--gravity", choices=("pairs", "model", "both"), default="pairs",
                    help="gravity removal: forward/backward pairs (S0, default), the device's gravity model, or both")
-    p.add_argument("--min-speeds", type=_int_at_least(2), default=5,
+    p.add_argument("--min-speeds", type=conv.number(2, 1000, integer=True), default=5,
                    help="fewest distinct speeds per direction accepted (default 5)")
     p.add_argument("--json", action="store_true", help="print FRICTION.json on stdout too")
     p.set_defaults(func=run_identify_friction)
@@ -299,8 +252,8 @@ def add_decompose_arguments(subparsers) -> argparse.ArgumentParser:
     """``tendyn decompose DEVICE FRICTION.json [--shares FILE] [--json]``."""
     p = subparsers.add_parser("decompose", help="per-branch friction from the global values (S0 eqs. 18–21)")
     p.add_argument("device", help="device file (.toml) or bundled twin name")
-    p.add_argument("friction", type=_existing_file, metavar="FRICTION.json", help="identified global friction")
-    p.add_argument("--shares", type=_existing_file, default=None,
+    p.add_argument("friction", type=conv.existing_file, metavar="FRICTION.json", help="identified global friction")
+    p.add_argument("--shares", type=conv.existing_file, default=None,
                    help="loss shares p, p' per branch (JSON, tendyn.shares/1); default: from the device's "
                         "construction (pulleys and bearings per link)")
     p.add_argument("--json", action="store_true", help="print the decomposition as JSON on stdout")
@@ -330,8 +283,8 @@ def run_decompose(args) -> int:
     return 0
 
 
-def add_arguments(subparsers) -> None:
-    """Register the three commands."""
+def register(subparsers) -> None:
+    """Register the three commands (found by :func:`tendyn.cli.build_parser`)."""
     add_plan_arguments(subparsers)
     add_identify_friction_arguments(subparsers)
     add_decompose_arguments(subparsers)
@@ -339,7 +292,7 @@ def add_arguments(subparsers) -> None:
 
 if __name__ == "__main__":   # a stand-alone entry until cli.py wires the commands in
     parser = argparse.ArgumentParser(prog="tendyn")
-    add_arguments(parser.add_subparsers(dest="command", required=True))
+    register(parser.add_subparsers(dest="command", required=True))
     a = parser.parse_args()
     try:
         sys.exit(a.func(a))

@@ -1,22 +1,26 @@
-"""Device descriptions: the TOML device file (schema version 1), its validation and data model.
+"""Device descriptions: the TOML device file (schema version 1), its validation and data model, and the
+one step from a description to its computing models (:func:`compile_device`).
 
 >>> from tendyn.device import load_device
 >>> from tendyn.devices import bundled
 >>> dev = load_device(bundled("lexos"))
->>> dev.n_joints
-4
+>>> dev.kind, dev.n_joints
+('serial', 4)
 
-See ``docs/device-file.md`` for the format. The loader uses only the standard library and numpy;
-``rigid_body`` and ``closed_loop`` (rigid-body models, closed-loop maps, base parameters) use Pinocchio.
+Every device kind derives from :class:`Device` (``kind``, ``name``, ``path``, ``experiments``): a
+:class:`SerialDevice` (chains and trees with cable transmissions or capstan drives) or a
+:class:`TendonBench` (the S1 2N bench). See ``docs/device-file.md`` for the format. The loaders use only
+the standard library and numpy; ``rigid_body``, ``closed_loop`` and ``compiled`` use Pinocchio and the core.
 """
 
+from .base import EXPERIMENTS, Device
+from .compiled import CompiledDevice, compile_device
 from .load import load_device
 from .schema import (
     SCHEMA_VERSION,
     Bearing,
     BranchFriction,
     Constraint,
-    Device,
     DeviceError,
     Drive,
     FieldSpec,
@@ -24,13 +28,17 @@ from .schema import (
     Kinematics,
     Motor,
     Sensors,
-    Transmission,
+    SerialDevice,
+    TransmissionSpec,
 )
+from .tendon_bench import TendonBench
 
 __all__ = [
+    "EXPERIMENTS",
     "SCHEMA_VERSION",
     "Bearing",
     "BranchFriction",
+    "CompiledDevice",
     "Constraint",
     "Device",
     "DeviceError",
@@ -40,6 +48,9 @@ __all__ = [
     "Kinematics",
     "Motor",
     "Sensors",
-    "Transmission",
+    "SerialDevice",
+    "TendonBench",
+    "TransmissionSpec",
+    "compile_device",
     "load_device",
 ]

@@ -25,11 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from .base import Device
+from .compiled import CompiledDevice, compile_device
 from .rigid_body import (
     STANDARD_PARAMETER_NAMES,
     cut_frames,
     joint_frames,
-    pinocchio_model,
     standard_parameters,
     tree_joint_numbers,
 )
@@ -138,7 +139,7 @@ def _closing_pairs(device) -> list[tuple[int, int]]:
     return pairs
 
 
-def loop_closure_error(device, qa, pairs=None, model=None) -> np.ndarray:
+def loop_closure_error(device: Device | CompiledDevice, qa, pairs=None, model=None) -> np.ndarray:
     """Mismatch between the two frames of each cut joint at active positions qa.
 
     Parameters
@@ -158,9 +159,11 @@ def loop_closure_error(device, qa, pairs=None, model=None) -> np.ndarray:
     """
     import pinocchio as pin
 
-    model = pinocchio_model(device) if model is None else model
+    compiled = compile_device(device)   # the one model of the device (built once)
+    device = compiled.device
+    model = compiled.pinocchio_model if model is None else model
     data = model.createData()
-    _, L, c = active_coordinate_map(device)
+    L, c = compiled.active_map
     q, _, _ = _tree_state(L, c, qa)
     pin.forwardKinematics(model, data, q)
     numbers = tree_joint_numbers(device)
@@ -280,7 +283,7 @@ def _preference_order(standard_names, link_order):
     return order
 
 
-def base_parameters(device, n_samples: int = 100, seed: int = 0, include_drives: bool = True,
+def base_parameters(device: Device | CompiledDevice, n_samples: int = 100, seed: int = 0, include_drives: bool = True,
                     link_order=None, tol: float = 1e-8) -> BaseParameters:
     """Base parameters of the device's dynamic model in active coordinates, found numerically.
 
@@ -304,9 +307,11 @@ def base_parameters(device, n_samples: int = 100, seed: int = 0, include_drives:
     -------
     BaseParameters
     """
-    model = pinocchio_model(device)
-    data = model.createData()
-    active, L, c = active_coordinate_map(device)
+    compiled = compile_device(device)   # the one model of the device (built once)
+    device = compiled.device
+    model = compiled.pinocchio_model
+    data = compiled.pinocchio_data()
+    active, (L, c) = compiled.active_joints, compiled.active_map
     numbers = tree_joint_numbers(device)
     std_names, _ = standard_parameters(device)
     drive_rows = []

@@ -8,11 +8,9 @@ found is reported.
 
 from __future__ import annotations
 
-import datetime
 import difflib
 import math
 import os
-import tomllib
 import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
@@ -38,7 +36,6 @@ from .schema import (
     Bearing,
     BranchFriction,
     Constraint,
-    Device,
     DeviceError,
     Drive,
     FieldSpec,
@@ -46,11 +43,16 @@ from .schema import (
     Kinematics,
     Motor,
     Sensors,
-    Transmission,
+    SerialDevice,
+    TransmissionSpec,
     _frozen_array,
     _num,
     inertia_matrix,
 )
+from ._toml import read_toml, typename as _typename
+from .base import Device
+from .tendon_bench import KIND as TENDON_BENCH_KIND
+from .tendon_bench import load_tendon_bench
 
 __all__ = ["load_device"]
 
@@ -66,9 +68,11 @@ def load_device(path: str | os.PathLike) -> Device:
     Returns
     -------
     Device
-        The validated, immutable description; transmissions (or drives) sorted by driven joint.
-        A file with ``[device] kind = "tendon_bench_2n"`` is handed to
-        ``tendyn.device.tendon_bench.load_tendon_bench`` and its result returned.
+        The validated, immutable description: a :class:`~tendyn.device.schema.SerialDevice`
+        (transmissions or drives sorted by driven joint), or for a file with
+        ``[device] kind = "tendon_bench_2n"`` the :class:`~tendyn.device.tendon_bench.TendonBench` of
+        ``tendyn.device.tendon_bench.load_tendon_bench``. Every kind shares the base
+        :class:`~tendyn.device.base.Device` (``kind``, ``name``, ``path``, ``experiments``).
 
     Raises
     ------
@@ -77,53 +81,16 @@ def load_device(path: str | os.PathLike) -> Device:
         out of range, inconsistent routing, ...). The message names the file, the field and the problem.
     """
     p = Path(path)
-    if not p.exists():
-        raise DeviceError("file not found", file=str(p))
-    if not p.is_file():
-        raise DeviceError("not a regular file", file=str(p))
-    try:
-        with p.open("rb") as fh:
-            raw = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceError(f"TOML syntax error: {exc}", file=p.name) from None
-    except UnicodeDecodeError as exc:
-        raise DeviceError(f"not valid UTF-8 text: {exc}", file=p.name) from None
-    except OSError as exc:
-        raise DeviceError(f"cannot read file: {exc.strerror or exc}", file=str(p)) from None
+    raw = read_toml(p)
     dev_table = raw.get("device")
-    if isinstance(dev_table, dict) and dev_table.get("kind") == "tendon_bench_2n":
-        try:
-            from .tendon_bench import load_tendon_bench  # lazy: optional module
-        except ImportError as exc:
-            if getattr(exc, "name", None) not in (None, __package__ + ".tendon_bench"):
-                raise
-            raise DeviceError("tendon bench support is not installed", file=p.name,
-                              field="device.kind") from None
-        return load_tendon_bench(p)
+    if isinstance(dev_table, dict) and dev_table.get("kind") == TENDON_BENCH_KIND:
+        return load_tendon_bench(p, raw)
     return _Parser(p).device(raw)
 
 
 # ----------------------------------------------------------------------------------------------------------
 # helpers
 # ----------------------------------------------------------------------------------------------------------
-
-def _typename(v: Any) -> str:
-    if isinstance(v, bool):
-        return f"boolean {'true' if v else 'false'}"
-    if isinstance(v, int):
-        return f"integer {v}"
-    if isinstance(v, float):
-        return f"float {_fmt(v)}"
-    if isinstance(v, str):
-        return f"string {v!r}"
-    if isinstance(v, dict):
-        return "a table"
-    if isinstance(v, list):
-        return "an array"
-    if isinstance(v, (datetime.date, datetime.time, datetime.datetime)):
-        return f"date/time {v.isoformat()}"
-    return type(v).__name__
-
 
 def _fmt(x: Any) -> str:
     if isinstance(x, float):
@@ -272,7 +239,7 @@ class _Parser:
                                  f"{ev[2]:.6g} violate the triangle inequality")
 
     # -- sections ----------------------------------------------------------------------------------------
-    def device(self, raw: dict) -> Device:
+    def device(self, raw: dict) -> SerialDevice:
         # The version decides what the rest means: check it before anything else.
         if "schema" not in raw:
             raise self.err("schema", f"missing required field: write `schema = {SCHEMA_VERSION}` at the top")
@@ -300,8 +267,8 @@ class _Parser:
         else:
             raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
                                             "joint (or [[drives]] for elastic capstan drives)")
-        return Device(name=dev["name"], description=dev["description"], path=self.path.resolve(),
-                      kinematics=kin, transmissions=trans, drives=drives, kind=dev["kind"])
+        return SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
+                            kinematics=kin, transmissions=trans, drives=drives)
 
     def kinematics(self, raw: Any) -> Kinematics:
         k = self.table(raw, "kinematics", KINEMATICS_FIELDS)
@@ -502,7 +469,7 @@ class _Parser:
             raise self.err(field, f"{urdf.name}: no movable joint")
         return tuple(out)
 
-    def transmissions(self, raw: Any, kin: Kinematics) -> tuple[Transmission, ...]:
+    def transmissions(self, raw: Any, kin: Kinematics) -> tuple[TransmissionSpec, ...]:
         if not raw:
             raise self.err("transmissions", "must list at least one transmission ([[transmissions]])")
         driven_by: dict[int, tuple[int, str]] = {}
@@ -528,7 +495,7 @@ class _Parser:
                                                 "each actuated joint must be driven exactly once")
         return tuple(sorted(out, key=lambda t: t.joint))
 
-    def transmission(self, raw: dict, path: str, kin: Kinematics) -> Transmission:
+    def transmission(self, raw: dict, path: str, kin: Kinematics) -> TransmissionSpec:
         f = self.table(raw, path, TRANSMISSION_FIELDS)
         name, joint = f["name"], f["joint"]
         n = kin.n_joints
@@ -575,7 +542,7 @@ class _Parser:
                                                         f"{_fmt(mot['peak_torque'])}, continuous_torque = "
                                                         f"{_fmt(mot['continuous_torque'])})")
         sen = self.table(f["sensors"], f"{path}.sensors", SENSOR_FIELDS)
-        return Transmission(
+        return TransmissionSpec(
             name=name, joint=joint, motor_radius=f["motor_radius"], crosses=tuple(crosses),
             crossed_radii=tuple(radii), driven_radius=f["driven_radius"], reducer_ratio=f["reducer_ratio"],
             reducer_efficiency=f["reducer_efficiency"], pretension=f["pretension"], friction=friction,

@@ -198,16 +198,18 @@ def cut_frames(device) -> list[CutFrame]:
             if idx is None]
 
 
-def pinocchio_model(device):
-    """A Python Pinocchio model (``pin.Model``) of the device's rigid-body tree (gravity from the device).
+def pinocchio_model(device, frames: list[JointFrame] | None = None):
+    """A new Python Pinocchio model (``pin.Model``) of the device's rigid-body tree (gravity from the device).
 
-    Joint k of the model (1-based) is ``joint_frames(device)[k - 1]``; its q/v index is k − 1.
+    Joint k of the model (1-based) is ``joint_frames(device)[k - 1]``; its q/v index is k − 1. ``frames``
+    are the device's :func:`joint_frames` when the caller has them already. Experiments and estimators use
+    the one model of :func:`tendyn.device.compile_device` instead of building their own.
     """
     import pinocchio as pin
 
     model = pin.Model()
     model.gravity.linear = np.asarray(device.kinematics.gravity, float)
-    for f in joint_frames(device):
+    for f in (joint_frames(device) if frames is None else frames):
         z = np.allclose(f.axis, (0.0, 0.0, 1.0))
         if f.prismatic:
             jm = pin.JointModelPZ() if z else pin.JointModelPrismaticUnaligned(np.asarray(f.axis, float))
@@ -240,13 +242,14 @@ def standard_parameters(device) -> tuple[list[str], np.ndarray]:
     return names, np.array(values)
 
 
-def rigid_body_model(device):
-    """The C++ rigid-body model (:class:`tendyn._core.RigidBodyModel`) of a device's chain."""
+def rigid_body_model(device, frames: list[JointFrame] | None = None):
+    """A new C++ rigid-body model (:class:`tendyn._core.RigidBodyModel`) of a device's chain (``frames``:
+    its :func:`joint_frames`, if already computed)."""
     from tendyn import _core
 
     model = _core.RigidBodyModel()
     model.set_gravity(np.asarray(device.kinematics.gravity, float))
-    for f in joint_frames(device):
+    for f in (joint_frames(device) if frames is None else frames):
         model.add_joint(f.parent, f.placement, f.axis, f.prismatic, f.mass, f.com, f.inertia, f.name)
     return model
 

@@ -17,9 +17,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
+
+from .base import Device
 
 SCHEMA_VERSION = 1
 """The schema version this package reads (``schema = 1`` at the top of the file)."""
@@ -259,8 +261,10 @@ BEARING_FIELDS = (
     _spec("radius", "float", "m", "pulley radius over the bearings", lo=0.0, lo_open=True, hi=1.0),
     _spec("wrap", "float", "rad", "cable wrap angle", lo=0.0, lo_open=True, hi=TWO_PI,
       range_msg="must be in (0, 2*pi]"),
-    _spec("alpha", "float", "m", "static friction per unit radial load (eq. 7)", lo=0.0, hi=1.0),
-    _spec("beta", "float", "m", "load-dependent coefficient (eq. 7)", lo=0.0, hi=1.0),
+    _spec("static_coefficient", "float", "m", "bearing friction torque per newton of radial load at break-away "
+      "(S0 eq. 7 alpha)", lo=0.0, hi=1.0),
+    _spec("dynamic_coefficient", "float", "m", "bearing friction torque per newton of radial load while turning "
+      "(S0 eq. 7 beta)", lo=0.0, hi=1.0),
     _spec("h0", "float", "N m", "speed-independent torque (eq. 8)", lo=0.0, hi=1e3),
     _spec("h1", "float", "N m (rad/s)^(-2/3)", "speed-dependent coefficient (eq. 8)", lo=0.0, hi=1e3),
     _spec("n0", "float", "rad/s", "speed threshold (eq. 8)", lo=0.0, hi=1e6),
@@ -429,14 +433,16 @@ class BranchFriction:
 class Bearing:
     """Bearings of one branch (S0 eqs. 7-8).
 
-    count [-], radius [m], wrap [rad], alpha [m], beta [m], h0 [N m], h1 [N m (rad/s)^(-2/3)], n0 [rad/s].
+    count [-], radius [m], wrap [rad], static_coefficient [m] (S0 eq. 7 alpha: torque per newton of radial
+    load at break-away), dynamic_coefficient [m] (S0 eq. 7 beta: the same while turning), h0 [N m],
+    h1 [N m (rad/s)^(-2/3)], n0 [rad/s].
     """
 
     count: int
     radius: float
     wrap: float
-    alpha: float
-    beta: float
+    static_coefficient: float
+    dynamic_coefficient: float
     h0: float
     h1: float
     n0: float
@@ -467,7 +473,7 @@ class Sensors:
 
 
 @dataclass(frozen=True)
-class Transmission:
+class TransmissionSpec:
     """One cable from a motor to its driven joint.
 
     joint is the driven joint number (1-based); crosses are the (1-based) joints crossed on idle pulleys
@@ -540,7 +546,7 @@ class Drive:
 
     @property
     def viscous_joint(self) -> float:
-        """Viscous friction seen at the joint [N m s/rad] = N^2 * viscous_motor (motor speed N qdot)."""
+        """Viscous friction seen at the joint [N m s/rad] = N^2 * viscous_motor (motor speed N qd)."""
         return self.ratio ** 2 * self.viscous_motor
 
     @property
@@ -562,28 +568,104 @@ class Drive:
         return self.ratio ** 2 * self.motor.rotor_inertia
 
 
-BEARING_ARRAY_NAMES = ("count", "radius", "wrap", "alpha", "beta", "h0", "h1", "n0")
+BEARING_PREFIX = "bearing_"
+"""A bearing field ``x`` of the device file is the routing array / core field ``bearing_x``."""
+
+BEARING_ARRAY_NAMES = tuple(spec.name for spec in BEARING_FIELDS)
+"""Keys of a ``bearings`` entry, in order (derived from :data:`BEARING_FIELDS`)."""
+
+NO_BEARING = {"radius": 1.0}
+"""Array values of a branch without bearings where not 0 (a radius of 1 m: no division by zero)."""
+
+
+@dataclass(frozen=True)
+class ModelField:
+    """One field of the core transmission model (``tendyn._core.TransmissionModel``), derived from the
+    device-file field tables: the one route from a TOML key to the C++ step.
+
+    Attributes
+    ----------
+    name : str
+        Core field name = key of :meth:`Device.routing_arrays` = model-file key.
+    dims : int
+        1: (m,) per transmission; 2: (m, n), [i, j] = joint j (``K``) or branch j of transmission i.
+    unit : str
+        SI unit (as in the field table it comes from).
+    toml : str
+        Where it comes from in the device file (``transmissions.bearings.static_coefficient``).
+    attribute : str
+        The dataclass attribute that holds it (``Bearing.static_coefficient``).
+    default : float
+        Value when the file does not give it (lossless, no bearing).
+    """
+
+    name: str
+    dims: int
+    unit: str
+    toml: str
+    attribute: str
+    default: float
+
+
+def _spec_default(spec: FieldSpec) -> float:
+    return float(spec.default) if isinstance(spec.default, (int, float)) else 0.0
+
+
+_TRANSMISSION_SPECS = {spec.name: spec for spec in TRANSMISSION_FIELDS}
+
+TRANSMISSION_MODEL_FIELDS: tuple[ModelField, ...] = (
+    ModelField("motor_radius", 1, _TRANSMISSION_SPECS["motor_radius"].unit, "transmissions.motor_radius",
+               "TransmissionSpec.motor_radius", 0.0),
+    ModelField("K", 2, "m", "transmissions.crosses, crossed_radii, driven_radius * reducer_ratio",
+               "TransmissionSpec.crosses, crossed_radii, generalized_radius", 0.0),
+) + tuple(
+    ModelField(name, 1, _TRANSMISSION_SPECS[name].unit, f"transmissions.{name}", f"TransmissionSpec.{name}",
+               _spec_default(_TRANSMISSION_SPECS[name]))
+    for name in ("driven_radius", "reducer_ratio", "reducer_efficiency", "pretension")
+) + tuple(
+    ModelField(spec.name, 2, spec.unit, f"transmissions.friction.{spec.name}", f"BranchFriction.{spec.name}",
+               _spec_default(spec))
+    for spec in FRICTION_FIELDS
+) + tuple(
+    ModelField(BEARING_PREFIX + spec.name, 2, spec.unit, f"transmissions.bearings.{spec.name}",
+               f"Bearing.{spec.name}", NO_BEARING.get(spec.name, 0.0))
+    for spec in BEARING_FIELDS
+)
+"""Every field of the core transmission model, in the order of the C++ parameter table
+(``TENDYN_TRANSMISSION_FIELDS`` in ``include/tendyn/routing.hpp``; a test checks they agree). The routing
+arrays, the Python -> C++ fill, the friction-free model, the twin's truth and the docs derive from it."""
+
+LOSS_FIELD_NAMES = tuple(f.name for f in TRANSMISSION_MODEL_FIELDS if f.dims == 2 and f.name != "K")
+"""The per-branch loss and bearing fields (everything but the routing) of the core model."""
 
 
 @dataclass(frozen=True, eq=False)
-class Device:
-    """A validated device description (see :func:`tendyn.device.load_device`).
+class SerialDevice(Device):
+    """A validated serial (or tree) device description (see :func:`tendyn.device.load_device`).
 
     name, description : str
     path : Path of the device file
     kinematics : :class:`Kinematics`
-    transmissions : tuple of :class:`Transmission`, sorted by driven joint (empty for a drive device)
+    transmissions : tuple of :class:`TransmissionSpec`, sorted by driven joint (empty for a drive device)
     drives : tuple of :class:`Drive`, sorted by driven joint (empty for a transmission device)
-    kind : "serial" (the only kind this loader builds; see ``DEVICE_KINDS``)
+    kind : "serial" (class attribute; see :class:`tendyn.device.base.Device`)
+    experiments : the experiments of a chain twin (class attribute)
     """
 
     name: str
     description: str
     path: Path
     kinematics: Kinematics
-    transmissions: tuple[Transmission, ...] = field(default_factory=tuple)
+    transmissions: tuple[TransmissionSpec, ...] = field(default_factory=tuple)
     drives: tuple[Drive, ...] = field(default_factory=tuple)
-    kind: str = "serial"
+    kind: ClassVar[str] = "serial"
+    experiments: ClassVar[tuple[str, ...]] = ("constant-velocity", "exciting", "blocked-link", "stepped-sine",
+                                              "swept-sine")
+
+    @property
+    def source(self) -> str:
+        """The device file, as text."""
+        return str(self.path)
 
     @property
     def n_joints(self) -> int:
@@ -612,36 +694,29 @@ class Device:
             reducer_ratio), 0 elsewhere, so that R_m q_m = K q; ``driven_radius``, ``reducer_ratio``,
             ``reducer_efficiency``, ``pretension`` (m,); ``tau0`` [N], ``nu`` [N s/m], ``beta`` [-] (m, n)
             with [i, b] = branch b of transmission i (zero for b >= joint_i); ``bearing_count``,
-            ``bearing_radius``, ``bearing_wrap``, ``bearing_alpha``, ``bearing_beta``, ``bearing_h0``,
-            ``bearing_h1``, ``bearing_n0`` (m, n), zero where there is no bearing except
-            ``bearing_radius`` = 1.0 there (no division by zero).
+            ``bearing_radius``, ``bearing_wrap``, ``bearing_static_coefficient``,
+            ``bearing_dynamic_coefficient``, ``bearing_h0``, ``bearing_h1``, ``bearing_n0`` (m, n), zero where
+            there is no bearing except ``bearing_radius`` = 1.0 there (no division by zero). The keys and
+            their order are those of :data:`TRANSMISSION_MODEL_FIELDS` (the core model's fields).
         """
         n = self.n_joints
         m = self.n_transmissions
-        out: dict[str, np.ndarray] = {
-            "motor_radius": np.array([t.motor_radius for t in self.transmissions], dtype=float),
-            "K": np.zeros((m, n)),
-            "driven_radius": np.array([t.driven_radius for t in self.transmissions], dtype=float),
-            "reducer_ratio": np.array([t.reducer_ratio for t in self.transmissions], dtype=float),
-            "reducer_efficiency": np.array([t.reducer_efficiency for t in self.transmissions], dtype=float),
-            "pretension": np.array([t.pretension for t in self.transmissions], dtype=float),
-            "tau0": np.zeros((m, n)),
-            "nu": np.zeros((m, n)),
-            "beta": np.zeros((m, n)),
-        }
-        for name in BEARING_ARRAY_NAMES:
-            out["bearing_" + name] = np.ones((m, n)) if name == "radius" else np.zeros((m, n))
+        out: dict[str, np.ndarray] = {}
+        for f in TRANSMISSION_MODEL_FIELDS:
+            out[f.name] = np.full((m, n) if f.dims == 2 else (m,), f.default, dtype=float)
         for i, t in enumerate(self.transmissions):
+            for f in TRANSMISSION_MODEL_FIELDS:
+                if f.dims == 1:
+                    out[f.name][i] = getattr(t, f.name)
             for jn, rad in zip(t.crosses, t.crossed_radii):
                 out["K"][i, jn - 1] = rad
             out["K"][i, t.joint - 1] = t.generalized_radius
             for b, fr in enumerate(t.friction):
-                out["tau0"][i, b] = fr.tau0
-                out["nu"][i, b] = fr.nu
-                out["beta"][i, b] = fr.beta
+                for spec in FRICTION_FIELDS:
+                    out[spec.name][i, b] = getattr(fr, spec.name)
             for b, br in enumerate(t.bearings):
                 if br is None:
                     continue
                 for name in BEARING_ARRAY_NAMES:
-                    out["bearing_" + name][i, b] = getattr(br, name)
+                    out[BEARING_PREFIX + name][i, b] = getattr(br, name)
         return out

@@ -17,12 +17,13 @@ from __future__ import annotations
 import difflib
 import math
 import os
-import tomllib
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
-from .load import _typename
+from ._toml import read_toml
+from ._toml import typename as _typename
+from .base import Device
 from .schema import DeviceError
 
 __all__ = ["BENCH_FIELDS", "KIND", "TendonBench", "load_tendon_bench"]
@@ -56,11 +57,15 @@ TOP_KEYS = ("schema", "device", "bench")
 
 
 @dataclass(frozen=True)
-class TendonBench:
+class TendonBench(Device):
     """One 2N tendon channel of the McGill bench (S1), channel-equivalent rim values [SI].
 
     Attributes
     ----------
+    kind : str
+        ``"tendon_bench_2n"`` (class attribute).
+    experiments : tuple of str
+        ``("stepped-sine", "swept-sine", "low-speed-loop")`` (class attribute).
     name : str
     ratio : float
         Pulley ratio r [-].
@@ -107,6 +112,13 @@ class TendonBench:
     noise_position: float = 0.0
     description: str = ""
     source: str | None = None
+    kind: ClassVar[str] = KIND
+    experiments: ClassVar[tuple[str, ...]] = ("stepped-sine", "swept-sine", "low-speed-loop")
+
+    @property
+    def path(self) -> Path | None:
+        """The file it was read from, or None."""
+        return None if self.source is None else Path(self.source)
 
     @property
     def k_e(self) -> float:
@@ -137,13 +149,15 @@ def _unknown(key: str, known: tuple[str, ...] | list[str], fname: str, field: st
     return DeviceError(f"unknown field{hint}", file=fname, field=field)
 
 
-def load_tendon_bench(path: str | os.PathLike) -> TendonBench:
+def load_tendon_bench(path: str | os.PathLike, raw: dict | None = None) -> TendonBench:
     """Load and validate a 2N tendon bench file.
 
     Parameters
     ----------
     path : str or os.PathLike
         The TOML file (``[device].kind = "tendon_bench_2n"``).
+    raw : dict, optional
+        The file's parsed TOML when the caller has read it already (:func:`tendyn.device.load_device`).
 
     Returns
     -------
@@ -156,20 +170,9 @@ def load_tendon_bench(path: str | os.PathLike) -> TendonBench:
         The message names the file and the field (``mcgill_bench.toml: bench.k1: must be > 0 (got -1.0)``).
     """
     p = Path(path)
-    if not p.exists():
-        raise DeviceError("file not found", file=str(p))
-    if not p.is_file():
-        raise DeviceError("not a regular file", file=str(p))
     fname = p.name
-    try:
-        with p.open("rb") as fh:
-            raw = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceError(f"TOML syntax error: {exc}", file=fname) from None
-    except UnicodeDecodeError as exc:
-        raise DeviceError(f"not valid UTF-8 text: {exc}", file=fname) from None
-    except OSError as exc:
-        raise DeviceError(f"cannot read file: {exc.strerror or exc}", file=str(p)) from None
+    if raw is None:
+        raw = read_toml(p)
 
     for key in raw:
         if key not in TOP_KEYS:

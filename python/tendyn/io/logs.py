@@ -23,9 +23,13 @@ transmission 1). Two file layouts hold the same content (``docs/logs.md``):
 
 The ground truth of a simulated log (the twin's parameters) never goes inside the log: it is written beside it,
 ``run.parquet`` → ``run.truth.json`` (:func:`write_truth`), so an estimator reading the log cannot see it.
+A log and its truth are one pair: :func:`write_run` writes both with the same run id (``meta["run_id"]`` and
+the truth's ``"run_id"``), the truth first, and :func:`read_run` / :func:`read_truth` refuse a pair whose ids
+differ (the log was replaced, or a run was killed between the two writes).
 
 All writes are atomic (temporary file + rename); all reads validate and raise :class:`LogError`, whose message
-names the file, the column and the row (and the CSV line) of the first problem.
+names the file, the column and the row (and the CSV line) of the first problem. :func:`check_log_path` checks
+an output path before the work that produces the log.
 
 This module uses only the standard library, numpy and (for Parquet, imported lazily) pyarrow; it never imports
 the compiled core.
@@ -39,7 +43,9 @@ import io
 import json
 import math
 import operator
+import os
 import re
+import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,16 +56,20 @@ from tendyn.io.files import atomic_write_bytes, to_jsonable
 __all__ = [
     "COLUMNS",
     "META_KEYS",
+    "OPTIONAL_META_KEYS",
     "SCHEMA_VERSION",
     "ColumnSpec",
     "Log",
     "LogError",
+    "check_log_path",
     "column_spec",
     "make_log",
     "read_log",
+    "read_run",
     "read_truth",
     "truth_path",
     "write_log",
+    "write_run",
     "write_truth",
 ]
 
@@ -248,7 +258,15 @@ META_KEYS: dict[str, str] = {
     "options": "dict (JSON), the experiment settings",
     "created_by": "str, 'tendyn <version>' of the writer",
 }
-"""Keys of ``Log.meta`` (all required, no others) and their types."""
+"""Keys of ``Log.meta`` that are required, and their types."""
+
+OPTIONAL_META_KEYS: dict[str, str] = {
+    "run_id": "str, the id a log shares with its truth file (32 hex digits, set by write_run; absent in "
+              "measured logs and in files written before run ids)",
+}
+"""Keys of ``Log.meta`` that may be present; no keys other than these and :data:`META_KEYS` are allowed."""
+
+_ALL_META_KEYS = (*META_KEYS, *OPTIONAL_META_KEYS)
 
 
 def _is_int(x) -> bool:
@@ -266,14 +284,15 @@ def _check_meta(meta, source) -> None:
     if missing:
         raise LogError("missing key(s) " + ", ".join(missing) + " (meta keys: " + ", ".join(META_KEYS) + ")",
                        file=source, column="meta")
-    unknown = [str(k) for k in meta if k not in META_KEYS]
+    unknown = [str(k) for k in meta if k not in _ALL_META_KEYS]
     if unknown:
         raise LogError("unknown key(s) " + ", ".join(unknown) + "; experiment settings go in meta.options "
-                       "and ground truth in the truth sidecar (meta keys: " + ", ".join(META_KEYS) + ")",
+                       "and ground truth in the truth sidecar (meta keys: " + ", ".join(_ALL_META_KEYS) + ")",
                        file=source, column="meta")
 
     def bad(key, problem):
-        return LogError(f"{problem} (expected {META_KEYS[key]})", file=source, column=f"meta.{key}")
+        expected = META_KEYS.get(key) or OPTIONAL_META_KEYS[key]
+        return LogError(f"{problem} (expected {expected})", file=source, column=f"meta.{key}")
 
     schema = meta["schema"]
     if not _is_int(schema):
@@ -304,6 +323,10 @@ def _check_meta(meta, source) -> None:
     if back != options:
         raise bad("options", "does not survive a JSON round trip (tuples, non-string keys or numpy values?); "
                   "build the log with make_log, which converts them")
+    if "run_id" in meta:
+        run_id = meta["run_id"]
+        if not isinstance(run_id, str) or not run_id.strip():
+            raise bad("run_id", f"got {run_id!r} of type {type(run_id).__name__}")
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -388,7 +411,7 @@ class Log:
         follow :data:`COLUMNS`.
     meta : dict
         ``schema``, ``device``, ``rate_hz`` [Hz], ``seed``, ``experiment``, ``options``, ``created_by``
-        (see :data:`META_KEYS`).
+        (see :data:`META_KEYS`), and ``run_id`` when written by :func:`write_run`.
 
     Build one with :func:`make_log` (converts and validates) or :func:`read_log`. Equality (``==``) is
     bit-exact on the values, and compares column order and meta.
@@ -562,11 +585,15 @@ def _format(path) -> str:
     return suffix
 
 
-def write_log(log: Log, path) -> Path:
-    """Validate ``log`` and write it atomically to ``path`` (``.parquet`` or ``.csv``, chosen by the suffix).
+def check_log_path(path) -> Path:
+    """Check that a log can be written to ``path``, before the work that produces it; creates nothing.
 
-    The folder is created if needed. On any failure an existing file at ``path`` is left as it was and no
-    temporary file remains.
+    Raises
+    ------
+    LogError
+        One line naming ``path`` if its suffix is not ``.parquet`` or ``.csv`` (any case), if it is an existing
+        folder, or if its nearest existing parent is a file or a folder this user cannot write to (the missing
+        folders in between would be created by the write).
 
     Returns
     -------
@@ -574,12 +601,41 @@ def write_log(log: Log, path) -> Path:
         ``path``.
     """
     path = Path(path)
-    fmt = _format(path)
+    if path.is_dir():
+        raise LogError("is a folder; give a file name ending in .parquet or .csv", file=str(path))
+    _format(path)
+    parent = path.parent
+    while not parent.exists() and parent.parent != parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise LogError(f"cannot create the log: {parent} is a file, not a folder", file=str(path))
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise LogError(f"cannot create the log: no permission to write in the folder {parent}", file=str(path))
+    return path
+
+
+def _log_bytes(log: Log, path: Path) -> bytes:
+    """The file content of ``log`` in the format of ``path``, after checking the path and validating."""
+    fmt = _format(check_log_path(path))
     if not isinstance(log, Log):
         raise LogError(f"expected a Log, got {type(log).__name__}", file=str(path))
     log.validate(str(path))
-    data = _parquet_bytes(log) if fmt == ".parquet" else _csv_bytes(log)
-    return atomic_write_bytes(path, data)
+    return _parquet_bytes(log) if fmt == ".parquet" else _csv_bytes(log)
+
+
+def write_log(log: Log, path) -> Path:
+    """Validate ``log`` and write it atomically to ``path`` (``.parquet`` or ``.csv``, chosen by the suffix).
+
+    The folder is created if needed. On any failure an existing file at ``path`` is left as it was and no
+    temporary file remains. A simulated log and its truth are written together with :func:`write_run`.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    path = Path(path)
+    return atomic_write_bytes(path, _log_bytes(log, path))
 
 
 def read_log(path) -> Log:
@@ -770,8 +826,21 @@ def truth_path(log_path) -> Path:
     return p.with_name(p.stem + TRUTH_SUFFIX)
 
 
+def _truth_bytes(truth: dict, out: Path) -> bytes:
+    if not isinstance(truth, dict):
+        raise LogError(f"truth must be a dict, got {type(truth).__name__}", file=str(out))
+    try:
+        text = json.dumps(to_jsonable(truth), ensure_ascii=False, allow_nan=False, indent=2)
+    except (TypeError, ValueError) as exc:
+        raise LogError(f"truth is not JSON-serialisable: {exc}", file=str(out)) from None
+    return (text + "\n").encode("utf-8")
+
+
 def write_truth(truth: dict, log_path) -> Path:
     """Write the ground-truth parameters of a simulated log beside it (never inside it), atomically.
+
+    Alone it writes ``truth`` as given (a ``"run_id"`` key included); :func:`write_run` writes a log and its
+    truth as one pair.
 
     Parameters
     ----------
@@ -786,25 +855,53 @@ def write_truth(truth: dict, log_path) -> Path:
         :func:`truth_path` of ``log_path``.
     """
     out = truth_path(log_path)
-    if not isinstance(truth, dict):
-        raise LogError(f"truth must be a dict, got {type(truth).__name__}", file=str(out))
-    try:
-        text = json.dumps(to_jsonable(truth), ensure_ascii=False, allow_nan=False, indent=2)
-    except (TypeError, ValueError) as exc:
-        raise LogError(f"truth is not JSON-serialisable: {exc}", file=str(out)) from None
-    return atomic_write_bytes(out, (text + "\n").encode("utf-8"))
+    return atomic_write_bytes(out, _truth_bytes(truth, out))
 
 
-def read_truth(log_path) -> dict:
-    """Read the ground truth beside a simulated log.
+def write_run(log: Log, truth: dict, path) -> tuple[Path, Path]:
+    """Write a simulated log and its ground truth as one pair, replacing an old pair at ``path``.
+
+    A new run id (``uuid4().hex``) goes into the log's ``meta["run_id"]`` and the truth's ``"run_id"`` key
+    (the objects passed in are not changed). Both files are encoded and validated first; then the truth is
+    written, then the log, each atomically. A process killed between the two writes leaves the old log beside
+    the new truth: their ids differ and :func:`read_run` / :func:`read_truth` say so, instead of pairing a log
+    with the parameters of another run.
+
+    Parameters
+    ----------
+    log : Log
+        The log (validated; an old ``run_id`` in its meta is replaced).
+    truth : dict
+        The twin's parameters (JSON-able after ``to_jsonable``).
+    path : path-like
+        The log file, ``.parquet`` or ``.csv``; the truth goes to :func:`truth_path` of it.
+
+    Returns
+    -------
+    tuple of pathlib.Path
+        ``(log path, truth path)``.
 
     Raises
     ------
-    FileNotFoundError
-        If there is no truth file (a measured log has none).
     LogError
-        If it is not a JSON object.
+        If the path, the log or the truth is invalid; nothing is written then.
     """
+    path = Path(path)
+    out = truth_path(path)
+    if not isinstance(log, Log):
+        raise LogError(f"expected a Log, got {type(log).__name__}", file=str(path))
+    if not isinstance(truth, dict):
+        raise LogError(f"truth must be a dict, got {type(truth).__name__}", file=str(out))
+    run_id = uuid.uuid4().hex
+    log_data = _log_bytes(Log(log.columns, {**log.meta, "run_id": run_id}), path)
+    truth_data = _truth_bytes({**truth, "run_id": run_id}, out)
+    # the truth first: a reader never finds a new log beside an old truth that would look like its own
+    atomic_write_bytes(out, truth_data)
+    atomic_write_bytes(path, log_data)
+    return path, out
+
+
+def _load_truth(log_path) -> tuple[Path, dict]:
     p = truth_path(log_path)
     if not p.is_file():
         raise FileNotFoundError(f"{p}: no ground truth beside the log {Path(log_path).name} "
@@ -815,4 +912,96 @@ def read_truth(log_path) -> dict:
         raise LogError(f"not valid JSON: {exc}", file=str(p)) from None
     if not isinstance(truth, dict):
         raise LogError(f"expected a JSON object, got {type(truth).__name__}", file=str(p))
+    return p, truth
+
+
+def _short_id(run_id) -> str:
+    return "none" if run_id is None else str(run_id)[:8] + "…"
+
+
+def _check_same_run(log_path, log_meta: dict, truth_file: Path, truth: dict) -> None:
+    """Raise if the log and the truth carry different run ids (a missing id counts as different, unless both
+    are missing: files written before run ids)."""
+    log_id, truth_id = log_meta.get("run_id"), truth.get("run_id")
+    if log_id == truth_id:
+        return
+    raise LogError(f"belongs to another run than the log {Path(log_path).name} (run id {_short_id(truth_id)} "
+                   f"in the truth vs {_short_id(log_id)} in the log): the log was replaced or the run was "
+                   "interrupted", file=str(truth_file))
+
+
+def _read_meta(path: Path) -> dict:
+    """The meta record of a log file without reading its samples (Parquet footer, CSV comment lines)."""
+    source = str(path)
+    if _format(path) == ".parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        try:
+            raw = (pq.read_schema(path).metadata or {}).get(PARQUET_META_KEY)
+        except (pa.ArrowException, OSError) as exc:
+            raise LogError(f"not a readable Parquet file: {exc}", file=source) from None
+    else:
+        raw = None
+        with open(path, "rb") as fh:
+            for n, line in enumerate(fh, start=1):
+                text = line.decode("utf-8-sig" if n == 1 else "utf-8", "replace").strip()
+                if not text.startswith("#"):
+                    break
+                m = _META_LINE.fullmatch(text)
+                if m:
+                    raw = (m.group(1) or "").encode("utf-8")
+                    break
+    if raw is None:
+        raise LogError("not a tendyn log: no meta record", file=source, column="meta")
+    try:
+        meta = json.loads(raw.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
+    if not isinstance(meta, dict):
+        raise LogError(f"meta must be a dict, got {type(meta).__name__}", file=source, column="meta")
+    return meta
+
+
+def read_truth(log_path) -> dict:
+    """Read the ground truth beside a simulated log, checking that both belong to the same run.
+
+    If the log exists, its run id (read from its meta only, not its samples) must equal the truth's
+    ``"run_id"``; both missing (files written before run ids, or with :func:`write_log` and
+    :func:`write_truth` alone) is accepted, one missing is not. If the log does not exist, the truth is
+    returned unchecked. The returned dict keeps the ``"run_id"`` key.
+
+    Raises
+    ------
+    FileNotFoundError
+        If there is no truth file (a measured log has none).
+    LogError
+        If it is not a JSON object, if the log's meta record cannot be read, or if the log and the truth have
+        different run ids (the message names both).
+    """
+    log_path = Path(log_path)
+    p, truth = _load_truth(log_path)
+    if log_path.is_file():
+        _check_same_run(log_path, _read_meta(log_path), p, truth)
     return truth
+
+
+def read_run(path) -> tuple[Log, dict]:
+    """Read a simulated log and its ground truth, checking that both belong to the same run.
+
+    Returns
+    -------
+    tuple
+        ``(Log, truth dict)``; see :func:`read_log` and :func:`read_truth`.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the log or its truth file is missing.
+    LogError
+        If either file is invalid, or their run ids differ (the message names both files).
+    """
+    log = read_log(path)
+    p, truth = _load_truth(path)
+    _check_same_run(path, log.meta, p, truth)
+    return log, truth

@@ -2,7 +2,8 @@
 
 With the links blocked, a triangular motor torque winds the motor against the capstan cable: the
 slope of torque over angle is the stiffness seen at the motor (K_T, S2 Table 2, ERRATA eq. 19) and the
-loop's width is the friction (hysteresis). A least-squares line per drive gives the slope.
+loop's width is the friction (hysteresis). A least-squares line per drive, fitted to the logged encoder
+angle and commanded torque, gives the slope (the full K, B, offset fit of S2 §V-C is the identification's).
 """
 
 from __future__ import annotations
@@ -60,7 +61,8 @@ def blocked_link_demo(device, torque_amplitude: float = 0.1, period: float = 2.0
     for k, d in enumerate(device.drives):
         run = ex.blocked_link(device, joint=k + 1, torque_amplitude=torque_amplitude, period=period,
                               cycles=cycles, seed=seed)
-        qm = run.states["q_motor"][:, k] - run.states["q_motor"][0, k]
+        encoder = np.asarray(run.log[f"q_motor_{k + 1}"])     # what the bench records, not the twin's truth
+        qm = encoder - encoder[0]
         tau = np.asarray(run.log[f"torque_motor_cmd_{k + 1}"])
         out.angle[d.name], out.torque[d.name] = qm, tau
         out.stiffness_motor[d.name] = float(np.polyfit(qm, tau, 1)[0])

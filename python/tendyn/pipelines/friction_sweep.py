@@ -10,27 +10,30 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.results import Result, format_table
 from tendyn.sim import experiments as ex
 
 
-@dataclass
-class FrictionSweep:
+@dataclass(eq=False)
+class FrictionSweep(Result):
+    """Mean measured motor torque against commanded motor speed, per strategy (S0 §III-A).
+
+    points : strategy ("S1", "S2") → (motor speeds [rad/s], mean measured motor torques [N·m]).
+    """
+
     device: str
     transmission: int
     points: dict = field(default_factory=dict)   # strategy -> (speeds [rad/s], mean torques [N·m])
+
+    _figsize = (5.6, 4.2)
 
     def to_dict(self) -> dict:
         return {"device": self.device, "transmission": self.transmission,
                 "points": {k: {"speed_motor_rad_s": v[0].tolist(), "torque_motor_Nm": v[1].tolist()}
                            for k, v in self.points.items()}}
 
-    def plot(self, path=None):
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(5.6, 4.2))
+    def _draw(self, ax) -> None:
         for (name, (v, c)), marker in zip(self.points.items(), "os"):
             ax.plot(v, c, marker, ms=6, label=f"strategy {name}")
         ax.axhline(0, color="0.8", lw=0.8)
@@ -40,12 +43,11 @@ class FrictionSweep:
         ax.set_title(f"{self.device}: constant-velocity tests, transmission {self.transmission}")
         ax.grid(alpha=0.3)
         ax.legend()
-        fig.tight_layout()
-        if path is not None:
-            from tendyn.io import save_png
 
-            save_png(fig, path)
-        return fig
+    def table(self) -> str:
+        rows = [(name, float(v), float(c)) for name, (vs, cs) in self.points.items() for v, c in zip(vs, cs)]
+        return format_table(("strategy", "motor speed [rad/s]", "mean motor torque [N·m]"), rows,
+                            f"{self.device}: constant-velocity tests, transmission {self.transmission}")
 
 
 def stroke_means(log, transmission: int, speeds, tol: float = 0.03):
@@ -75,12 +77,13 @@ BENT_POSE = (0.0, 0.3, 0.0, 0.8)
 the cables differently in S1 and S2; joints past the fourth start at 0."""
 
 
-def friction_sweep(device, transmission: int = 2, speeds=(2.0, 5.0, 10.0, 20.0), q0=None, seed: int = 0,
-                   progress=None) -> FrictionSweep:
-    """S1 and S2 constant-velocity runs of one transmission (1-based) at motor speeds [rad/s] from q0
-    [rad] (default :data:`BENT_POSE`)."""
+def friction_sweep(device: Device | CompiledDevice, transmission: int = 2, speeds=(2.0, 5.0, 10.0, 20.0),
+                   q0=None, seed: int = 0, progress=None) -> FrictionSweep:
+    """Constant-velocity runs under S1 and S2 (one compiled device for both) of one transmission (1-based)
+    at motor speeds [rad/s] from q0 [rad] (default :data:`BENT_POSE`), and their stroke means."""
+    device = compile_device(device)
     if q0 is None:
-        n = device.n_joints
+        n = device.n_active
         q0 = np.concatenate([BENT_POSE, np.zeros(max(0, n - len(BENT_POSE)))])[:n]
     out = FrictionSweep(device.name, transmission)
     for strategy in ("S1", "S2"):

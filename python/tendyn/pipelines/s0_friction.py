@@ -50,7 +50,7 @@ def _branch_law(arr, i, b, sdot):
         n = abs(sdot / r)
         h = float(arr["bearing_h0"][i, b]) if n < float(arr["bearing_n0"][i, b]) \
             else float(arr["bearing_h1"][i, b]) * n ** (2.0 / 3.0)
-        coef = float(arr["bearing_beta"][i, b])
+        coef = float(arr["bearing_dynamic_coefficient"][i, b])
         a += count * (coef * k * float(arr["pretension"][i]) + h) / r
         bb += count * coef * k / r
     return a, bb
@@ -85,8 +85,7 @@ def true_global_feedforward(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, 
     ``Transmission.feedforward(0, q̇)`` with only joint i moving at r_m q̇_m / r_i^i."""
     from tendyn.transmission import Transmission
 
-    fields = ("tau0", "nu", "beta", "bearing_count", "bearing_radius", "bearing_wrap", "bearing_alpha",
-              "bearing_beta", "bearing_h0", "bearing_h1", "bearing_n0")
+    fields = [k for k in arr if k in ("tau0", "nu", "beta") or k.startswith("bearing_")]
     tr = Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"], arr["reducer_efficiency"],
                                   arr["pretension"], **{k: arr[k] for k in fields if k in arr})
     n = tr.n

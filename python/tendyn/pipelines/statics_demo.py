@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tendyn.transmission import Transmission
+from tendyn.device import CompiledDevice, SerialDevice, compile_device
+from tendyn.results import Result, format_table
 
 
 @dataclass
@@ -25,10 +26,18 @@ class JointSweep:
     motor_negative_speed: np.ndarray # joint moving at −speed [N·m]
 
 
-@dataclass
-class StaticsDemo:
+@dataclass(eq=False)
+class StaticsDemo(Result):
+    """Motor torque needed vs joint torque delivered, one :class:`JointSweep` per swept joint (one panel each)."""
+
     device: str
     sweeps: list[JointSweep] = field(default_factory=list)
+
+    _figsize = (5.2, 4.4)
+
+    @property
+    def _panels(self) -> int:
+        return max(1, len(self.sweeps))
 
     def to_dict(self) -> dict:
         out = {"device": self.device, "sweeps": []}
@@ -42,15 +51,13 @@ class StaticsDemo:
             })
         return out
 
-    def plot(self, path=None):
-        """One panel per swept joint: motor torque needed vs joint torque delivered."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(1, len(self.sweeps), figsize=(5.2 * len(self.sweeps), 4.4), squeeze=False)
-        for ax, s in zip(axes[0], self.sweeps):
+    def _draw(self, ax) -> None:
+        """One panel per swept joint: ``ax`` is one Axes per sweep (or one Axes for a single sweep)."""
+        axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
+        if len(axes) != len(self.sweeps):
+            raise ValueError(f"StaticsDemo.plot needs one Axes per swept joint ({len(self.sweeps)}), "
+                             f"got {len(axes)}")
+        for ax, s in zip(axes, self.sweeps):
             tj = s.torque_joint
             ax.plot(tj, s.motor_lossless, "k--", lw=1.2, label="lossless  $C_m = R_m K^{-T}\\tau_J$")
             for motor, sign, colour in ((s.motor_positive_speed, +1, "tab:blue"),
@@ -67,18 +74,25 @@ class StaticsDemo:
             ax.set_title(f"{self.device}: transmission {s.joint + 1}")
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7.5, loc="upper left")
-        fig.tight_layout()
-        if path is not None:
-            from tendyn.io import save_png
 
-            save_png(fig, path)
-        return fig
+    def table(self) -> str:
+        """At the largest swept joint torque: motor torque driving, back-driven and lossless (S0 Table style)."""
+        rows = []
+        for s in self.sweeps:
+            k = len(s.torque_joint) - 1
+            rows.append((s.joint + 1, s.speed, float(s.torque_joint[k]), float(s.motor_lossless[k]),
+                         float(s.motor_positive_speed[k]), float(s.motor_negative_speed[k])))
+        return format_table(("joint", "speed [rad/s]", "tau_J [N·m]", "C_m lossless [N·m]", "C_m at +speed [N·m]",
+                             "C_m at -speed [N·m]"), rows, f"{self.device}: statics with losses")
 
 
-def statics_demo(device, joints=(0, 3), speed: float = 0.5, torque_max: float | None = None,
-                 points: int = 201) -> StaticsDemo:
+def statics_demo(device: SerialDevice | CompiledDevice, joints=(0, 3), speed: float = 0.5,
+                 torque_max: float | None = None, points: int = 201) -> StaticsDemo:
     """Sweep joint torque for each joint in ``joints`` (0-based) at ±``speed`` [rad/s]."""
-    tr = Transmission.from_device(device)
+    device = compile_device(device)
+    tr = device.transmission
+    if tr is None:
+        raise ValueError(f"{device.name} has no cable transmissions: statics with losses need [[transmissions]]")
     demo = StaticsDemo(device.name)
     for j in joints:
         if not 0 <= j < tr.n:

@@ -134,15 +134,9 @@ EXPERIMENTS: dict[tuple[str, str], Experiment] = {(e.kind, e.name): e for e in (
 EXPERIMENT_NAMES = tuple(dict.fromkeys(e.name for e in EXPERIMENTS.values()))
 
 
-def device_kind(device) -> str:
-    """``"serial"`` for chains and trees (cables or capstan drives), ``"tendon_bench_2n"`` for a bench."""
-    return getattr(device, "kind", None) or _BENCH
-
-
 def experiments_of(device) -> tuple[str, ...]:
-    """Names of the experiments ``device`` can run."""
-    kind = device_kind(device)
-    return tuple(e.name for e in EXPERIMENTS.values() if e.kind == kind)
+    """Names of the experiments ``device`` can run (declared by its kind, :class:`tendyn.device.Device`)."""
+    return device.experiments
 
 
 # ---- checks of single values ------------------------------------------------------------------------
@@ -258,7 +252,7 @@ def resolve(device, experiment: str, given: dict[str, Any]) -> dict[str, Any]:
     UsageError
         Naming the option (``--joint: must be 1…4 (got 0)``).
     """
-    kind = device_kind(device)
+    kind = device.kind
     exp = EXPERIMENTS.get((kind, experiment))
     if exp is None:
         names = ", ".join(experiments_of(device))
@@ -357,7 +351,7 @@ def run_length_s(device, experiment: str, o: dict) -> list[float]:
         from tendyn.sim.tendon_bench import LOW_SPEED_FREQ_HZ
 
         return [o["cycles"] / LOW_SPEED_FREQ_HZ]
-    return [o["duration"] + (1.0 if device_kind(device) == _BENCH else 0.0)]   # bench chirp: 1 s tail
+    return [o["duration"] + (1.0 if device.kind == _BENCH else 0.0)]   # bench chirp: 1 s tail
 
 
 def memory_needed(device, experiment: str, o: dict) -> float:
@@ -366,7 +360,7 @@ def memory_needed(device, experiment: str, o: dict) -> float:
     lengths = run_length_s(device, experiment, o)
     rate = o["rate"]
     log_rate = o.get("log_rate", rate)
-    if device_kind(device) == _BENCH:
+    if device.kind == _BENCH:
         per_step, per_row = 10, 4 * 2
     else:
         na = _active_count(device)
@@ -404,13 +398,14 @@ def _check_memory(device, exp: Experiment, o: dict) -> None:
 
 def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] | None = None) -> list:
     """Run a resolved experiment (see :func:`resolve`): a list of :class:`tendyn.sim.experiments.SimRun`."""
-    if device_kind(device) == _BENCH:
+    if device.kind == _BENCH:
         from tendyn.sim import tendon_bench as tb
         from tendyn.sim.experiments import SimRun
 
         return [SimRun(log, truth) for log, truth in tb.bench_experiment(
             device, experiment, rate_hz=o["rate"], log_rate_hz=o["log_rate"], seed=o["seed"],
-            amplitude_N=o["torque"], freqs_hz=o.get("freqs"), cycles=o.get("cycles"),
+            amplitude_N=o["torque"], omega=None if o.get("freqs") is None else 2 * math.pi * np.asarray(o["freqs"]),
+            cycles=o.get("cycles"),
             duration_s=o.get("duration"), progress=progress)]
     from tendyn.sim import experiments as ex
 
@@ -426,7 +421,7 @@ def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] |
         return [ex.blocked_link(device, o["joint"], o["torque"], period=o["period"], cycles=o["cycles"], q0=q0,
                                 **twin)]
     if experiment == "swept-sine":
-        return [ex.swept_sine(device, o["transmission"], o["torque"], f0=min(o["freqs"]), f1=max(o["freqs"]),
-                              duration=o["duration"], q0=q0, **common)]
-    return ex.stepped_sine(device, o["transmission"], o["freqs"], o["torque"], cycles=o["cycles"], q0=q0,
-                           control_hz=o["rate"], **common)
+        return [ex.swept_sine(device, o["transmission"], o["torque"], f0_hz=min(o["freqs"]),
+                              f1_hz=max(o["freqs"]), duration=o["duration"], q0=q0, **common)]
+    return ex.stepped_sine(device, o["transmission"], omega=2 * math.pi * np.asarray(o["freqs"]),
+                           amplitude=o["torque"], cycles=o["cycles"], q0=q0, control_hz=o["rate"], **common)

@@ -3,20 +3,29 @@
 The log (tendyn.io.logs) holds only what a real bench would record: motor encoders, measured motor
 torques (current × k_t with noise), commands and references. The twin's parameters and true states
 go beside it (``SimRun.truth``), never inside what an estimator reads.
+
+Every experiment takes a Device or its :func:`tendyn.device.compile_device` form and compiles it at entry,
+so the rigid-body model, the active-coordinate map and the transmission are built once per device (not
+once per run, nor again for the PID gains). Names: joint velocity ``qd``, motor velocity ``qd_motor``,
+frequency grids ``omega`` [rad/s], single frequencies ``*_hz`` (docs/naming.md).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import math
+
 import numpy as np
 import pinocchio as pin
 
 from tendyn import _core
-from tendyn.device.rigid_body import pinocchio_model
+from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.device.schema import TRANSMISSION_MODEL_FIELDS
 from tendyn.io import to_jsonable
 from tendyn.io.logs import Log, make_log
-from tendyn.sim.model import sim_model
+from tendyn.results import FrequencyResponse
+from tendyn.sim.model import run_log, sim_model
 
 
 @dataclass
@@ -33,9 +42,7 @@ def device_truth(device) -> dict:
     out = {"device": device.name}
     if device.transmissions:
         arr = device.routing_arrays()
-        out["routing"] = {k: arr[k] for k in ("motor_radius", "K", "reducer_ratio", "reducer_efficiency",
-                                             "tau0", "nu", "beta", "pretension")
-                          + tuple(k for k in arr if k.startswith("bearing_"))}
+        out["routing"] = {f.name: arr[f.name] for f in TRANSMISSION_MODEL_FIELDS}
     drives = getattr(device, "drives", ())
     if drives:
         out["drives"] = [{k: getattr(d, k) for k in ("joint", "ratio", "stiffness_motor", "damping_motor",
@@ -44,13 +51,16 @@ def device_truth(device) -> dict:
     return to_jsonable(out)
 
 
-def pid_gains(m: _core.SimModel, device, q0, bandwidth_hz: float = 4.0, zeta: float = 0.9,
-              space: str = "joint", integral: bool = True):
+def pid_gains(m: _core.SimModel, device: Device | CompiledDevice, q0, bandwidth_hz: float = 4.0,
+              zeta: float = 0.9, space: str = "joint", integral: bool = True):
     """PID gains that place each axis at ``bandwidth_hz`` with damping ``zeta`` on its own inertia
-    (joint-space diagonal of Lᵀ M L + reflected rotors, or motor-space), at configuration q0."""
-    pm = pinocchio_model(device)
+    (joint-space diagonal of Lᵀ M L + reflected rotors, or motor-space), at configuration q0.
+
+    The mass matrix comes from the compiled device's Pinocchio model (nothing is rebuilt)."""
+    compiled = compile_device(device)
+    pm = compiled.pinocchio_model
     L, c = np.array(m.L), np.array(m.c)
-    Mt = pin.crba(pm, pm.createData(), L @ q0 + c)
+    Mt = pin.crba(pm, compiled.pinocchio_data(), L @ q0 + c)
     Mt = np.triu(Mt) + np.triu(Mt, 1).T
     Ma = L.T @ Mt @ L
     na = m.na
@@ -71,10 +81,13 @@ def pid_gains(m: _core.SimModel, device, q0, bandwidth_hz: float = 4.0, zeta: fl
     return kp, kd, ki
 
 
-def run_on_twin(device, m: _core.SimModel, q0, ref_q, ref_v, ff, ext, *, seed: int, experiment: str,
+def run_on_twin(device: Device | CompiledDevice, m: _core.SimModel, q0, ref_q, ref_qd, ff, ext, *, seed: int, experiment: str,
                 options: dict, log_rate_hz: float, reference_space: str | None = None,
                 progress=None) -> SimRun:
-    """Run the loop and assemble the log (+ truth). ``progress(done, total)`` is called between chunks."""
+    """Run the loop and assemble the log (+ truth). ``progress(done, total)`` is called between chunks.
+
+    ref_q, ref_qd : (n, na) position [rad] and velocity [rad/s] references (joint or motor space)."""
+    device = compile_device(device).device
     rate = 1.0 / m.dt
     log_every = int(round(rate / log_rate_hz))
     if log_every % m.control_decimation:
@@ -84,7 +97,7 @@ def run_on_twin(device, m: _core.SimModel, q0, ref_q, ref_v, ff, ext, *, seed: i
     if m.drive == _core.DriveKind.Elastic:  # motors start where the springs are relaxed
         d.set_motor_position(np.array(m.ratio) * np.asarray(q0, float))
     ext = np.zeros_like(ref_q) if ext is None else ext
-    raw = _run_chunked(m, d, ref_q, ref_v, ff, ext, log_every, progress)
+    raw = _run_chunked(m, d, ref_q, ref_qd, ff, ext, log_every, progress)
     cols = {"time": raw["time"]}
     na = m.na
     for i in range(na):
@@ -98,7 +111,7 @@ def run_on_twin(device, m: _core.SimModel, q0, ref_q, ref_v, ff, ext, *, seed: i
         vprefix = "qd_ref_" if reference_space == "joint" else "qd_motor_ref_"
         for i in range(na):
             cols[f"{prefix}{i + 1}"] = ref_q[::log_every, i]
-            cols[f"{vprefix}{i + 1}"] = ref_v[::log_every, i]
+            cols[f"{vprefix}{i + 1}"] = ref_qd[::log_every, i]
     if np.any(ext):
         for i in range(na):
             cols[f"torque_joint_ext_{i + 1}"] = ext[::log_every, i]
@@ -108,15 +121,14 @@ def run_on_twin(device, m: _core.SimModel, q0, ref_q, ref_v, ff, ext, *, seed: i
     return SimRun(log, device_truth(device), states)
 
 
-def _run_chunked(m, d, ref_q, ref_v, ff, ext, log_every, progress, chunks: int = 40):
-    """sim_run over consecutive chunks (same state), so long runs can report progress."""
+def _run_chunked(m, d, ref_q, ref_qd, ff, ext, log_every, progress, chunks: int = 40):
+    """run_log over consecutive chunks (same state), so long runs can report progress."""
     n = ref_q.shape[0]
     size = max(log_every, (n // chunks) // log_every * log_every) if progress else n
     parts = []
     for start in range(0, n, size):
         sl = slice(start, min(n, start + size))
-        parts.append(_core.sim_run(m, d, np.ascontiguousarray(ref_q[sl]), np.ascontiguousarray(ref_v[sl]),
-                                   np.ascontiguousarray(ff[sl]), np.ascontiguousarray(ext[sl]), log_every))
+        parts.append(run_log(m, d, ref_q[sl], ref_qd[sl], ff[sl], ext[sl], log_every))
         if progress:
             progress(sl.stop, n)
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
@@ -141,21 +153,20 @@ def _check_index(value, n: int, what: str) -> int:
 
 
 def constant_velocity_profile(speeds, travel: float, accel: float, dt: float, dwell: float = 0.1):
-    """Back-and-forth moves at each constant speed (trapezoidal velocity): returns (pos, vel).
+    """Back-and-forth moves at each constant speed (trapezoidal velocity): returns (q, qd).
 
     speeds [unit/s] > 0, travel [unit] per stroke, accel [unit/s²] for the ramps; its length is
     :func:`constant_velocity_duration`."""
-    vel = []
+    qd = []
     for v in speeds:
         t_acc = v / accel
         cruise = max(travel - v * t_acc, 0.0) / v
         ramp = np.arange(0.0, t_acc, dt) * accel
         stroke = np.concatenate([ramp, np.full(int(round(cruise / dt)), v), ramp[::-1],
                                  np.zeros(int(round(dwell / dt)))])
-        vel += [stroke, -stroke]
-    vel = np.concatenate(vel)
-    pos = np.cumsum(vel) * dt
-    return pos, vel
+        qd += [stroke, -stroke]
+    qd = np.concatenate(qd)
+    return np.cumsum(qd) * dt, qd
 
 
 def triangle_wave(t, freq: float, amplitude: float, phase: float = 0.0):
@@ -166,7 +177,7 @@ def triangle_wave(t, freq: float, amplitude: float, phase: float = 0.0):
 
 def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: float, f_sin, a_sin: float,
                           phase: float = 0.0):
-    """Triangular wave (± amplitude) plus a sum of sines (exciting trajectories, S2 §VI): (pos, vel)."""
+    """Triangular wave (± amplitude) plus a sum of sines (exciting trajectories, S2 §VI): (q, qd)."""
     t = np.arange(int(round(duration / dt))) * dt
     tri, dtri = triangle_wave(t, f_tri, amplitude, phase)
     s = sum(a_sin * np.sin(2 * np.pi * f * t) for f in f_sin)
@@ -177,7 +188,7 @@ def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: f
 def constant_velocity_references(motor_from_joint, transmission: int, speeds, strategy: str, travel: float,
                                  accel: float, q0, dt: float):
     """References of the S0 constant-velocity test (used by :func:`constant_velocity` and by
-    ``tendyn plan``): returns (ref_q, ref_v, space), (n_samples, n) on the grid ``dt`` [s].
+    ``tendyn plan``): returns (ref_q, ref_qd, space), (n_samples, n) on the grid ``dt`` [s].
 
     S1 — motor space ("motor"): motor ``transmission`` follows the back-and-forth profile, every other motor
     is held at its start q_m0 = G q0. S2 — joint space ("joint"): joint ``transmission`` moves at the motor
@@ -188,21 +199,21 @@ def constant_velocity_references(motor_from_joint, transmission: int, speeds, st
     na = Gm.shape[0]
     j = _check_index(transmission, na, "transmission") - 1
     q0 = np.asarray(q0, float)
-    pos, vel = constant_velocity_profile(np.asarray(speeds, float), travel, accel, dt)
-    n = pos.size
+    q_prof, qd_prof = constant_velocity_profile(np.asarray(speeds, float), travel, accel, dt)
+    n = q_prof.size
     if strategy == "S1":
         ref_q = np.tile(Gm @ q0, (n, 1))
-        ref_v = np.zeros((n, na))
-        ref_q[:, j] += pos
-        ref_v[:, j] = vel
-        return ref_q, ref_v, "motor"
+        ref_qd = np.zeros((n, na))
+        ref_q[:, j] += q_prof
+        ref_qd[:, j] = qd_prof
+        return ref_q, ref_qd, "motor"
     if strategy == "S2":
         scale = 1.0 / Gm[j, j]   # joint j speed for motor speed 1 with the other joints still
         ref_q = np.tile(q0, (n, 1))
-        ref_v = np.zeros((n, na))
-        ref_q[:, j] += pos * scale
-        ref_v[:, j] = vel * scale
-        return ref_q, ref_v, "joint"
+        ref_qd = np.zeros((n, na))
+        ref_q[:, j] += q_prof * scale
+        ref_qd[:, j] = qd_prof * scale
+        return ref_q, ref_qd, "joint"
     raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
 
 
@@ -223,12 +234,13 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
     """
     if strategy not in ("S1", "S2"):
         raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
+    device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
     _check_index(transmission, na, "transmission")
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
     Gm = np.array(m.tendon.motor_from_joint_position) if m.drive == _core.DriveKind.Tendon else np.diag(m.ratio)
-    ref_q, ref_v, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0, m.dt)
+    ref_q, ref_qd, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0, m.dt)
     n = ref_q.shape[0]
     m.mode = _core.ControlMode.MotorPID if space == "motor" else _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz, space=space)
@@ -237,7 +249,7 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
     opts = dict(transmission=transmission, strategy=strategy, speeds_motor=list(map(float, speeds)),
                 travel_motor=travel, accel_motor=accel, q0=q0, bandwidth_hz=bandwidth_hz,
                 rate_hz=rate_hz, control_hz=control_hz)
-    return run_on_twin(device, m, q0, ref_q, ref_v, ff, None, seed=seed, experiment=f"constant_velocity_{strategy}",
+    return run_on_twin(device, m, q0, ref_q, ref_qd, ff, None, seed=seed, experiment=f"constant_velocity_{strategy}",
                        options=opts, log_rate_hz=log_rate_hz, reference_space=space, progress=progress)
 
 
@@ -247,6 +259,7 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
                         bandwidth_hz: float = 8.0, progress=None) -> SimRun:
     """Triangular + sinusoidal joint trajectories (S2 §VI), clipped inside the joint limits, tracked
     by a joint-space PID. amplitude [rad] of the triangles; a_sin [rad] of each sine."""
+    device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
     lo, hi = _active_limits(device)
@@ -258,13 +271,13 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
                                      a_sin, phase=0.1 * i)
         refs.append(q0[i] + p)
         vels.append(v)
-    ref_q, ref_v = np.column_stack(refs), np.column_stack(vels)
+    ref_q, ref_qd = np.column_stack(refs), np.column_stack(vels)
     m.mode = _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz)
     m.velocity_cutoff_hz = 100.0
     opts = dict(duration=duration, amplitude=amplitude, f_tri=f_tri, f_sin=list(f_sin), a_sin=a_sin, q0=q0,
                 rate_hz=rate_hz, control_hz=control_hz)
-    return run_on_twin(device, m, ref_q[0], ref_q, ref_v, np.zeros_like(ref_q), None, seed=seed,
+    return run_on_twin(device, m, ref_q[0], ref_q, ref_qd, np.zeros_like(ref_q), None, seed=seed,
                        experiment="exciting", options=opts, log_rate_hz=log_rate_hz, reference_space="joint",
                        progress=progress)
 
@@ -274,6 +287,7 @@ def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.
                  seed: int = 0, progress=None) -> SimRun:
     """Blocked-link test (S2 §V-C): every link blocked, triangular motor torque [N·m] on one motor;
     the motor rotates against the cable/capstan stiffness (and its friction: hysteresis)."""
+    device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
     _check_index(joint, na, "joint")
@@ -291,12 +305,15 @@ def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.
                        experiment="blocked_link", options=opts, log_rate_hz=log_rate_hz, progress=progress)
 
 
-def stepped_sine(device, transmission: int, freqs_hz, amplitude: float, cycles: int = 6, q0=None,
-                 rate_hz: float = 10_000.0, control_hz: float = 10_000.0, seed: int = 0,
+def stepped_sine(device: Device | CompiledDevice, transmission: int, *, omega, amplitude: float,
+                 cycles: int = 6, q0=None, rate_hz: float = 10_000.0, control_hz: float = 10_000.0, seed: int = 0,
                  progress=None) -> list[SimRun]:
-    """Sinusoidal motor torque [N·m] on one transmission at each frequency, torque mode, links free."""
+    """Sinusoidal motor torque [N·m] on one transmission at each frequency of ``omega`` [rad/s]
+    (keyword-only), torque mode, links free: one run per frequency (see :func:`stepped_sine_response`)."""
+    device = compile_device(device)   # compiled once for every frequency
     runs = []
-    for f in freqs_hz:
+    for w in np.asarray(omega, float).ravel():
+        f = w / (2 * math.pi)
         m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
         na = m.na
         _check_index(transmission, na, "transmission")
@@ -304,18 +321,51 @@ def stepped_sine(device, transmission: int, freqs_hz, amplitude: float, cycles: 
         n = int(round(cycles / f / m.dt))
         t = np.arange(n) * m.dt
         ff = np.zeros((n, na))
-        ff[:, transmission - 1] = amplitude * np.sin(2 * np.pi * f * t)
+        ff[:, transmission - 1] = amplitude * np.sin(w * t)
         m.mode = _core.ControlMode.Torque
-        opts = dict(transmission=transmission, freq_hz=float(f), amplitude=amplitude, cycles=cycles, q0=q)
+        opts = dict(transmission=transmission, omega=float(w), freq_hz=float(f), amplitude=amplitude,
+                    cycles=cycles, q0=q)
         runs.append(run_on_twin(device, m, q, np.tile(q, (n, 1)), np.zeros((n, na)), ff, None, seed=seed,
                                 experiment="stepped_sine", options=opts, log_rate_hz=control_hz,
                                 progress=progress))
     return runs
 
 
+def first_harmonic_ratio(log, output: str, input: str, omega: float, skip: float = 0.5) -> complex:
+    """First harmonic of log column ``output`` over that of ``input`` at ``omega`` [rad/s] (lock-in over the
+    whole cycles after the first ``skip`` fraction of the record, the mean removed)."""
+    t = np.asarray(log.time, float)
+    period = 2 * math.pi / omega
+    start = t[0] + skip * (t[-1] - t[0])
+    whole = math.floor((t[-1] - start) / period)
+    if whole < 1:
+        raise ValueError(f"the record is shorter than one period after the settling part ({period:.3g} s)")
+    sel = (t >= start) & (t < start + whole * period)
+    kernel = np.exp(-1j * omega * t[sel])
+    y, x = np.asarray(log[output], float)[sel], np.asarray(log[input], float)[sel]
+    return complex(np.dot(y - y.mean(), kernel) / np.dot(x - x.mean(), kernel))
+
+
+def stepped_sine_response(device: Device | CompiledDevice, transmission: int, *, omega, amplitude: float,
+                          cycles: int = 6, output: str = "q_motor", **kw) -> FrequencyResponse:
+    """Stepped-sine frequency response of one transmission: the first harmonic of the measured
+    ``{output}_{i}`` (default the motor encoder, [rad]) over the commanded motor torque [N·m], from the
+    second half of each run of :func:`stepped_sine` (``kw`` go there). Returns a FrequencyResponse whose
+    ``runs`` are the SimRuns."""
+    runs = stepped_sine(device, transmission, omega=omega, amplitude=amplitude, cycles=cycles, **kw)
+    out, inp = f"{output}_{transmission}", f"torque_motor_cmd_{transmission}"
+    omega = np.asarray(omega, float).ravel()
+    ratio = [first_harmonic_ratio(r.log, out, inp, w) for r, w in zip(runs, omega)]
+    unit = "rad/(N·m)" if output.startswith("q_") else "-"
+    return FrequencyResponse(omega, ratio, output=out, input=inp, unit=unit, method="stepped_sine",
+                             amplitude=float(amplitude), label=f"{compile_device(device).name}, {amplitude:g} N·m",
+                             meta={"device": compile_device(device).name, "transmission": transmission,
+                                   "cycles": cycles}, runs=runs)
+
+
 def _active_limits(device):
     """Lower/upper limits [rad] of the active joints."""
-    joints = device.kinematics.joints
+    joints = compile_device(device).device.kinematics.joints
     act = [js for js in joints if getattr(js, "mu", None) in (None, 1) and getattr(js, "sigma", 0) != 2]
     return np.array([js.lower for js in act], float), np.array([js.upper for js in act], float)
 
@@ -329,26 +379,27 @@ def joint_friction_trajectory(device, weights, speeds, travel: float = 0.6, acce
     weights : per active joint (1-based) → speed multiplier, e.g. {2: 1, 3: 1} moves joints 2 and 3
         together; joints not listed are held still. speeds [rad/s], travel [rad] per stroke.
     This is how S2 §V-C builds t1 (q̇5 = q̇2), t2 (q̇5 = 0) and t3 (q̇2 = 0) on the CEA branch."""
+    device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
     lo, hi = _active_limits(device)
     q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
-    pos, vel = constant_velocity_profile(np.asarray(speeds, float), travel, accel, m.dt)
-    pos = pos - 0.5 * travel  # centre the strokes on q0
-    ref_q = np.tile(q0, (pos.size, 1))
-    ref_v = np.zeros((pos.size, na))
+    q_prof, qd_prof = constant_velocity_profile(np.asarray(speeds, float), travel, accel, m.dt)
+    q_prof = q_prof - 0.5 * travel  # centre the strokes on q0
+    ref_q = np.tile(q0, (q_prof.size, 1))
+    ref_qd = np.zeros((q_prof.size, na))
     for j, w in weights.items():
         if not 1 <= j <= na:
             raise ValueError(f"active joint {j} does not exist ({na} active joints)")
-        ref_q[:, j - 1] += w * pos
-        ref_v[:, j - 1] = w * vel
+        ref_q[:, j - 1] += w * q_prof
+        ref_qd[:, j - 1] = w * qd_prof
     m.mode = _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz)
     m.velocity_cutoff_hz = 100.0
     opts = dict(weights={str(k): float(v) for k, v in weights.items()}, speeds=list(map(float, speeds)),
                 travel=travel, accel=accel, q0=q0, rate_hz=rate_hz, control_hz=control_hz)
     ref_q[:, :] = np.clip(ref_q, lo, hi)
-    return run_on_twin(device, m, ref_q[0], ref_q, ref_v, np.zeros_like(ref_q), None, seed=seed,
+    return run_on_twin(device, m, ref_q[0], ref_q, ref_qd, np.zeros_like(ref_q), None, seed=seed,
                        experiment=experiment, options=opts, log_rate_hz=log_rate_hz, reference_space="joint",
                        progress=progress)
 
@@ -362,10 +413,13 @@ def cea_friction_trajectory(device, kind: str, speeds=(0.2, 0.4, 0.8), **kw) -> 
     return joint_friction_trajectory(device, weights[kind], speeds, experiment=f"friction_{kind}", **kw)
 
 
-def swept_sine(device, transmission: int, amplitude: float, f0: float = 1.0, f1: float = 50.0,
-               duration: float = 10.0, q0=None, rate_hz: float = 10_000.0, seed: int = 0,
+def swept_sine(device: Device | CompiledDevice, transmission: int, amplitude: float, f0_hz: float = 1.0,
+               f1_hz: float = 50.0, duration: float = 10.0, q0=None, rate_hz: float = 10_000.0, seed: int = 0,
                progress=None) -> SimRun:
-    """Linear chirp of motor torque [N·m] from f0 to f1 [Hz] on one transmission, torque mode, links free."""
+    """Linear chirp of motor torque [N·m] from f0_hz to f1_hz [Hz] on one transmission, torque mode, links
+    free (see :func:`swept_sine_response`)."""
+    device = compile_device(device)
+    f0, f1 = f0_hz, f1_hz
     m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz)
     na = m.na
     _check_index(transmission, na, "transmission")
@@ -375,6 +429,26 @@ def swept_sine(device, transmission: int, amplitude: float, f0: float = 1.0, f1:
     ff = np.zeros((n, na))
     ff[:, transmission - 1] = amplitude * np.sin(2 * np.pi * (f0 * t + 0.5 * (f1 - f0) / duration * t**2))
     m.mode = _core.ControlMode.Torque
-    opts = dict(transmission=transmission, amplitude=amplitude, f0=f0, f1=f1, duration=duration, q0=q)
+    opts = dict(transmission=transmission, amplitude=amplitude, f0_hz=f0, f1_hz=f1, duration=duration, q0=q)
     return run_on_twin(device, m, q, np.tile(q, (n, 1)), np.zeros((n, na)), ff, None, seed=seed,
                        experiment="swept_sine", options=opts, log_rate_hz=rate_hz, progress=progress)
+
+
+def swept_sine_response(device: Device | CompiledDevice, transmission: int, amplitude: float,
+                        f0_hz: float = 1.0, f1_hz: float = 50.0, output: str = "q_motor", **kw) -> FrequencyResponse:
+    """Swept-sine frequency response of one transmission: DFT of the measured ``{output}_{i}`` over the DFT
+    of the commanded motor torque, on the bins strictly inside (f0_hz, f1_hz) (``kw`` go to
+    :func:`swept_sine`). Returns a FrequencyResponse whose ``runs[0]`` is the SimRun."""
+    run = swept_sine(device, transmission, amplitude, f0_hz=f0_hz, f1_hz=f1_hz, **kw)
+    out, inp = f"{output}_{transmission}", f"torque_motor_cmd_{transmission}"
+    y, u = np.asarray(run.log[out], float), np.asarray(run.log[inp], float)
+    rate = run.log.meta["rate_hz"]
+    f = np.fft.rfftfreq(u.size, 1.0 / rate)
+    Y, U = np.fft.rfft(y - y.mean()), np.fft.rfft(u - u.mean())
+    band = (f > f0_hz) & (f < f1_hz)
+    unit = "rad/(N·m)" if output.startswith("q_") else "-"
+    name = compile_device(device).name
+    return FrequencyResponse(2 * math.pi * f[band], Y[band] / U[band], output=out, input=inp, unit=unit,
+                             method="swept_sine", amplitude=float(amplitude), label=f"{name}, swept sine",
+                             meta={"device": name, "transmission": transmission, "f0_hz": f0_hz, "f1_hz": f1_hz},
+                             runs=[run])

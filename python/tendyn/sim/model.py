@@ -1,34 +1,28 @@
-"""Build the C++ simulator model of a device (tendyn._core.SimModel) from its description."""
+"""Assemble the C++ simulator model of a device (tendyn._core.SimModel) from its compiled form.
+
+The rigid body, the active-coordinate map and the transmission come from
+:func:`tendyn.device.compile_device` (built once per device); this module only copies them into a new
+``SimModel`` per run and sets the run's rates, friction and sensors.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
 from tendyn import _core
-from tendyn.device.rigid_body import rigid_body_model
+from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.transmission import Transmission
 
 
-def _active_map(device):
-    """q_tree = L q_a + c: identity for a serial chain, the loop constraints for a closed one."""
-    try:
-        from tendyn.device.closed_loop import active_coordinate_map
-    except ImportError:  # closed loops not available: serial only
-        n = device.n_joints
-        return np.eye(n), np.zeros(n)
-    _, L, c = active_coordinate_map(device)
-    return np.asarray(L, float), np.asarray(c, float)
-
-
-def default_control_hz(device) -> float:
+def default_control_hz(device: Device | CompiledDevice) -> float:
     """Controller rate [Hz]: 1 kHz for cable drives (S0's servo), 5 kHz for capstan drives, whose light
     rotors on the capstan spring need a faster collocated loop to damp the ~20 Hz link resonance."""
-    return 5_000.0 if getattr(device, "drives", ()) else 1_000.0
+    return 5_000.0 if compile_device(device).device.drives else 1_000.0
 
 
-def sim_model(device, rate_hz: float = 10_000.0, control_hz: float | None = None,
+def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, control_hz: float | None = None,
               friction: bool = True, sensors: bool = True) -> _core.SimModel:
-    """The simulator model of ``device``.
+    """A new simulator model of ``device`` (a Device or its CompiledDevice; nothing is rebuilt).
 
     Parameters
     ----------
@@ -45,19 +39,16 @@ def sim_model(device, rate_hz: float = 10_000.0, control_hz: float | None = None
     decim = rate_hz / control_hz
     if abs(decim - round(decim)) > 1e-9 or round(decim) < 1:
         raise ValueError(f"rate_hz ({rate_hz}) must be a multiple of control_hz ({control_hz})")
+    compiled = compile_device(device)
+    device = compiled.device
     m = _core.SimModel()
-    m.body = rigid_body_model(device)
-    L, c = _active_map(device)
-    m.L, m.c = L, c
+    m.body = compiled.rigid_body          # copied into the SimModel
+    m.L, m.c = compiled.active_map
     m.dt = 1.0 / rate_hz
     m.control_decimation = int(round(decim))
-    drives = getattr(device, "drives", ())
+    drives = device.drives
     if device.transmissions:
-        tr = Transmission.from_device(device)
-        if not friction:
-            for name in ("tau0", "nu", "beta", "bearing_count"):
-                setattr(tr.model, name, np.zeros((tr.n, tr.n)))
-            tr.model.reducer_efficiency = np.ones(tr.n)
+        tr = compiled.transmission if friction else Transmission.from_device(device, losses=False)
         m.drive = _core.DriveKind.Tendon
         m.tendon = tr.model
         motors = [t.motor for t in device.transmissions]
@@ -83,3 +74,35 @@ def sim_model(device, rate_hz: float = 10_000.0, control_hz: float | None = None
         m.current_noise = np.array([s.current_noise for s in sens], float)
     m.finalize()
     return m
+
+
+LOG_FIELDS = ("time", "q_motor_meas", "torque_motor_meas", "torque_motor_cmd", "q_joint", "qd_joint", "q_motor",
+              "qd_motor")
+"""The channels :func:`tendyn._core.run` writes, in the order of the C++ ``SimLog`` fields."""
+
+
+def run_log(model: _core.SimModel, data: _core.SimData, ref_q, ref_v, ff, torque_ext, log_every: int) -> dict:
+    """Run ``len(ref_q)`` steps of the simulator and return its log as a dict of arrays.
+
+    Parameters
+    ----------
+    ref_q, ref_v, ff, torque_ext : (steps, na) references [rad, rad/s], feedforward motor torques [N·m],
+        external joint torques [N·m]
+    log_every : log one row every this many steps (a multiple of ``model.control_decimation``)
+
+    Returns
+    -------
+    dict
+        ``time`` (rows,) [s] and ``q_motor_meas``, ``torque_motor_meas``, ``torque_motor_cmd``, ``q_joint``,
+        ``qd_joint``, ``q_motor``, ``qd_motor`` (rows, na), rows = ceil(steps / log_every).
+    """
+    arrays = [np.ascontiguousarray(np.asarray(a, dtype=float)) for a in (ref_q, ref_v, ff, torque_ext)]
+    steps, na = arrays[0].shape[0], model.na
+    if int(log_every) < 1:
+        raise ValueError(f"log_every must be >= 1 (got {log_every})")
+    rows = (steps + int(log_every) - 1) // int(log_every)
+    out = {"time": np.empty(rows)}
+    for name in LOG_FIELDS[1:]:
+        out[name] = np.empty((rows, na))
+    _core.run(model, data, *arrays, int(log_every), *(out[k] for k in LOG_FIELDS))
+    return out

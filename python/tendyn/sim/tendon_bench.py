@@ -1,6 +1,6 @@
 """Experiments on the McGill 2N tendon bench twin (S1): stepped sine, swept sine, low-speed loop.
 
-The time stepping runs in C++ (:func:`tendyn._core.tendon_bench_run`, one call per experiment run, no
+The time stepping runs in C++ (:func:`tendyn._core.run`, one call per experiment run, no
 Python loop per step); this module builds command sequences and demodulates the outputs.
 
 Conventions
@@ -12,26 +12,32 @@ Conventions
 * Friction on: the response depends on the amplitude. With the bundled bench (F_c ≈ 0.125 N per node at
   rest) a sine command has a dead-band up to ≈ 2 F_c ≈ 0.25 N (class-B half-waves against Coulomb nodes),
   and the open-loop peak of |F_m/F_τ| moves from ≈ 15 Hz (0.31 N) to ≈ 30 Hz (≥ 0.6 N), C22.
-* Frequencies in Hz in the arguments (``freqs_hz``); ``omega`` [rad/s] where angular frequency is meant.
+* Frequency grids are ``omega`` [rad/s] (keyword-only arguments, ``FrequencyResponse.omega``); a single
+  frequency setting is ``*_hz`` [Hz] (``freq_hz``, ``f0_hz``, ``rate_hz``). Results:
+  :class:`tendyn.results.FrequencyResponse` (stepped and swept sines), :class:`LowSpeedLoop`.
+* Every function takes the bench or its :func:`tendyn.device.compile_device` form.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
 from .. import _core
-from ..device.tendon_bench import TendonBench
+from ..device import CompiledDevice, compile_device
+from ..device.tendon_bench import BENCH_FIELDS, TendonBench
+from ..io.logs import make_log
+from ..results import FrequencyResponse, Result, format_table
 
 __all__ = [
     "BenchRun",
+    "FrequencyResponse",
     "LowSpeedLoop",
     "PeakSearch",
-    "SteppedSine",
-    "SweptSine",
+    "bench_log",
     "bench_model",
     "low_speed_loop",
     "resonance_peak",
@@ -41,17 +47,18 @@ __all__ = [
 ]
 
 
-def bench_model(bench: TendonBench, rate_hz: float = 20000.0) -> "_core.TendonBenchModel":
+def bench_model(bench: TendonBench | CompiledDevice, rate_hz: float = 20000.0) -> "_core.TendonBenchModel":
     """The C++ model of ``bench`` stepped at ``rate_hz`` [Hz] (raises ValueError if invalid)."""
+    bench = _bench(bench)
     if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
         raise ValueError(f"rate_hz must be a positive number (got {rate_hz!r})")
     m = _core.TendonBenchModel()
-    for name in ("ratio", "k1", "k2", "mass_motor", "damping_motor", "mass_load", "k_z", "pretension",
-                 "friction_c0", "friction_mu_tension", "amplifier_lag", "noise_force", "noise_position"):
-        setattr(m, name, float(getattr(bench, name)))
+    for name in BENCH_FIELDS:  # every file field; each write is validated by the core (ValueError names it)
+        value = getattr(bench, name)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise TypeError(f"TendonBench.{name} must be a number (got {type(value).__name__} {value!r})")
+        setattr(m, name, float(value))
     m.dt = 1.0 / float(rate_hz)
-    if m.validate() != _core.Status.Ok:
-        raise ValueError("invalid tendon bench parameters: " + _core.status_message(m.validate()))
     return m
 
 
@@ -80,7 +87,7 @@ class BenchRun:
         return {k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in self.__dict__.items()}
 
 
-def simulate(bench: TendonBench, u: Any, rate_hz: float = 20000.0, seed: int = 0) -> BenchRun:
+def simulate(bench: TendonBench | CompiledDevice, u: Any, rate_hz: float = 20000.0, seed: int = 0) -> BenchRun:
     """Run the command sequence ``u`` [N] (one value per step) from rest and return all outputs."""
     u = np.ascontiguousarray(np.asarray(u, dtype=np.float64).ravel())
     if not np.all(np.isfinite(u)):
@@ -89,7 +96,7 @@ def simulate(bench: TendonBench, u: Any, rate_hz: float = 20000.0, seed: int = 0
     data = _core.TendonBenchData(model, int(seed))
     n = u.size
     out = [np.empty(n) for _ in range(7)]
-    _core.tendon_bench_run(model, data, u, *out)
+    _core.run(model, data, u, *out)
     time = (np.arange(n) + 1.0) / float(rate_hz)
     return BenchRun(time, u, *out, rate_hz=float(rate_hz), seed=int(seed))
 
@@ -99,53 +106,17 @@ def _sine_command(amplitude: float, freq_hz: float, n: int, rate_hz: float) -> n
     return amplitude * np.sin(2.0 * math.pi * freq_hz * (np.arange(n) + 0.5) * h)
 
 
-@dataclass
-class SteppedSine:
-    """First-harmonic ratio F_m/F_τ per frequency (stepped sine, lock-in over whole cycles).
-
-    Attributes
-    ----------
-    freqs_hz : ndarray
-    amplitude_N : float
-    ratio : ndarray of complex
-        First harmonic of F_m divided by the first harmonic of the commanded force.
-    """
-
-    freqs_hz: np.ndarray
-    amplitude_N: float
-    ratio: np.ndarray
-    cycles: int
-    settle_s: np.ndarray
-    rate_hz: float
-    seed: int
-
-    @property
-    def magnitude(self) -> np.ndarray:
-        return np.abs(self.ratio)
-
-    @property
-    def phase_deg(self) -> np.ndarray:
-        return np.degrees(np.angle(self.ratio))
-
-    @property
-    def omega(self) -> np.ndarray:
-        return 2.0 * math.pi * self.freqs_hz
-
-    def peak_hz(self) -> float:
-        """Grid frequency [Hz] of the largest |F_m/F_τ|."""
-        return float(self.freqs_hz[int(np.argmax(self.magnitude))])
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"freqs_hz": self.freqs_hz.tolist(), "amplitude_N": self.amplitude_N,
-                "magnitude": self.magnitude.tolist(), "phase_deg": self.phase_deg.tolist(),
-                "ratio_re": self.ratio.real.tolist(), "ratio_im": self.ratio.imag.tolist(),
-                "cycles": self.cycles, "settle_s": self.settle_s.tolist(), "rate_hz": self.rate_hz,
-                "seed": self.seed}
+def _bench(bench) -> TendonBench:
+    """The TendonBench behind a bench or its compiled form."""
+    dev = compile_device(bench).device
+    if not isinstance(dev, TendonBench):
+        raise TypeError(f"{dev.name} is a {dev.kind} device, not a tendon bench")
+    return dev
 
 
-def stepped_sine(bench: TendonBench, freqs_hz: Sequence[float], amplitude_N: float, cycles: int = 10,
-                 settle_cycles: int = 20, settle_s: float = 1.0, rate_hz: float = 20000.0,
-                 seed: int = 0) -> SteppedSine:
+def stepped_sine(bench: TendonBench | CompiledDevice, *, omega: Sequence[float], amplitude_N: float,
+                 cycles: int = 10, settle_cycles: int = 20, settle_s: float = 1.0, rate_hz: float = 20000.0,
+                 seed: int = 0) -> FrequencyResponse:
     """Stepped-sine FRF of F_m/F_τ.
 
     Each frequency starts from rest, settles for max(settle_cycles, ceil(settle_s f)) whole cycles, then
@@ -154,9 +125,9 @@ def stepped_sine(bench: TendonBench, freqs_hz: Sequence[float], amplitude_N: flo
 
     Parameters
     ----------
-    bench : TendonBench
-    freqs_hz : sequence of float
-        Test frequencies [Hz], each > 0 and below rate_hz / 4.
+    bench : TendonBench or CompiledDevice
+    omega : sequence of float
+        Test frequencies [rad/s], each > 0 and below 2π rate_hz / 4 (keyword-only).
     amplitude_N : float
         Sine amplitude of the command [N at the rim].
     cycles, settle_cycles : int
@@ -167,10 +138,16 @@ def stepped_sine(bench: TendonBench, freqs_hz: Sequence[float], amplitude_N: flo
         Step rate [Hz].
     seed : int
         Noise seed (a different, deterministic seed is used per frequency: seed + index).
+
+    Returns
+    -------
+    FrequencyResponse
+        ``ratio`` = F_m / F_τ [-], ``method = "stepped_sine"``; ``meta`` holds cycles, settle_s (per
+        frequency), rate_hz and seed.
     """
-    freqs = np.asarray(freqs_hz, dtype=float).ravel()
+    freqs = np.asarray(omega, dtype=float).ravel() / (2.0 * math.pi)
     if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0) or np.any(freqs >= rate_hz / 4):
-        raise ValueError("freqs_hz must be finite, > 0 and < rate_hz/4")
+        raise ValueError("omega must be finite, > 0 and < 2π rate_hz/4")
     if not (math.isfinite(amplitude_N) and amplitude_N > 0):
         raise ValueError("amplitude_N must be > 0")
     if int(cycles) < 1 or int(settle_cycles) < 0:
@@ -186,7 +163,7 @@ def stepped_sine(bench: TendonBench, freqs_hz: Sequence[float], amplitude_N: flo
         u = _sine_command(amplitude_N, f, n1, rate_hz)
         data = _core.TendonBenchData(model, int(seed) + i)
         out = [np.empty(n1) for _ in range(7)]
-        _core.tendon_bench_run(model, data, u, *out)
+        _core.run(model, data, u, *out)
         force = out[0][n0:n1]
         t_end = (np.arange(n0, n1) + 1.0) * h  # outputs are the state at the end of each step
         kernel = np.exp(-2j * math.pi * f * t_end)
@@ -194,25 +171,39 @@ def stepped_sine(bench: TendonBench, freqs_hz: Sequence[float], amplitude_N: flo
         x = np.dot(amplitude_N * np.sin(2.0 * math.pi * f * t_end), kernel)
         ratios[i] = y / x
         settles[i] = n0 * h
-    return SteppedSine(freqs, float(amplitude_N), ratios, int(cycles), settles, float(rate_hz), int(seed))
+    return FrequencyResponse(2.0 * math.pi * freqs, ratios, output="F_m", input="F_tau", unit="-",
+                             method="stepped_sine", amplitude=float(amplitude_N),
+                             label=f"twin, {amplitude_N:.2f} N input",
+                             meta={"cycles": int(cycles), "settle_s": settles.tolist(), "rate_hz": float(rate_hz),
+                                   "seed": int(seed), "amplitude_unit": "N"})
 
 
 @dataclass
-class PeakSearch:
+class PeakSearch(Result):
     """Resonance-peak search of |F_m/F_τ| at one amplitude (coarse grid, then a fine grid)."""
 
     amplitude_N: float
     peak_hz: float
     peak_magnitude: float
-    coarse: SteppedSine
-    fine: SteppedSine | None
+    coarse: FrequencyResponse
+    fine: FrequencyResponse | None
+
+    def _draw(self, ax) -> None:
+        self.coarse.plot(ax)
+        if self.fine is not None:
+            self.fine.plot(ax)
+        ax.axvline(self.peak_hz, color="0.5", lw=0.8, ls=":")
 
     def to_dict(self) -> dict[str, Any]:
         return {"amplitude_N": self.amplitude_N, "peak_hz": self.peak_hz, "peak_magnitude": self.peak_magnitude,
                 "coarse": self.coarse.to_dict(), "fine": self.fine.to_dict() if self.fine else None}
 
+    def table(self) -> str:
+        return format_table(("input [N]", "peak [Hz]", "|F_m/F_tau| at peak"),
+                            [(self.amplitude_N, self.peak_hz, self.peak_magnitude)], "resonance peak")
 
-def resonance_peak(bench: TendonBench, amplitude_N: float, f_lo: float = 8.0, f_hi: float = 40.0,
+
+def resonance_peak(bench: TendonBench | CompiledDevice, amplitude_N: float, f_lo: float = 8.0, f_hi: float = 40.0,
                    step_hz: float = 1.0, refine_hz: float = 0.25, **kw: Any) -> PeakSearch:
     """Frequency [Hz] of the largest first-harmonic |F_m/F_τ| between f_lo and f_hi.
 
@@ -220,49 +211,28 @@ def resonance_peak(bench: TendonBench, amplitude_N: float, f_lo: float = 8.0, f_
     the coarse maximum. Extra keyword arguments go to :func:`stepped_sine`.
     """
     grid = np.arange(f_lo, f_hi + 0.5 * step_hz, step_hz)
-    coarse = stepped_sine(bench, grid, amplitude_N, **kw)
+    coarse = stepped_sine(bench, omega=2 * math.pi * grid, amplitude_N=amplitude_N, **kw)
     k = int(np.argmax(coarse.magnitude))
     best_f, best_m, fine = float(grid[k]), float(coarse.magnitude[k]), None
     if refine_hz and refine_hz > 0:
         lo = max(f_lo, best_f - step_hz)
         hi = min(f_hi, best_f + step_hz)
         fgrid = np.arange(lo, hi + 0.5 * refine_hz, refine_hz)
-        fine = stepped_sine(bench, fgrid, amplitude_N, **kw)
+        fine = stepped_sine(bench, omega=2 * math.pi * fgrid, amplitude_N=amplitude_N, **kw)
         j = int(np.argmax(fine.magnitude))
         if fine.magnitude[j] >= best_m:
             best_f, best_m = float(fgrid[j]), float(fine.magnitude[j])
     return PeakSearch(float(amplitude_N), best_f, best_m, coarse, fine)
 
 
-@dataclass
-class SweptSine:
-    """FRF estimate F_m/F_τ from one linear chirp (ratio of the DFTs on the swept band)."""
-
-    freqs_hz: np.ndarray
-    ratio: np.ndarray
-    amplitude_N: float
-    run: BenchRun = field(repr=False)
-
-    @property
-    def magnitude(self) -> np.ndarray:
-        return np.abs(self.ratio)
-
-    @property
-    def phase_deg(self) -> np.ndarray:
-        return np.degrees(np.angle(self.ratio))
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"freqs_hz": self.freqs_hz.tolist(), "magnitude": self.magnitude.tolist(),
-                "phase_deg": self.phase_deg.tolist(), "amplitude_N": self.amplitude_N}
-
-
-def swept_sine(bench: TendonBench, f0_hz: float = 2.0, f1_hz: float = 100.0, duration_s: float = 20.0,
-               amplitude_N: float = 1.0, rate_hz: float = 20000.0, seed: int = 0,
-               tail_s: float = 1.0) -> SweptSine:
+def swept_sine(bench: TendonBench | CompiledDevice, f0_hz: float = 2.0, f1_hz: float = 100.0,
+               duration_s: float = 20.0, amplitude_N: float = 1.0, rate_hz: float = 20000.0, seed: int = 0,
+               tail_s: float = 1.0) -> FrequencyResponse:
     """Linear chirp from f0 to f1 over ``duration_s`` then ``tail_s`` of zero command; FRF = Y(f)/U(f).
 
     Accurate only where the plant is linear (friction off, or large amplitudes); with friction the result
-    is an amplitude-dependent average. Returns the bins strictly inside (f0, f1).
+    is an amplitude-dependent average. Returns the bins strictly inside (f0, f1) as a
+    :class:`FrequencyResponse` (``method = "swept_sine"``) whose ``runs[0]`` is the :class:`BenchRun`.
     """
     n_sweep = int(round(duration_s * rate_hz))
     n = n_sweep + int(round(tail_s * rate_hz))
@@ -275,11 +245,16 @@ def swept_sine(bench: TendonBench, f0_hz: float = 2.0, f1_hz: float = 100.0, dur
     U = np.fft.rfft(u)
     Y = np.fft.rfft(run.force) * np.exp(-1j * math.pi * freqs / rate_hz)  # outputs sit half a step later
     band = (freqs > f0_hz) & (freqs < f1_hz)
-    return SweptSine(freqs[band], Y[band] / U[band], float(amplitude_N), run)
+    return FrequencyResponse(2.0 * math.pi * freqs[band], Y[band] / U[band], output="F_m", input="F_tau",
+                             unit="-", method="swept_sine", amplitude=float(amplitude_N),
+                             label=f"swept sine, {amplitude_N:.2f} N", runs=[run],
+                             meta={"f0_hz": float(f0_hz), "f1_hz": float(f1_hz), "duration_s": float(duration_s),
+                                   "tail_s": float(tail_s), "rate_hz": float(rate_hz), "seed": int(seed),
+                                   "amplitude_unit": "N"})
 
 
 @dataclass
-class LowSpeedLoop:
+class LowSpeedLoop(Result):
     """Input/output record of a slow sine (dead-band and hysteresis-like loop, C21/C24).
 
     ``u`` [N] command F_τ, ``force`` [N] sensed F_m, ``position`` [m] X_t, ``time`` [s]; the last
@@ -292,13 +267,38 @@ class LowSpeedLoop:
     position: np.ndarray
     freq_hz: float
     amplitude_N: float
+    device: str = ""
+
+    def _draw(self, ax) -> None:
+        ax.plot(self.u, self.force, lw=1.2, label=f"{self.freq_hz:g} Hz, {self.amplitude_N:.2f} N")
+        ax.plot(self.u, self.u, "k--", lw=0.8, label="F_m = F_τ")
+        ax.set_xlabel("command F_τ [N]")
+        ax.set_ylabel("sensed F_m [N]")
+        ax.set_title(f"{self.device}: low-speed loop".lstrip(": "))
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+
+    def gain(self) -> float:
+        """Least-squares slope of F_m against F_τ [-]."""
+        return float(np.dot(self.u, self.force) / np.dot(self.u, self.u))
+
+    def dead_band_N(self) -> float:
+        """Largest |F_τ| [N] while |F_m| stays below 5 % of the amplitude (the dead-band half-width)."""
+        small = np.abs(self.force) < 0.05 * self.amplitude_N
+        return float(np.max(np.abs(self.u[small]))) if np.any(small) else 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        return {"time": self.time.tolist(), "u": self.u.tolist(), "force": self.force.tolist(),
-                "position": self.position.tolist(), "freq_hz": self.freq_hz, "amplitude_N": self.amplitude_N}
+        return {"device": self.device, "time": self.time.tolist(), "u": self.u.tolist(),
+                "force": self.force.tolist(), "position": self.position.tolist(), "freq_hz": self.freq_hz,
+                "amplitude_N": self.amplitude_N, "gain": self.gain(), "dead_band_N": self.dead_band_N()}
+
+    def table(self) -> str:
+        return format_table(("freq [Hz]", "input [N]", "gain F_m/F_tau", "dead band [N]", "max |F_m| [N]"),
+                            [(self.freq_hz, self.amplitude_N, self.gain(), self.dead_band_N(),
+                              float(np.max(np.abs(self.force))))], "low-speed loop")
 
 
-def low_speed_loop(bench: TendonBench, freq_hz: float = 0.2, amplitude_N: float = 0.31, cycles: int = 2,
+def low_speed_loop(bench: TendonBench | CompiledDevice, freq_hz: float = 0.2, amplitude_N: float = 0.31, cycles: int = 2,
                    settle_cycles: int = 1, rate_hz: float = 20000.0, seed: int = 0,
                    decimate: int = 20) -> LowSpeedLoop:
     """Slow sine test (S1 Fig. 10b: 0.2 Hz, 0.31 N): returns the input and output arrays.
@@ -311,15 +311,14 @@ def low_speed_loop(bench: TendonBench, freq_hz: float = 0.2, amplitude_N: float 
     run = simulate(bench, u, rate_hz, seed)
     sl = slice(n0, n1, max(1, int(decimate)))
     return LowSpeedLoop(run.time[sl], run.u[sl], run.force[sl], run.position[sl], float(freq_hz),
-                        float(amplitude_N))
+                        float(amplitude_N), _bench(bench).name)
 
 
-def bench_log(bench: TendonBench, run: BenchRun, experiment: str, options: dict | None = None,
+def bench_log(bench: TendonBench | CompiledDevice, run: BenchRun, experiment: str, options: dict | None = None,
               log_every: int = 1):
     """The log a bench records (tendyn.io.logs schema): command, differential tendon force and tendon
     displacement as sensed, every ``log_every`` steps. The truth (bench parameters) goes beside it."""
-    from tendyn.io.logs import make_log
-
+    bench = _bench(bench)
     sl = slice(log_every - 1, None, log_every)
     cols = {"time": run.time[sl], "force_cmd": run.u[sl], "force_tendon": run.force[sl],
             "x_tendon": run.position[sl]}
@@ -332,12 +331,12 @@ LOW_SPEED_FREQ_HZ = 0.2
 
 
 def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float, rate_hz: float = 20000.0,
-                     log_rate_hz: float = 1000.0, seed: int = 0, freqs_hz: Sequence[float] | None = None,
+                     log_rate_hz: float = 1000.0, seed: int = 0, omega: Sequence[float] | None = None,
                      cycles: int | None = None, duration_s: float | None = None, progress=None) -> list:
     """One experiment of ``tendyn simulate`` on a bench: a list of (log, truth) pairs.
 
-    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each of
-    ``freqs_hz``, one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``freqs_hz``
+    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each frequency
+    of ``omega`` [rad/s], one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``omega``
     over ``duration_s`` (then 1 s of zero command); ``"low-speed-loop"``: ``cycles`` cycles at
     :data:`LOW_SPEED_FREQ_HZ`. Logs sample every ``rate_hz / log_rate_hz`` steps (must be whole).
     """
@@ -354,17 +353,18 @@ def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float,
 
     if experiment == "stepped-sine":
         out = []
+        freqs_hz = np.asarray(omega, float) / (2.0 * math.pi)
         for k, f in enumerate(freqs_hz):
             out.append((sine_run(float(f), "stepped_sine"), truth))
             if progress:
                 progress(k + 1, len(freqs_hz))
         return out
     if experiment == "swept-sine":
-        f0, f1 = float(min(freqs_hz)), float(max(freqs_hz))
+        f0, f1 = float(min(omega)) / (2.0 * math.pi), float(max(omega)) / (2.0 * math.pi)
         res = swept_sine(bench, f0_hz=f0, f1_hz=f1, duration_s=duration_s, amplitude_N=amplitude_N,
                          rate_hz=rate_hz, seed=seed)
         opts = {"f0_hz": f0, "f1_hz": f1, "duration_s": duration_s, "amplitude_N": amplitude_N}
-        return [(bench_log(bench, res.run, "swept_sine", opts, log_every), truth)]
+        return [(bench_log(bench, res.runs[0], "swept_sine", opts, log_every), truth)]
     if experiment == "low-speed-loop":
         return [(sine_run(LOW_SPEED_FREQ_HZ, "low_speed_loop"), truth)]
     raise ValueError(f"unknown bench experiment {experiment!r}")

@@ -1,0 +1,174 @@
+// tendyn — the transmission model file: a complete TransmissionModel (routing, losses, bearings) as text.
+//
+// Written by Python (`tendyn.transmission.Transmission.export(path)`, the same writer as
+// save_transmission_model below) and read by C++ (load_transmission_model) and C
+// (tendyn_transmission_load in c_api.h), so a controller loads the identified model instead of copying
+// numbers by hand. Setup time only: these functions allocate and do file I/O; nothing here is on the
+// real-time path.
+//
+// Format (version 1), one line per field of the parameter table (TENDYN_TRANSMISSION_FIELDS, routing.hpp):
+//
+//     tendyn-transmission-model 1
+//     n 4
+//     motor_radius 0.008 0.008 0.008 0.008
+//     K 0.32 0 0 0 0.015 0.32 0 0 ...          (n x n, row-major)
+//     ...
+//
+// A line is a field name followed by its values (n for a per-transmission field, n*n row-major for a
+// matrix), separated by spaces; `#` starts a comment; blank lines are ignored. The header line and `n`
+// come first. motor_radius, K, driven_radius and reducer_ratio are required; a missing loss or bearing
+// field keeps its default (lossless, no bearings). Unknown fields, repeated fields, a wrong number of
+// values, a value that is not a number and a model that fails validation are errors whose message names
+// the file, the line and the field (`lexos.model: line 9: beta[2,1] = 1.5: must be < 1`). Values are
+// written in the shortest form that reads back to the same double (15 or 17 significant digits), so a
+// saved model reads back bit for bit.
+#pragma once
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tendyn/routing.hpp"
+
+namespace tendyn {
+
+inline constexpr const char* model_file_header = "tendyn-transmission-model";
+inline constexpr int model_file_version = 1;
+
+/// Text of the model file of `m` (format above).
+inline std::string transmission_model_text(const TransmissionModel& m) {
+  std::string out = std::string(model_file_header) + " " + std::to_string(model_file_version) + "\n";
+  out += "# units: SI (m, N, N s/m, rad, rad/s, N m); matrices row-major [i, j], indices 0-based\n";
+  out += "n " + std::to_string(m.n) + "\n";
+  m.for_each_field([&](const FieldInfo& info, const auto& member) {
+    out += info.name;
+    for (int i = 0; i < member.rows(); ++i)
+      for (int j = 0; j < member.cols(); ++j) out += " " + format_double(member(i, j));
+    out += "\n";
+  });
+  return out;
+}
+
+/// Write the model file (to `path`.tmp, then renamed: never half-written). Returns false and sets
+/// `error` on failure.
+inline bool save_transmission_model(const TransmissionModel& m, const std::string& path, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) {
+      if (error) *error = path + ": cannot open for writing";
+      return false;
+    }
+    f << transmission_model_text(m);
+    if (!f.good()) {
+      if (error) *error = path + ": write failed";
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    if (error) *error = path + ": cannot rename the temporary file";
+    return false;
+  }
+  return true;
+}
+
+/// Parse model-file text into `m` (validated, matrices computed). `name` prefixes the messages.
+inline bool parse_transmission_model(const std::string& text, const std::string& name, TransmissionModel* m,
+                                     std::string* error) {
+  auto fail = [&](int line, const std::string& what) {
+    if (error) *error = name + (line > 0 ? ": line " + std::to_string(line) : std::string()) + ": " + what;
+    return false;
+  };
+  std::istringstream in(text);
+  std::string line;
+  int lineno = 0, n = -1;
+  bool header = false;
+  TransmissionModel model;
+  std::vector<int> seen(transmission_field_count, 0);
+  while (std::getline(in, line)) {
+    ++lineno;
+    const auto hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    std::istringstream ls(line);
+    std::string key;
+    if (!(ls >> key)) continue;
+    if (!header) {
+      int version = 0;
+      if (key != model_file_header || !(ls >> version))
+        return fail(lineno, std::string("not a tendyn model file (the first line must be '") + model_file_header +
+                                " " + std::to_string(model_file_version) + "')");
+      if (version != model_file_version)
+        return fail(lineno, "format version " + std::to_string(version) + " is not supported (this build reads " +
+                                std::to_string(model_file_version) + ")");
+      header = true;
+      continue;
+    }
+    std::vector<double> values;
+    std::string tok;
+    while (ls >> tok) {
+      char* end = nullptr;
+      const double v = std::strtod(tok.c_str(), &end);
+      if (end == tok.c_str() || *end != '\0') return fail(lineno, key + ": '" + tok + "' is not a number");
+      values.push_back(v);
+    }
+    if (n < 0) {
+      if (key != "n" || values.size() != 1 || !(values[0] >= 1.0) || values[0] != static_cast<int>(values[0]))
+        return fail(lineno, "the line after the header must be 'n <number of transmissions >= 1>'");
+      n = static_cast<int>(values[0]);
+      model = TransmissionModel(n);
+      continue;
+    }
+    int index = -1;
+    for (int k = 0; k < transmission_field_count; ++k)
+      if (key == transmission_fields[k].name) index = k;
+    if (index < 0) {
+      std::string known;
+      for (const auto& f : transmission_fields) known += std::string(known.empty() ? "" : ", ") + f.name;
+      return fail(lineno, key + ": unknown field (known: " + known + ")");
+    }
+    if (seen[index]) return fail(lineno, key + ": given twice (first on line " + std::to_string(seen[index]) + ")");
+    seen[index] = lineno;
+    const int cols = transmission_fields[index].dims == 1 ? 1 : n;
+    if (static_cast<int>(values.size()) != n * cols)
+      return fail(lineno, key + ": " + std::to_string(values.size()) + " values, expected " + std::to_string(n * cols) +
+                              (cols == 1 ? " (n)" : " (n*n, row-major)"));
+    model.set_field(key.c_str(), values.data(), n, cols);
+  }
+  if (!header) return fail(0, "empty file (not a tendyn model file)");
+  if (n < 0) return fail(0, "missing 'n' line");
+  for (const char* req : {"motor_radius", "K", "driven_radius", "reducer_ratio"}) {
+    int k = 0;
+    while (std::string(transmission_fields[k].name) != req) ++k;
+    if (!seen[k]) return fail(0, std::string(req) + ": missing required field");
+  }
+  ValidationIssue issue;
+  if (model.first_issue(&issue)) {
+    int line_of = 0;
+    for (int k = 0; k < transmission_field_count; ++k)
+      if (std::string(issue.field).rfind(transmission_fields[k].name, 0) == 0) line_of = seen[k];
+    return fail(line_of, describe(issue));
+  }
+  model.update_matrices();
+  *m = std::move(model);
+  return true;
+}
+
+/// Read a model file (format above) into `m`. Returns false and sets `error` (file, line, field, what is
+/// wrong) on failure; `m` is unchanged then.
+inline bool load_transmission_model(const std::string& path, TransmissionModel* m, std::string* error) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    if (error) *error = path + ": cannot open the model file";
+    return false;
+  }
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const auto slash = path.find_last_of("/\\");
+  return parse_transmission_model(ss.str(), slash == std::string::npos ? path : path.substr(slash + 1), m, error);
+}
+
+}  // namespace tendyn

@@ -1,0 +1,47 @@
+"""argparse converters for the subcommands: each checks its value and fails with a one-line message."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+
+def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,
+           unit: str = ""):
+    """A converter for a finite number (an integer if ``integer``) inside [lo, hi] (lo strict if ``lo_open``)."""
+    def convert(text: str):
+        try:
+            v = int(text, 10) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be {'an integer' if integer else 'a number'} (got {text!r})") from None
+        if not integer and not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"must be finite (got {text!r})")
+        if (lo is not None and (v <= lo if lo_open else v < lo)) or (hi is not None and v > hi):
+            lo_txt = "" if lo is None else f"{lo:g} {'<' if lo_open else '≤'} "
+            hi_txt = "" if hi is None else f" ≤ {hi:g}"
+            raise argparse.ArgumentTypeError(f"must be {lo_txt}x{hi_txt}{f' [{unit}]' if unit else ''} (got {text})")
+        return v
+    return convert
+
+
+def numbers(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, unit: str = ""):
+    """A converter for a comma-separated list of numbers, each checked as by :func:`number`."""
+    one = number(lo, hi, lo_open=lo_open, unit=unit)
+
+    def convert(text: str):
+        parts = [p.strip() for p in text.split(",")]
+        if not parts or any(p == "" for p in parts):
+            raise argparse.ArgumentTypeError(f"expected comma-separated numbers without empty entries (got {text!r})")
+        return tuple(one(p) for p in parts)
+    return convert
+
+
+def existing_file(text: str) -> Path:
+    """A path to an existing regular file."""
+    p = Path(text)
+    if not p.exists():
+        raise argparse.ArgumentTypeError(f"{text}: file not found")
+    if not p.is_file():
+        raise argparse.ArgumentTypeError(f"{text}: not a regular file")
+    return p

@@ -1,0 +1,186 @@
+"""A device compiled once: the one step from a description to its computing models.
+
+:func:`compile_device` turns a loaded :class:`~tendyn.device.base.Device` into a :class:`CompiledDevice`
+holding what simulation, identification and compensation compute with: the joint frames, the Pinocchio
+model (and a data factory), the C++ rigid-body model, the active-coordinate map q_tree = L q_active + c and
+the :class:`tendyn.transmission.Transmission` of the cables. Each part is built on first use and then kept,
+and the compiled form is kept per device object, so no experiment, estimator or pipeline derives a model
+from the raw description a second time:
+
+>>> from tendyn.device import compile_device, load_device
+>>> from tendyn.devices import bundled
+>>> dev = load_device(bundled("lexos"))
+>>> cd = compile_device(dev)
+>>> compile_device(dev) is cd and compile_device(cd) is cd
+True
+>>> cd.active_map.L.shape
+(4, 4)
+
+The parts are shared: treat them as read-only (a Pinocchio *data* is per caller: :meth:`~CompiledDevice.
+pinocchio_data`). The simulator model (:func:`tendyn.sim.model.sim_model`) is assembled per run from these
+parts, because every experiment sets its own controller on it; assembling it builds nothing from the
+description.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from .base import Device
+
+__all__ = ["ActiveMap", "CompiledDevice", "compile_device"]
+
+_CACHE_ATTR = "_compiled"
+
+
+class ActiveMap(NamedTuple):
+    """q_tree = L q_active + c (identity and zero for a serial chain, the loop constraints for a closed one).
+
+    L : (n_tree, n_active) [-]; c : (n_tree,) [rad] (or [m] for a prismatic joint).
+    """
+
+    L: np.ndarray
+    c: np.ndarray
+
+
+class CompiledDevice:
+    """The computing models of one device, built once (see :func:`compile_device`).
+
+    Attributes
+    ----------
+    device : Device
+        The description it was compiled from.
+    name, kind, experiments : as ``device``
+    joint_frames : list of :class:`tendyn.device.rigid_body.JointFrame`
+        The rigid-body tree derived from the kinematic description (serial devices).
+    pinocchio_model : pinocchio.Model
+        The tree as a Python Pinocchio model (gravity from the device).
+    rigid_body : tendyn._core.RigidBodyModel
+        The same tree in the C++ core (the simulator copies it).
+    active_map : ActiveMap
+        (L, c) with q_tree = L q_active + c.
+    active_joints : list of int
+        0-based tree indices of the active joints.
+    transmission : tendyn.transmission.Transmission or None
+        The cable transmissions (None for capstan drives and for a tendon bench).
+
+    The serial-only parts raise ValueError on a tendon bench (``kind == "tendon_bench_2n"``), whose
+    computing model is the bench model of :mod:`tendyn.sim.tendon_bench`.
+    """
+
+    def __init__(self, device: Device):
+        if not isinstance(device, Device):
+            raise TypeError(f"expected a tendyn.device.Device (got {type(device).__name__})")
+        self.device = device
+
+    def __repr__(self) -> str:
+        return f"CompiledDevice({self.device.name!r}, kind={self.kind!r})"
+
+    # ---- identity, as the description ---------------------------------------------------------
+    @property
+    def name(self) -> str:
+        return self.device.name
+
+    @property
+    def kind(self) -> str:
+        return self.device.kind
+
+    @property
+    def experiments(self) -> tuple[str, ...]:
+        return self.device.experiments
+
+    def _serial(self, what: str):
+        if self.kind != "serial":
+            raise ValueError(f"{self.name} is a {self.kind} device: it has no {what}")
+        return self.device
+
+    # ---- rigid body ---------------------------------------------------------------------------
+    @cached_property
+    def joint_frames(self) -> list:
+        from .rigid_body import joint_frames
+
+        return joint_frames(self._serial("rigid-body tree"))
+
+    @cached_property
+    def pinocchio_model(self) -> Any:
+        from .rigid_body import pinocchio_model
+
+        return pinocchio_model(self._serial("rigid-body tree"), frames=self.joint_frames)
+
+    def pinocchio_data(self) -> Any:
+        """A new ``pinocchio.Data`` of :attr:`pinocchio_model` (one per caller: it is written to)."""
+        return self.pinocchio_model.createData()
+
+    @cached_property
+    def rigid_body(self) -> Any:
+        from .rigid_body import rigid_body_model
+
+        return rigid_body_model(self._serial("rigid-body tree"), frames=self.joint_frames)
+
+    # ---- active coordinates -------------------------------------------------------------------
+    @cached_property
+    def _active(self) -> tuple[list[int], ActiveMap]:
+        from .closed_loop import active_coordinate_map
+
+        active, L, c = active_coordinate_map(self._serial("joint coordinates"))
+        L, c = np.asarray(L, float), np.asarray(c, float)
+        L.flags.writeable = False
+        c.flags.writeable = False
+        return list(active), ActiveMap(L, c)
+
+    @property
+    def active_map(self) -> ActiveMap:
+        return self._active[1]
+
+    @property
+    def active_joints(self) -> list[int]:
+        return list(self._active[0])
+
+    @property
+    def n_active(self) -> int:
+        return self.active_map.L.shape[1]
+
+    # ---- transmission -------------------------------------------------------------------------
+    @cached_property
+    def transmission(self) -> Any:
+        if self.kind != "serial" or not self.device.transmissions:
+            return None
+        from tendyn.transmission import Transmission
+
+        return Transmission.from_device(self.device)
+
+    def __getstate__(self):  # the compiled models are rebuilt after unpickling, not pickled
+        return {"device": self.device}
+
+
+def compile_device(device: Device | CompiledDevice) -> CompiledDevice:
+    """The compiled form of ``device``, built once per device object.
+
+    Parameters
+    ----------
+    device : Device or CompiledDevice
+        A loaded description (any kind), or an already compiled one (returned as is).
+
+    Returns
+    -------
+    CompiledDevice
+        The same object for every call with the same device object.
+    """
+    if isinstance(device, CompiledDevice):
+        return device
+    if not isinstance(device, Device):
+        raise TypeError(f"compile_device expects a tendyn.device.Device or CompiledDevice "
+                        f"(got {type(device).__name__})")
+    compiled = device.__dict__.get(_CACHE_ATTR)
+    if compiled is None:
+        compiled = CompiledDevice(device)
+        object.__setattr__(device, _CACHE_ATTR, compiled)  # devices are frozen; the cache is not a field
+    return compiled
+
+
+def as_device(device: Device | CompiledDevice) -> Device:
+    """The description behind a Device or CompiledDevice."""
+    return device.device if isinstance(device, CompiledDevice) else device
