@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from tendyn.ident.friction import branch_speeds, isolated_move_joint_speeds
+from tendyn.results import Result
 
 SHARES_FORMAT = "tendyn.shares/1"
 SHARE_TOL = 1e-6
@@ -78,8 +79,8 @@ def true_shares(nu_branch, tau0_branch, kprime) -> tuple[np.ndarray, np.ndarray]
     return nu_w / nu_w.sum(axis=1, keepdims=True), c_w / c_w.sum(axis=1, keepdims=True)
 
 
-@dataclass
-class LossDecomposition:
+@dataclass(eq=False)
+class LossDecomposition(Result):
     """Per-branch estimates ν̂ [N·s/m], τ̂_0 [N] of every transmission and the checks of eqs. (18)–(19).
 
     Arrays are (m, n): row i = transmission i + 1, column b = branch b (0 = base, b = link b).
@@ -132,26 +133,15 @@ class LossDecomposition:
         lines.append(f"global values reproduced within {self.max_mismatch():.1e} (relative)")
         return "\n".join(lines)
 
-    __str__ = table
-
-    def plot(self, ax=None):
-        """Bar chart of τ̂_0 per branch and transmission; draws into ``ax`` or a new Figure."""
-        if ax is None:
-            from matplotlib.figure import Figure
-
-            fig = Figure(figsize=(5.6, 4.2))
-            ax = fig.add_subplot()
-        fig = ax.figure
-        nmax = max(self.branches)
-        width = 0.8 / nmax
-        for b in range(nmax):
-            x = [i + 1 + (b - (nmax - 1) / 2) * width for i, nb in enumerate(self.branches) if b < nb]
-            y = [self.tau0_branch[i, b] for i, nb in enumerate(self.branches) if b < nb]
-            ax.bar(x, y, width, label=f"branch {b}")
-        ax.set_xlabel("transmission")
+    def _draw(self, ax) -> None:
+        """τ̂_0 per branch (markers and lines, one per transmission) against the branch number."""
+        for i, nb in enumerate(self.branches):
+            ax.plot(range(nb), self.tau0_branch[i, :nb], "o-", label=f"transmission {i + 1}")
+        ax.set_xlabel("branch (0 = base, b = link b)")
         ax.set_ylabel("τ̂_0 per branch [N]")
+        ax.set_xticks(range(max(self.branches)))
+        ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        return fig
 
 
 def decompose(device, coulomb_motor, viscous_motor, p=None, p_prime=None) -> LossDecomposition:

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tendyn.ident.plateaus import Plateau, find_plateaus
+from tendyn.results import Result
 
 GRAVITY_MODES = ("pairs", "model", "both")
 STRATEGIES = ("S1", "S2")
@@ -41,8 +42,8 @@ class IdentificationError(ValueError):
     """The logs do not allow the fit (too few speeds, no plateau, no pair); the message says which."""
 
 
-@dataclass
-class FrictionFit:
+@dataclass(eq=False)
+class FrictionFit(Result):
     """Identified global friction of one transmission (S0 eq. 13, corrected: ERRATA).
 
     coulomb_motor C_m0 [N·m], viscous_motor ν [N·m·s/rad], their standard deviations, %σ, cond(W),
@@ -100,11 +101,8 @@ class FrictionFit:
             f"residual σ̂ {self.residual_std:.3g} N·m; residual-error bound (ERRATA eq. 15) {bound} N·m",
         ])
 
-    __str__ = table
-
-    def plot(self, ax=None):
-        """Observations and the fitted law C_m0 sgn(v) + νv; draws into ``ax`` or a new Figure."""
-        ax, fig = _axes(ax)
+    def _draw(self, ax) -> None:
+        """Observations and the fitted law C_m0 sgn(v) + νv."""
         v, c = self.points[:, 0], self.points[:, 1]
         ax.plot(v, c, ".", ms=3, alpha=0.5, label="plateau bins")
         vv = np.linspace(min(0.0, v.min()), v.max(), 200)
@@ -114,21 +112,10 @@ class FrictionFit:
         ax.set_ylabel("friction torque at the motor [N·m]")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        return fig
 
 
 def _pct(s, x) -> float:
     return float(100.0 * s / abs(x)) if x != 0 else math.inf
-
-
-def _axes(ax):
-    if ax is None:
-        from matplotlib.figure import Figure
-
-        fig = Figure(figsize=(5.6, 4.2))
-        ax = fig.add_subplot()
-        return ax, fig
-    return ax, ax.figure
 
 
 def least_squares(W, y, weights=None):

@@ -25,6 +25,7 @@ import numpy as np
 
 from tendyn.ident.friction import (FrictionFit, TransmissionFriction, isolated_move_joint_speeds,
                                    residual_error_bound)
+from tendyn.results import Result
 from tendyn.sim import experiments as ex
 
 BENT_POSE = (0.0, 0.3, 0.0, 0.8)
@@ -190,8 +191,8 @@ def truth_arrays(truth: dict) -> dict:
 
 # ---- the comparison ------------------------------------------------------------------------------
 
-@dataclass
-class StrategyComparison:
+@dataclass(eq=False)
+class StrategyComparison(Result):
     """S1 vs S2 fits on every transmission against the twin's true global values (C8)."""
 
     device: str
@@ -255,26 +256,22 @@ class StrategyComparison:
         lines.append("S2 smaller error: " + ", ".join(f"t{t} {'yes' if v else 'NO'}" for t, v in better.items()))
         return "\n".join(lines)
 
-    __str__ = table
-
-    def plot(self, ax=None):
-        """RMS torque error of S1 and S2 per transmission (bars); into ``ax`` or a new Figure."""
-        if ax is None:
-            from matplotlib.figure import Figure
-
-            fig = Figure(figsize=(5.6, 4.2))
-            ax = fig.add_subplot()
-        fig = ax.figure
+    def _draw(self, ax) -> None:
+        """RMS torque error of S1 and S2 per transmission (bars)."""
         ts = self.transmissions
         x = np.arange(len(ts))
+        v = np.asarray(self.speeds_motor, float)
         for k, s in enumerate(("S1", "S2")):
             ax.bar(x + (k - 0.5) * 0.38, [1e3 * self.torque_error(t, s) for t in ts], 0.38, label=f"strategy {s}")
+            # the part of the error noise explains: 1σ of the fitted law, rms over the speeds
+            noise = [1e3 * float(np.sqrt(np.mean((self.fits[(t, s)].coulomb_motor_std
+                                                  + self.fits[(t, s)].viscous_motor_std * v) ** 2))) for t in ts]
+            ax.plot(x + (k - 0.5) * 0.38, noise, "k_", ms=14, mew=2, label="1σ of the fit" if k == 0 else None)
         ax.set_xticks(x, [f"t{t}" for t in ts])
         ax.set_ylabel("friction error at the motor, rms over speeds [mN·m]")
         ax.set_title(f"{self.device}: S1 vs S2 against the twin's truth")
         ax.legend()
         ax.grid(alpha=0.3, axis="y")
-        return fig
 
 
 def stroke_plan(device, transmission: int, travel_joint: float | None = None, centre=BENT_POSE,
