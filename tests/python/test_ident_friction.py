@@ -388,3 +388,26 @@ def test_ident_imports_no_simulator_and_reads_no_truth():
     for path in pathlib.Path(tendyn.ident.__file__).parent.glob("*.py"):
         text = path.read_text(encoding="utf-8")
         assert "tendyn.sim" not in text and "read_truth" not in text and "truth_path" not in text, path.name
+
+
+def test_cli_main_runs_the_commands_one_line_errors(comparison, tmp_path, capsys):
+    """Through ``tendyn.cli.main`` (the commands are found by register()): a bad FRICTION.json is exit 2 with
+    one line naming the field; a good run prints JSON."""
+    from tendyn.cli import main
+
+    cmp, runs = comparison
+    paths = [str(write_log(runs[(t, "S2")].log, tmp_path / f"t{t}.csv")) for t in range(1, 5)]
+    out = tmp_path / "friction.json"
+    assert main(["identify-friction", "lexos", *paths, "--out", str(out)]) == 0
+    assert "C_m0" in capsys.readouterr().out
+    doc = json.loads(out.read_text())
+    doc["viscous_motor"][2] = float("nan")
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["decompose", "lexos", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "viscous_motor[3]: must be a finite number" in err and err.startswith("tendyn: error:")
+    assert main(["plan", "constant-velocity", "lexos", "--transmission", "9", "--out", str(tmp_path / "r.csv")]) == 2
+    assert "--transmission: must be 1…4" in capsys.readouterr().err
+    assert main(["decompose", "lexos", str(out), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["max_relative_mismatch"] < 1e-12
