@@ -239,10 +239,11 @@ def friction_table(doc) -> str:
              f"{'%σ':>7}{'bound [N·m]':>13}"]
     for f in doc["fits"]:
         b = f.get("residual_bound")
+        pct = lambda x: float("nan") if x is None else x   # noqa: E731
         lines.append(f"{f['transmission']:<4}{str(f.get('strategy')):<10}{f['coulomb_motor']:>12.5g}"
-                     f"{f['coulomb_motor_std']:>11.3g}{f.get('coulomb_motor_rel_std_pct', float('nan')):>7.2f}"
+                     f"{f['coulomb_motor_std']:>11.3g}{pct(f.get('coulomb_motor_rel_std_pct')):>7.2f}"
                      f"{f['viscous_motor']:>15.5g}{f['viscous_motor_std']:>11.3g}"
-                     f"{f.get('viscous_motor_rel_std_pct', float('nan')):>7.2f}{'—' if b is None else f'{b:.3g}':>13}")
+                     f"{pct(f.get('viscous_motor_rel_std_pct')):>7.2f}{'—' if b is None else f'{b:.3g}':>13}")
     return "\n".join(lines)
 
 

@@ -80,7 +80,7 @@ class FrictionFit(Result):
 
     def to_dict(self) -> dict:
         """The FRICTION.json entry of this transmission (see docs/friction-file.md)."""
-        rc, rv = self.rel_std_pct
+        rc, rv = (x if math.isfinite(x) else None for x in self.rel_std_pct)   # None when the value is 0
         return {"transmission": self.transmission, "coulomb_motor": self.coulomb_motor,
                 "viscous_motor": self.viscous_motor, "coulomb_motor_std": self.coulomb_motor_std,
                 "viscous_motor_std": self.viscous_motor_std, "coulomb_motor_rel_std_pct": rc,
