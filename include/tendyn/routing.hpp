@@ -391,8 +391,13 @@ inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData
     double s = 0.0;
     for (int j = 0; j <= i; ++j) s += m.K(i, j) * qd(j);
     d.qd_motor(i) = s / m.motor_radius(i);
-    d.Sdot(i, 0) = m.motor_radius(i) * d.qd_motor(i);
-    for (int b = 1; b <= i; ++b) d.Sdot(i, b) = d.Sdot(i, b - 1) - m.K(i, b - 1) * qd(b - 1);
+    // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
+    // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
+    for (int b = 0; b <= i; ++b) {
+      double sb = 0.0;
+      for (int l = b; l <= i; ++l) sb += m.K(i, l) * qd(l);
+      d.Sdot(i, b) = sb;
+    }
   }
   return Status::Ok;
 }
