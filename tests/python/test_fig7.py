@@ -21,7 +21,7 @@ def lexos():
 def fig7(lexos):
     g = hand_run(lexos, 0.0, seed=7)
     c = hand_run(lexos, 0.9, seed=7)
-    o = hand_run(lexos, 1.5, seed=7)
+    o = hand_run(lexos, 1.2, seed=7)
     return Fig7Result(g, c, [o], [], device=lexos.name)
 
 
@@ -36,12 +36,12 @@ def test_C11_active_compensation_cuts_the_joint1_hand_torque_by_more_than_half(f
 
 def test_passivity_the_compensated_device_injects_no_net_energy_into_the_hand(fig7):
     """Over a closed cycle the work the device does on the hand is ≤ 0 (within noise) with compensation
-    (k < 1); gravity only dissipates more; over-compensation (k = 1.5) does more work on the hand than k = 0.9."""
+    (k < 1); gravity only dissipates more; over-compensation (k = 1.2) does positive work on the hand."""
     tol = 1e-3   # J per cycle
     assert fig7.gravity_only.energy_to_hand_per_cycle < 0
     assert fig7.compensated.energy_to_hand_per_cycle <= tol
     assert fig7.gravity_only.energy_to_hand_per_cycle < fig7.compensated.energy_to_hand_per_cycle
-    assert fig7.over[0].energy_to_hand_per_cycle > fig7.compensated.energy_to_hand_per_cycle
+    assert fig7.over[0].energy_to_hand_per_cycle > 10 * tol        # k = 1.2 injects energy
 
 
 def test_fig7_result_plots_and_serialises(fig7):
@@ -60,8 +60,14 @@ def test_stiff_virtual_wall_settles_without_a_limit_cycle(lexos):
     (peak-to-peak height over the last 0.5 s below 0.2 mm), the proxy on the surface."""
     w = wall_run(lexos, 0.9, duration=1.5, seed=7)
     assert not w.limit_cycle, w.oscillation
-    assert np.mean(w.height[-2000:]) < 0           # pressed into the wall
-    assert np.all(np.abs(w.force[-200:, 2]) > 0)   # in contact at the end
+    assert np.mean(w.height[-200:]) < 0            # pressed into the wall
+    assert np.all(w.force[-200:, 2] > 0)           # in contact at the end, pushing out
+
+
+def test_over_compensation_makes_the_wall_oscillate(lexos):
+    """Over-compensation (k = 1.2 > 1) feeds energy in: the same wall keeps a limit cycle."""
+    w = wall_run(lexos, 1.2, duration=1.5, seed=7)
+    assert w.limit_cycle and w.oscillation > 1e-3, w.oscillation
 
 
 def test_pipeline_s0_command_json(tmp_path):

@@ -60,7 +60,7 @@ def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> 
     ident = identification_parts(compiled)
     print("[pipeline s0] Fig. 7: free motion with gravity only / with friction compensation …", file=sys.stderr)
     fig7 = fig7_experiment(compiled, friction=ident.get("friction"),
-                           over=() if quick else (1.5,), walls=not quick)
+                           over=() if quick else (1.2, 1.5), walls=not quick)
     doc = {"device": compiled.name,
            "transmissions": ident["transmissions"],
            "decomposition": ident["decomposition"],

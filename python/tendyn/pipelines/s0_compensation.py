@@ -29,8 +29,9 @@ from tendyn.sim.model import sim_model
 
 __all__ = ["Fig7Result", "HandRun", "WallRun", "fig7_experiment", "hand_run", "wall_run", "compensation_summary"]
 
-Q0_LEXOS = (0.3, 0.6, 0.0, 1.2)
-"""Start pose [rad] of the L-EXOS runs: arm forward and abducted, elbow bent, inside every joint limit."""
+Q0_LEXOS = (0.3, 1.6, 0.0, 0.5)
+"""Start pose [rad] of the L-EXOS runs: upper arm raised, elbow slightly bent, the handle 0.36 m from the
+joint-1 axis (inside every joint limit)."""
 
 
 def _device(device):
@@ -64,12 +65,37 @@ class _Handle:
         return x, np.array(J)
 
 
+def _reset(sim, data, q0, seed) -> None:
+    """Reset the twin at rest at q0 with the (slaved) motor positions set, so the first encoder reading is
+    already the pose's (``SimData.reset`` leaves them at zero until the first step)."""
+    data.reset(q0, seed)
+    data.set_motor_position(np.asarray(sim.tendon.motor_from_joint_position) @ q0)
+
+
 def _encoders(sim, data) -> np.ndarray:
     """Quantised motor encoder readings [rad] (the simulator's own rule, S0: position sensors only)."""
     qm = np.array(data.qm)
     counts = np.array(sim.encoder_counts)
     step = np.where(counts > 0, 2 * np.pi / np.where(counts > 0, counts, 1), 0.0)
     return np.where(step > 0, step * np.floor(qm / np.where(step > 0, step, 1) + 0.5), qm)
+
+
+class _Block:
+    """One control period of the twin in one core call (tendyn._core.run), inputs held over the period."""
+
+    def __init__(self, sim):
+        dec, na = sim.control_decimation, sim.na
+        self.sim, self.dec = sim, dec
+        self.zeros = np.zeros((dec, na))
+        self.ff = np.zeros((dec, na))
+        self.ext = np.zeros((dec, na))
+        self.time = np.empty(1)
+        self.log = [np.empty((1, na)) for _ in range(7)]
+
+    def run(self, data, torque_motor, torque_ext) -> None:
+        self.ff[:] = torque_motor
+        self.ext[:] = torque_ext
+        _core.run(self.sim, data, self.zeros, self.zeros, self.ff, self.ext, self.dec, self.time, *self.log)
 
 
 @dataclass(eq=False)
@@ -99,7 +125,7 @@ class HandRun:
 
 
 def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float = 0.04,
-             period: float = 2.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
+             period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
              hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
              q0=Q0_LEXOS, seed: int = 7) -> HandRun:
     """The hand pulls the handle around a horizontal circle (radius [m], period [s]) for ``settle`` seconds
@@ -112,46 +138,41 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = np.asarray(q0, float)
-    data.reset(q0, seed)
+    _reset(sim, data, q0, seed)
     comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz)
     handle = _Handle(compiled)
-    na, dec, dt = sim.na, sim.control_decimation, sim.dt
     x0, _ = handle(q0)
     omega = 2 * np.pi / period
-    total = settle + cycles * period
-    steps = int(round(total / dt))
-    zeros = np.zeros(na)
-    time = np.empty(steps)
-    torque_hand = np.empty((steps, na))
-    force_hand = np.empty((steps, 3))
-    power = np.empty(steps)
-    ctime = []
-    torque_motor = zeros
-    for s in range(steps):
-        t = s * dt
-        if s % dec == 0:
-            torque_motor = comp.cycle(_encoders(sim, data))
-            ctime.append(comp.data.compute_time)
-        # blended circle: r(t) grows with a smooth step over `settle`
+    periods = int(round((settle + cycles * period) * control_hz))
+    block = _Block(sim)
+    time = np.arange(periods) / control_hz
+    torque_hand = np.empty((periods, sim.na))
+    force_hand = np.empty((periods, 3))
+    ctime = np.empty(periods)
+    work_at_settle = 0.0
+    for s, t in enumerate(time):
+        if abs(t - settle) < 0.5 / control_hz:
+            work_at_settle = data.work_external
+        torque_motor = comp.cycle(_encoders(sim, data))
+        ctime[s] = comp.data.compute_time
+        # blended circle: the radius grows with a smooth step over `settle`
         u = min(1.0, t / settle) if settle > 0 else 1.0
-        a, da = (3 * u * u - 2 * u ** 3), (6 * u - 6 * u * u) / settle if settle > 0 and u < 1 else 0.0
+        a = 3 * u * u - 2 * u ** 3
+        da = (6 * u - 6 * u * u) / settle if settle > 0 and u < 1 else 0.0
         c, sn = np.cos(omega * t), np.sin(omega * t)
         path = x0 + radius * a * np.array([c - 1.0, sn, 0.0])
         path_v = radius * a * omega * np.array([-sn, c, 0.0]) + radius * da * np.array([c - 1.0, sn, 0.0])
-        q, qd = np.array(data.qa), np.array(data.va)
-        x, J = handle(q)
-        f = hand_stiffness * (path - x) + hand_damping * (path_v - J @ qd)
+        x, J = handle(np.array(data.qa))
+        f = hand_stiffness * (path - x) + hand_damping * (path_v - J @ np.array(data.va))
         tau = J.T @ f
-        _core.step(sim, data, zeros, zeros, torque_motor, tau)
-        time[s] = t
+        block.run(data, torque_motor, tau)      # one control period, the hand held (1 kHz) like the motors
         torque_hand[s] = tau
         force_hand[s] = f
-        power[s] = tau @ np.array(data.va)   # power the hand puts into the device [W]
-    measured = time >= settle - 1e-12
+    measured = time >= settle - 0.5 / control_hz
     rms = float(np.sqrt(np.mean(torque_hand[measured, 0] ** 2)))
-    energy = -float(np.sum(power[measured]) * dt) / cycles
-    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, energy, int(cycles),
-                   float(np.mean(ctime)) if ctime else 0.0)
+    energy = -(data.work_external - work_at_settle) / cycles   # work done on the hand [J per cycle]
+    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, float(energy), int(cycles),
+                   float(np.mean(ctime)))
 
 
 @dataclass(eq=False)
@@ -188,32 +209,28 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = np.asarray(q0, float)
-    data.reset(q0, seed)
+    _reset(sim, data, q0, seed)
     comp = Compensator.from_device(compiled, underestimation=underestimation, rate_hz=control_hz)
     handle = _Handle(compiled)
     x0, _ = handle(q0)
     floor = x0[2] - 0.005
     rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane([0.0, 0.0, 1.0], floor)
-    na, dec, dt = sim.na, sim.control_decimation, sim.dt
-    steps = int(round(duration / dt))
-    zeros = np.zeros(na)
+    periods = int(round(duration * control_hz))
     target = x0 - np.array([0.0, 0.0, 0.005 + push])
-    time, height, forces = np.empty(steps), np.empty(steps), []
-    torque_motor = zeros
-    for s in range(steps):
-        if s % dec == 0:
-            torque_motor = rend.cycle(_encoders(sim, data))
-            forces.append(np.array(rend.data.force))
-        q, qd = np.array(data.qa), np.array(data.va)
-        x, J = handle(q)
-        u = min(1.0, s * dt / 0.3)  # the hand presses in over 0.3 s
+    time, height, forces = np.arange(periods) / control_hz, np.empty(periods), np.empty((periods, 3))
+    block = _Block(sim)
+    for s, t in enumerate(time):
+        torque_motor = rend.cycle(_encoders(sim, data))
+        forces[s] = np.array(rend.data.force)
+        x, J = handle(np.array(data.qa))
+        u = min(1.0, t / 0.3)  # the hand presses in over 0.3 s
         goal = x0 + u * (target - x0)
-        f = hand_stiffness * (goal - x) - hand_damping * (J @ qd)
-        _core.step(sim, data, zeros, zeros, torque_motor, J.T @ f)
-        time[s], height[s] = s * dt, x[2] - floor
+        f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.va))
+        block.run(data, torque_motor, J.T @ f)
+        height[s] = x[2] - floor
     last = time >= duration - window
     osc = float(np.ptp(height[last]))
-    return WallRun(float(underestimation), float(stiffness), time, height, np.array(forces), osc, bool(osc > tolerance))
+    return WallRun(float(underestimation), float(stiffness), time, height, forces, osc, bool(osc > tolerance))
 
 
 @dataclass(eq=False)
@@ -290,7 +307,7 @@ class Fig7Result(Result):
 
 
 def fig7_experiment(device="lexos", *, underestimation: float = DEFAULT_UNDERESTIMATION, friction=None,
-                    over=(1.5,), walls: bool = True, cycles: int = 1, seed: int = 7, **hand) -> Fig7Result:
+                    over=(1.2, 1.5), walls: bool = True, cycles: int = 1, seed: int = 7, **hand) -> Fig7Result:
     """Run S0 Fig. 7 on the twin (gravity only, then k = ``underestimation``), the over-compensating k in
     ``over``, and (``walls``) the stiff wall at k = ``underestimation`` and at each over-compensating k.
 
