@@ -78,17 +78,20 @@ int main(int argc, char** argv) {
   r.damping = 5.0;
   r.surface_friction = 0.3;
   r.texture_amplitude = 0.1;
-  r.add_plane(Eigen::Vector3d(0.0, 0.0, 1.0), -0.35);
-  r.sphere = true;
-  r.sphere_center = Eigen::Vector3d(0.3, 0.0, -0.3);
-  r.sphere_radius = 0.05;
+  Eigen::VectorXd qm(m.transmission.n), tau(m.transmission.n), q0(m.transmission.n), q(m.transmission.n);
+  q0 << 0.3, 1.6, 0.0, 0.5;
+  tendyn::ChainData cd0(m.chain);
+  tendyn::chain_forward_kinematics(m.chain, cd0, q0);
+  const Eigen::Vector3d x0 = cd0.ee_position;
+  r.add_plane(Eigen::Vector3d(0.0, 0.0, 1.0), x0.z() - 0.01);  // a floor 1 cm below the handle
+  r.sphere = true;                                             // and a ball beside it
+  r.sphere_center = x0 + Eigen::Vector3d(0.0, 0.06, 0.0);
+  r.sphere_radius = 0.04;
   tendyn::RenderData rd;
   tendyn::CompensatorData rcd(m);
 
   std::mt19937 rng(4321);
   std::normal_distribution<double> N(0.0, 1.0);
-  Eigen::VectorXd qm(m.transmission.n), tau(m.transmission.n), q0(m.transmission.n);
-  q0 << 0.2, 0.5, 0.1, 1.0;
   Eigen::Vector3d f;
   long bad = 0, contacts = 0;
   counting::armed = true;
@@ -98,8 +101,7 @@ int main(int argc, char** argv) {
   if (probe_count == 0) { std::puts("malloc interposition does not work"); return 1; }
   for (long k = 0; k < cycles; ++k) {
     const double t = 1e-3 * static_cast<double>(k);
-    Eigen::VectorXd q = q0;
-    for (int i = 0; i < q.size(); ++i) q(i) += 0.4 * std::sin(0.7 * (i + 1) * t);
+    for (int i = 0; i < q.size(); ++i) q(i) = q0(i) + 0.1 * std::sin(0.7 * (i + 1) * t);
     qm.noalias() = m.transmission.motor_from_joint_position * q;
     for (int i = 0; i < tau.size(); ++i) tau(i) = N(rng);
     for (int i = 0; i < 3; ++i) f(i) = N(rng);
