@@ -97,13 +97,16 @@ struct ChainData {
   Eigen::Vector3d ee_position = Eigen::Vector3d::Zero();  ///< end-effector point, world [m]
   Eigen::Matrix<double, 3, Eigen::Dynamic> ee_jacobian;   ///< (3, n) ∂x_ee/∂q [m/rad]
   Eigen::VectorXi on_ee_path;           ///< 1 where joint j moves the end effector
+  Eigen::VectorXi axis_z;               ///< 1 where the axis is exactly +z (fast rotation)
 
   explicit ChainData(const ChainModel& m)
       : R(m.n, Eigen::Matrix3d::Identity()), origin(m.n, Eigen::Vector3d::Zero()),
         z(m.n, Eigen::Vector3d::UnitZ()), moment(m.n, Eigen::Vector3d::Zero()),
         subtree_mass(Eigen::VectorXd::Zero(m.n)), gravity_torque(Eigen::VectorXd::Zero(m.n)),
-        ee_jacobian(Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, m.n)), on_ee_path(Eigen::VectorXi::Zero(m.n)) {
-    if (m.n < 1 || m.parent.size() != m.n) return;
+        ee_jacobian(Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, m.n)), on_ee_path(Eigen::VectorXi::Zero(m.n)),
+        axis_z(Eigen::VectorXi::Zero(m.n)) {
+    if (m.n < 1 || m.parent.size() != m.n || static_cast<int>(m.axis.size()) != m.n) return;
+    for (int k = 0; k < m.n; ++k) axis_z(k) = m.axis[k] == Eigen::Vector3d::UnitZ();
     int j = m.ee_joint >= 0 && m.ee_joint < m.n ? m.ee_joint : m.n - 1;
     while (j >= 0) {
       on_ee_path(j) = 1;
@@ -122,11 +125,10 @@ inline Eigen::Matrix3d axis_rotation(const Eigen::Vector3d& a, double t) {
   return r;
 }
 
-/// Forward kinematics: joint frames, end-effector position and its (3, n) Jacobian at q.
+/// Joint frames at q (no end effector). Writes data.R, origin, z.
 /// @param q  joint positions (n) [rad or m]
-/// Writes data.R, origin, z, ee_position, ee_jacobian.
 template <class V>
-inline Status chain_forward_kinematics(const ChainModel& m, ChainData& d, const V& q) {
+inline Status chain_frames(const ChainModel& m, ChainData& d, const V& q) {
   if (q.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(q)) return Status::NonFiniteInput;
   for (int j = 0; j < m.n; ++j) {
@@ -143,17 +145,39 @@ inline Status chain_forward_kinematics(const ChainModel& m, ChainData& d, const 
     if (m.prismatic(j)) {
       d.R[j] = R0;
       d.origin[j] += d.z[j] * q(j);
+    } else if (d.axis_z(j)) {  // R0 Rz(q), column by column (the common DH / modified-DH case)
+      const double c = std::cos(q(j)), s = std::sin(q(j));
+      d.R[j].col(0) = c * R0.col(0) + s * R0.col(1);
+      d.R[j].col(1) = c * R0.col(1) - s * R0.col(0);
+      d.R[j].col(2) = R0.col(2);
     } else {
-      d.R[j] = R0 * axis_rotation(m.axis[j], q(j));
+      d.R[j].noalias() = R0 * axis_rotation(m.axis[j], q(j));
     }
   }
+  return Status::Ok;
+}
+
+/// End-effector position and, if `jacobian`, its (3, n) Jacobian from the frames of the last chain_frames
+/// call. Writes data.ee_position (and data.ee_jacobian).
+inline void chain_end_effector(const ChainModel& m, ChainData& d, bool jacobian = true) {
   const int e = m.ee_joint;
   d.ee_position = d.origin[e] + d.R[e] * m.ee_point;
+  if (!jacobian) return;
   for (int j = 0; j < m.n; ++j) {
     if (!d.on_ee_path(j)) d.ee_jacobian.col(j).setZero();
     else if (m.prismatic(j)) d.ee_jacobian.col(j) = d.z[j];
     else d.ee_jacobian.col(j) = d.z[j].cross(d.ee_position - d.origin[j]);
   }
+}
+
+/// Forward kinematics: joint frames, end-effector position and its (3, n) Jacobian at q.
+/// @param q  joint positions (n) [rad or m]
+/// Writes data.R, origin, z, ee_position, ee_jacobian.
+template <class V>
+inline Status chain_forward_kinematics(const ChainModel& m, ChainData& d, const V& q) {
+  const Status s = chain_frames(m, d, q);
+  if (is_error(s)) return s;
+  chain_end_effector(m, d, true);
   return Status::Ok;
 }
 

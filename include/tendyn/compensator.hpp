@@ -88,6 +88,7 @@ struct CompensatorData {
   bool first = true;                      ///< no previous reading yet (velocity 0)
   long cycles = 0;
   double compute_time = 0.0;              ///< wall time of the last cycle [s]
+  double filter_alpha = 1.0;              ///< model.filter_gain(), computed once
 
   explicit CompensatorData(const CompensatorModel& m)
       : transmission(m.transmission), chain(m.chain),
@@ -98,7 +99,7 @@ struct CompensatorData {
         torque_motor_lossless(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_motor_friction(Eigen::VectorXd::Zero(m.transmission.n)),
         friction_weight(Eigen::VectorXd::Zero(m.transmission.n)),
-        torque_motor(Eigen::VectorXd::Zero(m.transmission.n)) {}
+        torque_motor(Eigen::VectorXd::Zero(m.transmission.n)), filter_alpha(m.filter_gain()) {}
 
   /// Forget the velocity history (the next reading starts at rest).
   void reset() {
@@ -110,9 +111,12 @@ struct CompensatorData {
 };
 
 /// Steps 1–3: read the encoders, estimate velocity, joint state, frames, end effector and gravity.
-/// @param q_motor  motor encoder positions (n) [rad]
+/// @param q_motor   motor encoder positions (n) [rad]
+/// @param jacobian  also compute the end-effector Jacobian (data.chain.ee_jacobian); the wanted-joint-torque
+///                  cycle does not need it
 template <class V>
-inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, const V& q_motor) {
+inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, const V& q_motor,
+                                bool jacobian = true) {
   const int n = m.transmission.n;
   if (q_motor.size() != n) return Status::SizeMismatch;
   if (!all_finite(q_motor)) return Status::NonFiniteInput;
@@ -122,7 +126,7 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
     d.qd_motor.setZero();
     d.first = false;
   }
-  const double alpha = m.filter_gain(), rate = m.rate_hz;
+  const double alpha = d.filter_alpha, rate = m.rate_hz;
   for (int i = 0; i < n; ++i) {
     d.qd_motor(i) += alpha * ((d.q_motor(i) - d.q_motor_prev(i)) * rate - d.qd_motor(i));
     d.q_motor_prev(i) = d.q_motor(i);
@@ -131,8 +135,11 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
   if (is_error(s)) return s;
   d.q = d.transmission.q;
   d.qd.noalias() = m.transmission.joint_from_motor_position.lazyProduct(d.qd_motor);
-  s = chain_gravity_torque(m.chain, d.chain, d.q);
-  return s;
+  s = chain_frames(m.chain, d.chain, d.q);
+  if (is_error(s)) return s;
+  chain_gravity_from_frames(m.chain, d.chain);
+  chain_end_effector(m.chain, d.chain, jacobian);
+  return Status::Ok;
 }
 
 /// Steps 4–6: motor torques that deliver `torque_joint_wanted` plus gravity, with the losses covered.
@@ -181,7 +188,7 @@ template <class V1, class V2>
 inline Status compensator_cycle(const CompensatorModel& m, CompensatorData& d, const V1& q_motor,
                                 const V2& torque_joint_wanted) {
   const auto t0 = std::chrono::steady_clock::now();
-  Status s = compensator_sense(m, d, q_motor);
+  Status s = compensator_sense(m, d, q_motor, false);
   if (!is_error(s)) s = compensator_command(m, d, torque_joint_wanted);
   d.compute_time = detail::seconds_since(t0);
   return s;
