@@ -167,10 +167,15 @@ tendyn_status tendyn_compensator_cycle(tendyn_compensator* c, const double* q_mo
                                        double* torque_motor, double* compute_time) {
   if (!c || !q_motor || !torque_joint || !torque_motor) return TENDYN_NULL_ARGUMENT;
   const int n = c->model.transmission.n;
-  const tendyn::Status s =
-      tendyn::compensator_cycle(c->model, c->data, CVecMap(q_motor, n), CVecMap(torque_joint, n));
+  tendyn::Status s;
+  if (compute_time) {  // timed cycle (two clock reads)
+    s = tendyn::compensator_cycle(c->model, c->data, CVecMap(q_motor, n), CVecMap(torque_joint, n));
+    *compute_time = c->data.compute_time;
+  } else {             // the caller does not want the time: skip the clock
+    s = tendyn::compensator_sense(c->model, c->data, CVecMap(q_motor, n), false);
+    if (!tendyn::is_error(s)) s = tendyn::compensator_command(c->model, c->data, CVecMap(torque_joint, n));
+  }
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = c->data.torque_motor;
-  if (compute_time) *compute_time = c->data.compute_time;
   return to_c(s);
 }
 

@@ -95,7 +95,8 @@ TENDYN_API int tendyn_compensator_size(const tendyn_compensator* c);
 TENDYN_API tendyn_status tendyn_compensator_reset(tendyn_compensator* c);
 /* One cycle at the file's control rate: q_motor (n) [rad] encoder readings, torque_joint (n) [N m] joint
  * torques wanted on top of gravity -> torque_motor (n) [N m] to command. compute_time (may be NULL)
- * receives the wall time of the cycle [s]. TENDYN_SELF_LOCKED is a usable result. */
+ * receives the wall time of the cycle [s]; with NULL the cycle reads no clock. TENDYN_SELF_LOCKED is a
+ * usable result. */
 TENDYN_API tendyn_status tendyn_compensator_cycle(tendyn_compensator* c, const double* q_motor,
                                                   const double* torque_joint, double* torque_motor,
                                                   double* compute_time);
