@@ -1,0 +1,225 @@
+#!/usr/bin/env python3
+"""Mutation run: plant each bug of mutants.toml in a scratch copy, rebuild, run the tests, report the kill rate.
+
+    python tests/mutants/run.py                      # the tests of the working tree (`make mutants`)
+    python tests/mutants/run.py --tests-from main    # the tests of a git ref (e.g. the suite before a change)
+    python tests/mutants/run.py --only bench-friction-other-tendon --full
+
+The library under mutation is always the repository's working tree (include/, src/, bindings/, python/,
+CMakeLists.txt, pyproject.toml); only the tests/ folder comes from --tests-from. One scratch copy and one
+incremental CMake build (the ``_core`` module, plus the CTest executables a mutant names) are reused: each
+mutant is applied, built, tested and reverted before the next. The interpreter is this repository's
+.venv (its site-packages provide numpy, pinocchio, ...); the scratch package is put first on PYTHONPATH.
+
+KILLED = a CTest or pytest failure, SURVIVED = everything passed; a mutant that does not compile is
+STILLBORN and left out of the rate (the list must hold plausible, compiling bugs). Before any mutant runs, every `find` text must occur exactly once (the list
+must not rot silently) and the unmutated suite must pass in the scratch copy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tarfile
+import time
+import tomllib
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[2]
+LIST = Path(__file__).resolve().with_name("mutants.toml")
+LIB_PATHS = ["include", "src", "bindings", "python", "examples", "CMakeLists.txt", "pyproject.toml"]
+CPP_SUFFIXES = (".hpp", ".h", ".cpp", ".c", ".txt")
+
+
+def sh(cmd, cwd=None, env=None, quiet=True, timeout=None) -> subprocess.CompletedProcess:
+    return subprocess.run(cmd, cwd=cwd, env=env, text=True, capture_output=quiet, timeout=timeout)
+
+
+def load_mutants(only: list[str] | None) -> list[dict]:
+    data = tomllib.loads(LIST.read_text(encoding="utf-8"))
+    muts = data["mutant"]
+    ids = [m["id"] for m in muts]
+    dup = {i for i in ids if ids.count(i) > 1}
+    if dup:
+        sys.exit(f"mutants.toml: duplicate id(s) {sorted(dup)}")
+    bad = []
+    for m in muts:
+        for key in ("id", "file", "find", "replace", "breaks", "tests"):
+            if key not in m:
+                bad.append(f"{m.get('id', '?')}: missing {key}")
+        text = (REPO / m["file"]).read_text(encoding="utf-8")
+        n = text.count(m["find"])
+        if n != 1:
+            bad.append(f"{m['id']}: `find` occurs {n} times in {m['file']} (must be exactly once)")
+    if bad:
+        sys.exit("mutants.toml is out of date with the code:\n  " + "\n  ".join(bad))
+    if only:
+        unknown = set(only) - set(ids)
+        if unknown:
+            sys.exit(f"unknown mutant id(s): {sorted(unknown)}")
+        muts = [m for m in muts if m["id"] in only]
+    return muts
+
+
+def copy_library(scratch: Path) -> None:
+    for rel in LIB_PATHS:
+        src, dst = REPO / rel, scratch / rel
+        if src.is_dir():
+            if dst.exists():
+                shutil.rmtree(dst)
+            shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
+        else:
+            shutil.copy2(src, dst)
+
+
+def copy_tests(scratch: Path, ref: str | None) -> None:
+    dst = scratch / "tests"
+    if dst.exists():
+        shutil.rmtree(dst)
+    if ref is None:
+        shutil.copytree(REPO / "tests", dst, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+        return
+    blob = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", ref, "tests"], check=True,
+                          capture_output=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(blob)) as tar:
+        tar.extractall(scratch, filter="data")
+
+
+def ctest_targets(scratch: Path) -> dict[str, str]:
+    """CTest name → executable target, from tests/cpp/CMakeLists.txt of the tests under test."""
+    cm = scratch / "tests" / "cpp" / "CMakeLists.txt"
+    if not cm.exists():
+        return {}
+    return dict(re.findall(r"add_test\(NAME\s+(\S+)\s+COMMAND\s+(\S+)", cm.read_text()))
+
+
+class Scratch:
+    def __init__(self, root: Path, python: Path, jobs: int):
+        self.root, self.python, self.jobs = root, python, jobs
+        self.build = root / "build" / "mut"
+        self.configured = False
+
+    def configure(self) -> None:
+        self.build.mkdir(parents=True, exist_ok=True)
+        r = sh(["cmake", "-S", str(self.root), "-B", str(self.build), "-DTENDYN_BUILD_PYTHON=ON",
+                "-DTENDYN_BUILD_TESTS=ON", f"-DPython_EXECUTABLE={self.python}", "-DCMAKE_BUILD_TYPE=Release"])
+        if r.returncode:
+            sys.exit("cmake configure failed in the scratch copy:\n" + r.stdout[-3000:] + r.stderr[-3000:])
+        # the scratch package loads Pinocchio's libraries through $ORIGIN/../cmeel.prefix/lib
+        site = sh([str(self.python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"]).stdout.strip()
+        link = self.root / "python" / "cmeel.prefix"
+        if not link.exists():
+            link.symlink_to(Path(site) / "cmeel.prefix")
+        self.configured = True
+
+    def make(self, targets: list[str]) -> tuple[bool, str]:
+        r = sh(["cmake", "--build", str(self.build), "-j", str(self.jobs), "--target", *targets])
+        if r.returncode:
+            return False, (r.stdout + r.stderr)[-4000:]
+        for so in self.build.glob("_core*.so"):
+            shutil.copy2(so, self.root / "python" / "tendyn" / so.name)
+        return True, ""
+
+    def env(self) -> dict:
+        env = dict(os.environ)
+        env["PYTHONPATH"] = str(self.root / "python")
+        env.pop("TENDYN_REQUIRE_EXAMPLES", None)
+        return env
+
+    def ctest(self, names: list[str]) -> tuple[bool, str]:
+        if not names:
+            return True, ""
+        r = sh(["ctest", "--test-dir", str(self.build), "--output-on-failure", "-R",
+                "^(" + "|".join(map(re.escape, names)) + ")$"], timeout=600)
+        return r.returncode == 0, (r.stdout + r.stderr)[-3000:]
+
+    def pytest(self, files: list[str], full: bool) -> tuple[bool, str]:
+        args = ["tests/python"] if full else files
+        r = sh([str(self.python), "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *args],
+               cwd=self.root, env=self.env(), timeout=1800)
+        tail = (r.stdout + r.stderr).strip().splitlines()
+        failed = [ln for ln in tail if ln.startswith(("FAILED", "ERROR"))]
+        return r.returncode == 0, (failed[0] if failed else (tail[-1] if tail else ""))
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--tests-from", default=None, help="git ref whose tests/ folder is run (default: working tree)")
+    ap.add_argument("--scratch", default="/tmp/tendyn-mutants", help="scratch checkout (reused, incremental)")
+    ap.add_argument("--only", nargs="*", help="mutant ids to run (default: all)")
+    ap.add_argument("--full", action="store_true", help="run the whole pytest suite per mutant, not its listed files")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--no-baseline", action="store_true", help="skip the check that the unmutated suite passes")
+    args = ap.parse_args()
+
+    muts = load_mutants(args.only)
+    python = REPO / ".venv" / "bin" / "python"
+    if not python.exists():
+        sys.exit("no .venv: run `make install` first")
+    scratch = Path(args.scratch)
+    scratch.mkdir(parents=True, exist_ok=True)
+    copy_library(scratch)
+    copy_tests(scratch, args.tests_from)
+    targets = ctest_targets(scratch)
+    s = Scratch(scratch, python, args.jobs)
+    s.configure()
+    label = args.tests_from or "working tree"
+    print(f"mutants: {len(muts)} from {LIST.relative_to(REPO)}; tests from {label}; scratch {scratch}", flush=True)
+
+    def wanted_ctests(m):
+        return [n for n in m.get("ctest", []) if n in targets]
+
+    all_ctests = sorted({n for m in muts for n in wanted_ctests(m)})
+    t0 = time.time()
+    ok, log = s.make(["_core", *[targets[n] for n in all_ctests]])
+    if not ok:
+        sys.exit("the unmutated scratch copy does not build:\n" + log)
+    if not args.no_baseline:
+        files = sorted({f for m in muts for f in m["tests"]})
+        ok_c, out_c = s.ctest(all_ctests)
+        ok_p, out_p = s.pytest(files, args.full)
+        if not (ok_c and ok_p):
+            sys.exit(f"the unmutated suite fails in the scratch copy, kill rates would be meaningless:\n{out_c}\n{out_p}")
+        print(f"baseline: unmutated suite passes ({time.time() - t0:.0f} s)", flush=True)
+
+    results = []
+    for m in muts:
+        path = scratch / m["file"]
+        original = path.read_text(encoding="utf-8")
+        assert original.count(m["find"]) == 1, m["id"]
+        t1 = time.time()
+        path.write_text(original.replace(m["find"], m["replace"], 1), encoding="utf-8")
+        try:
+            ctests = wanted_ctests(m)
+            ok, log = s.make(["_core", *[targets[n] for n in ctests]])
+            if not ok:
+                verdict, why = "STILLBORN", "does not compile: " + log.strip().splitlines()[-1]
+            else:
+                ok_c, out_c = s.ctest(ctests)
+                if not ok_c:
+                    verdict, why = "KILLED", "ctest: " + " ".join(ln for ln in out_c.splitlines() if "Failed" in ln)[:200]
+                else:
+                    ok_p, out_p = s.pytest(m["tests"], args.full)
+                    verdict, why = ("SURVIVED", "") if ok_p else ("KILLED", out_p[:200])
+        finally:
+            path.write_text(original, encoding="utf-8")
+        results.append((m, verdict, why))
+        print(f"{verdict:9s} {m['id']:38s} {time.time() - t1:5.0f} s  {why}", flush=True)
+
+    counted = [r for r in results if r[1] != "STILLBORN"]
+    killed = sum(r[1] == "KILLED" for r in counted)
+    print(f"\nkill rate: {killed}/{len(counted)} = {100.0 * killed / max(1, len(counted)):.0f} % "
+          f"(tests from {label}; {time.time() - t0:.0f} s)")
+    surv = [r for r in results if r[1] == "SURVIVED"]
+    for m, _, _ in surv:
+        print(f"  survived: {m['id']}: {m['breaks']}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
