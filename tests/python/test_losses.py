@@ -93,15 +93,20 @@ def test_C4_tau0_form_and_direction_of_power_flow():
 
 
 def test_C4_beta_form_is_a_capstan():
-    """C4: with β = 1 − e^{−μθ} a branch is a capstan wrap τ_out = τ_in e^{−μθ}, in both directions."""
+    """C4: with β = 1 − e^{−μθ} a branch is a capstan wrap τ_out = τ_in e^{−μθ}, in both directions
+    (Euler–Eytelwein; reference values from numpy, not from the core's capstan helpers)."""
     mu, wrap = 0.15, 2 * np.pi
-    beta = _core.capstan_beta(mu, wrap)
+    beta = 1.0 - np.exp(-mu * wrap)
+    assert _core.capstan_beta(mu, wrap) == pytest.approx(beta, rel=1e-15)
+    assert _core.capstan_tension_out(30.0, mu, wrap) == pytest.approx(30.0 * np.exp(-mu * wrap), rel=1e-15)
     tr = _one_joint(beta=[[beta]])
     t_joint = 30.0
     drive = tr.feedforward([t_joint * 0.05], [1.0])      # motor drives: τ_joint = τ_motor e^{−μθ}
-    assert t_joint == pytest.approx(_core.capstan_tension_out(drive.tension_motor[0], mu, wrap), rel=1e-12)
+    assert drive.tension_motor[0] == pytest.approx(t_joint * np.exp(mu * wrap), rel=1e-12)
     back = tr.feedforward([t_joint * 0.05], [-1.0])      # joint drives: τ_motor = τ_joint e^{−μθ}
-    assert back.tension_motor[0] == pytest.approx(_core.capstan_tension_out(t_joint, mu, wrap), rel=1e-12)
+    assert back.tension_motor[0] == pytest.approx(t_joint * np.exp(-mu * wrap), rel=1e-12)
+    fwd = tr.forward([0.01 * 40.0], [1.0])               # forward: 40 N in, 40 e^{−μθ} N out
+    assert fwd.tension[0, 0] == pytest.approx(40.0 * np.exp(-mu * wrap), rel=1e-12)
 
 
 def test_C4_stuck_below_breakaway():

@@ -206,7 +206,7 @@ def test_velocity_estimator_bandwidth_in_hz(tmp_path):
     """The velocity estimate is a first-order filter of the encoder differences with cut-off f_c [Hz]:
     v̂_k = v̂_{k−1} + α (Δq/T_c − v̂_{k−1}), α = 1 − exp(−2π f_c T_c). At a constant true speed v0 the first
     control sample has no difference yet (v̂_0 = 0), then v̂_k = v0 (1 − (1 − α)^k).
-    f_c = 20 Hz, T_c = 1 ms: α = 1 − e^{−0.04π} = 0.11824 (Hz taken as rad/s would give 0.0198).
+    f_c = 20 Hz, T_c = 1 ms: α = 1 − e^{−0.04π} = 0.11809 (Hz taken as rad/s would give 0.0198).
     v̂ is read through a pure-D joint controller (kd = 1, tiny torque limit so that it does not brake):
     the commanded motor torque is −(r_m/R) kd v̂."""
     dev = one_joint(tmp_path, peak_torque=1e-12)
@@ -221,7 +221,7 @@ def test_velocity_estimator_bandwidth_in_hz(tmp_path):
     v_hat = -log["torque_motor_cmd"][:, 0] * 0.05 / 0.01
     k = np.arange(v_hat.size)
     alpha = 1.0 - np.exp(-2 * np.pi * 20.0 * 1e-3)
-    assert alpha == pytest.approx(0.11824, abs=1e-5)
+    assert alpha == pytest.approx(0.11809, abs=1e-5)
     np.testing.assert_allclose(v_hat, v0 * (1 - (1 - alpha) ** k), rtol=1e-6, atol=1e-9)
 
 
