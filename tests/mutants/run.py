@@ -6,7 +6,7 @@
     python tests/mutants/run.py --only bench-friction-other-tendon --full
 
 The library under mutation is always the repository's working tree (include/, src/, bindings/, python/,
-CMakeLists.txt, pyproject.toml); only the tests/ folder comes from --tests-from. One scratch copy and one
+examples/, docs/, build files); only the tests/ folder comes from --tests-from. One scratch copy and one
 incremental CMake build (the ``_core`` module, plus the CTest executables a mutant names) are reused: each
 mutant is applied, built, tested and reverted before the next. The interpreter is this repository's
 .venv (its site-packages provide numpy, pinocchio, ...); the scratch package is put first on PYTHONPATH.
@@ -32,7 +32,8 @@ from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
 LIST = Path(__file__).resolve().with_name("mutants.toml")
-LIB_PATHS = ["include", "src", "bindings", "python", "examples", "CMakeLists.txt", "pyproject.toml"]
+LIB_PATHS = ["include", "src", "bindings", "python", "examples", "docs", "benchmarks", "CMakeLists.txt", "pyproject.toml",
+             "README.md", "Makefile"]
 CPP_SUFFIXES = (".hpp", ".h", ".cpp", ".c", ".txt")
 
 

@@ -122,10 +122,14 @@ def test_C4_stuck_below_breakaway():
 
 
 def test_C5_bearing_law_every_branch():
-    """C5, S0 eqs. 7–8: static below α p; β p + h(n) moving, h = h0 below n0, h1 n^{2/3} above."""
+    """C5, S0 eqs. 7–8: static below α p; β p + h(n) moving, h = h0 below n0, h1 n^{2/3} above.
+    (The scalar law; the branch law the statics and the simulator use is tested in test_branch_law.py
+    and test_sim_physics.py.)"""
     alpha, beta, h0, h1, n0, p = 2e-3, 1.5e-3, 1e-3, 2e-4, 5.0, 100.0
     t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, 0.1)
     assert stuck and t == 0.1                                   # holds: 0.1 < α p = 0.2
+    t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, 0.17)
+    assert stuck and t == 0.17                                  # β p = 0.15 < 0.17 < α p: only α holds it
     t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, -0.3)
     assert not stuck and t == pytest.approx(-(beta * p + h0))   # breaks away
     t, _ = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 2.0, 0.0)
