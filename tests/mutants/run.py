@@ -23,6 +23,7 @@ import io
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
 import tarfile
@@ -67,28 +68,47 @@ def load_mutants(only: list[str] | None) -> list[dict]:
     return muts
 
 
+def _sync_file(src_bytes: bytes, dst: Path) -> None:
+    """Write dst only if its content differs (a fresh mtime then makes the build see it)."""
+    if dst.exists() and dst.read_bytes() == src_bytes:
+        return
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    dst.write_bytes(src_bytes)
+
+
+def _tree_files(root: Path):
+    for p in sorted(root.rglob("*")):
+        if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".so", ".pyc"):
+            yield p
+
+
 def copy_library(scratch: Path) -> None:
     for rel in LIB_PATHS:
-        src, dst = REPO / rel, scratch / rel
+        src = REPO / rel
         if src.is_dir():
-            if dst.exists():
-                shutil.rmtree(dst)
-            shutil.copytree(src, dst, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
-        else:
-            shutil.copy2(src, dst)
+            for f in _tree_files(src):
+                _sync_file(f.read_bytes(), scratch / f.relative_to(REPO))
+        elif src.exists():
+            _sync_file(src.read_bytes(), scratch / rel)
 
 
-def copy_tests(scratch: Path, ref: str | None) -> None:
-    dst = scratch / "tests"
+def copy_tests(scratch: Path, ref: str | None, dest: str = "tests") -> None:
+    """The tests folder of the working tree (ref None) or of a git ref, as scratch/<dest>."""
+    dst = scratch / dest
     if dst.exists():
         shutil.rmtree(dst)
     if ref is None:
         shutil.copytree(REPO / "tests", dst, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
         return
-    blob = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", ref, "tests"], check=True,
-                          capture_output=True).stdout
+    blob = subprocess.run(["git", "-C", str(REPO), "archive", "--format=tar", f"--prefix={dest}/", ref, "tests"],
+                          check=True, capture_output=True).stdout
+    staging = scratch / ".staging"
+    if staging.exists():
+        shutil.rmtree(staging)
     with tarfile.open(fileobj=io.BytesIO(blob)) as tar:
-        tar.extractall(scratch, filter="data")
+        tar.extractall(staging, filter="data")
+    (staging / dest / "tests").rename(dst) if (staging / dest / "tests").exists() else (staging / dest).rename(dst)
+    shutil.rmtree(staging, ignore_errors=True)
 
 
 def ctest_targets(scratch: Path) -> dict[str, str]:
@@ -139,11 +159,12 @@ class Scratch:
                 "^(" + "|".join(map(re.escape, names)) + ")$"], timeout=600)
         return r.returncode == 0, (r.stdout + r.stderr)[-3000:]
 
-    def pytest(self, files: list[str], full: bool) -> tuple[bool, str]:
+    def pytest(self, files: list[str], full: bool, tests_dir: str = "tests") -> tuple[bool, str]:
         # a mutant's listed files that the tests under test do not have (e.g. an older ref) are skipped;
         # with none left the whole suite runs
+        files = [tests_dir + f[len("tests"):] for f in files]
         present = [f for f in files if (self.root / f).exists()]
-        args = ["tests/python"] if full or not present else present
+        args = [f"{tests_dir}/python"] if full or not present else present
         r = sh([str(self.python), "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", *args],
                cwd=self.root, env=self.env(), timeout=1800)
         tail = (r.stdout + r.stderr).strip().splitlines()
@@ -154,12 +175,17 @@ class Scratch:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--tests-from", default=None, help="git ref whose tests/ folder is run (default: working tree)")
+    ap.add_argument("--before", default=None, metavar="REF",
+                    help="also run REF's tests on every mutant (same build), e.g. the suite before a change: "
+                         "prints both kill rates (REF's CTest is not run)")
     ap.add_argument("--scratch", default="/tmp/tendyn-mutants", help="scratch checkout (reused, incremental)")
     ap.add_argument("--only", nargs="*", help="mutant ids to run (default: all)")
     ap.add_argument("--full", action="store_true", help="run the whole pytest suite per mutant, not its listed files")
+    ap.add_argument("--no-ctest", action="store_true", help="skip the CTest executables")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--no-baseline", action="store_true", help="skip the check that the unmutated suite passes")
     args = ap.parse_args()
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit("terminated"))  # so that `finally` reverts the mutant
 
     muts = load_mutants(args.only)
     python = REPO / ".venv" / "bin" / "python"
@@ -169,11 +195,16 @@ def main() -> int:
     scratch.mkdir(parents=True, exist_ok=True)
     copy_library(scratch)
     copy_tests(scratch, args.tests_from)
-    targets = ctest_targets(scratch)
+    sets = [("after", "tests")]
+    if args.before:
+        copy_tests(scratch, args.before, "tests_before")
+        sets.append(("before", "tests_before"))
+    targets = {} if args.no_ctest else ctest_targets(scratch)
     s = Scratch(scratch, python, args.jobs)
     s.configure()
     label = args.tests_from or "working tree"
-    print(f"mutants: {len(muts)} from {LIST.relative_to(REPO)}; tests from {label}; scratch {scratch}", flush=True)
+    print(f"mutants: {len(muts)} from {LIST.relative_to(REPO)}; tests from {label}"
+          + (f", and from {args.before} (before)" if args.before else "") + f"; scratch {scratch}", flush=True)
 
     def wanted_ctests(m):
         return [n for n in m.get("ctest", []) if n in targets]
@@ -186,42 +217,56 @@ def main() -> int:
     if not args.no_baseline:
         files = sorted({f for m in muts for f in m["tests"]})
         ok_c, out_c = s.ctest(all_ctests)
-        ok_p, out_p = s.pytest(files, args.full)
-        if not (ok_c and ok_p):
-            sys.exit(f"the unmutated suite fails in the scratch copy, kill rates would be meaningless:\n{out_c}\n{out_p}")
+        if not ok_c:
+            sys.exit(f"the unmutated CTest fails in the scratch copy:\n{out_c}")
+        for name, folder in sets:
+            ok_p, out_p = s.pytest(files, args.full, folder)
+            if not ok_p:
+                sys.exit(f"the unmutated suite ({name}) fails in the scratch copy, kill rates would be "
+                         f"meaningless:\n{out_p}")
         print(f"baseline: unmutated suite passes ({time.time() - t0:.0f} s)", flush=True)
 
-    results = []
+    results = []  # (mutant, {set: verdict}, {set: why})
     for m in muts:
         path = scratch / m["file"]
         original = path.read_text(encoding="utf-8")
         assert original.count(m["find"]) == 1, m["id"]
         t1 = time.time()
+        verdict, why = {}, {}
         path.write_text(original.replace(m["find"], m["replace"], 1), encoding="utf-8")
         try:
             ctests = wanted_ctests(m)
             ok, log = s.make(["_core", *[targets[n] for n in ctests]])
             if not ok:
-                verdict, why = "STILLBORN", "does not compile: " + log.strip().splitlines()[-1]
+                for name, _ in sets:
+                    verdict[name], why[name] = "STILLBORN", "does not compile: " + log.strip().splitlines()[-1]
             else:
                 ok_c, out_c = s.ctest(ctests)
-                if not ok_c:
-                    verdict, why = "KILLED", "ctest: " + " ".join(ln for ln in out_c.splitlines() if "Failed" in ln)[:200]
-                else:
-                    ok_p, out_p = s.pytest(m["tests"], args.full)
-                    verdict, why = ("SURVIVED", "") if ok_p else ("KILLED", out_p[:200])
+                for name, folder in sets:
+                    if name == "after" and not ok_c:
+                        verdict[name] = "KILLED"
+                        why[name] = "ctest: " + " ".join(ln.strip() for ln in out_c.splitlines()
+                                                         if "PHYSICS FAIL" in ln or "***Failed" in ln)[:200]
+                        continue
+                    ok_p, out_p = s.pytest(m["tests"], args.full, folder)
+                    verdict[name], why[name] = ("SURVIVED", "") if ok_p else ("KILLED", out_p[:160])
         finally:
             path.write_text(original, encoding="utf-8")
         results.append((m, verdict, why))
-        print(f"{verdict:9s} {m['id']:38s} {time.time() - t1:5.0f} s  {why}", flush=True)
+        line = " ".join(f"{n}={verdict[n]:9s}" for n, _ in sets)
+        print(f"{m['id']:36s} {line} {time.time() - t1:4.0f} s  {why['after'] or why.get('before', '')}", flush=True)
 
-    counted = [r for r in results if r[1] != "STILLBORN"]
-    killed = sum(r[1] == "KILLED" for r in counted)
-    print(f"\nkill rate: {killed}/{len(counted)} = {100.0 * killed / max(1, len(counted)):.0f} % "
-          f"(tests from {label}; {time.time() - t0:.0f} s)")
-    surv = [r for r in results if r[1] == "SURVIVED"]
-    for m, _, _ in surv:
-        print(f"  survived: {m['id']}: {m['breaks']}")
+    print()
+    for name, _ in sets:
+        counted = [r for r in results if r[1][name] != "STILLBORN"]
+        killed = sum(r[1][name] == "KILLED" for r in counted)
+        ref = label if name == "after" else args.before
+        print(f"kill rate ({name}, tests from {ref}): {killed}/{len(counted)} = "
+              f"{100.0 * killed / max(1, len(counted)):.0f} %")
+        for m, v, _ in results:
+            if v[name] == "SURVIVED":
+                print(f"  survived: {m['id']}: {m['breaks']}")
+    print(f"({time.time() - t0:.0f} s)")
     return 0
 
 
