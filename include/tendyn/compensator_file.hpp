@@ -99,25 +99,7 @@ inline bool save_compensator_model(const CompensatorModel& m, const std::string&
     if (error) *error = path + ": not written: " + problem;
     return false;
   }
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    if (!f) {
-      if (error) *error = path + ": cannot open for writing";
-      return false;
-    }
-    f << compensator_model_text(m);
-    if (!f.good()) {
-      if (error) *error = path + ": write failed";
-      return false;
-    }
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    if (error) *error = path + ": cannot rename the temporary file";
-    return false;
-  }
-  return true;
+  return write_text_atomically(compensator_model_text(m), path, error);
 }
 
 /// Parse compensator-file text. `expected_device` (may be empty) must equal the file's `device`.

@@ -56,9 +56,9 @@ inline std::string transmission_model_text(const TransmissionModel& m) {
   return out;
 }
 
-/// Write the model file (to `path`.tmp, then renamed: never half-written). Returns false and sets
-/// `error` on failure.
-inline bool save_transmission_model(const TransmissionModel& m, const std::string& path, std::string* error) {
+/// Write `text` to `path` through `path`.tmp, then rename: a reader never sees a half-written file.
+/// Returns false and sets `error` on failure (the temporary file is removed).
+inline bool write_text_atomically(const std::string& text, const std::string& path, std::string* error) {
   const std::string tmp = path + ".tmp";
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
@@ -66,7 +66,7 @@ inline bool save_transmission_model(const TransmissionModel& m, const std::strin
       if (error) *error = path + ": cannot open for writing";
       return false;
     }
-    f << transmission_model_text(m);
+    f << text;
     if (!f.good()) {
       if (error) *error = path + ": write failed";
       return false;
@@ -78,6 +78,11 @@ inline bool save_transmission_model(const TransmissionModel& m, const std::strin
     return false;
   }
   return true;
+}
+
+/// Write the model file atomically. Returns false and sets `error` on failure.
+inline bool save_transmission_model(const TransmissionModel& m, const std::string& path, std::string* error) {
+  return write_text_atomically(transmission_model_text(m), path, error);
 }
 
 /// Parse model-file text into `m` (validated, matrices computed). `name` prefixes the messages.
