@@ -1,0 +1,79 @@
+"""`tendyn identify DEVICE LOG... --out PARAMS.json`: base parameters of a device from measured logs (IDIM)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from tendyn.commands.args import existing_file, number
+from tendyn.errors import UsageError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("identify", help="identify the base dynamic parameters from logs (IDIM least squares)")
+    p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
+    p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
+    p.add_argument("--out", help="parameters file (.json)")
+    p.add_argument("--method", choices=("ols", "wls"), default="ols", help="ordinary or weighted least squares")
+    p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
+    p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
+                   help="-3 dB cut-off of the zero-phase Butterworth on positions [Hz] (default 5 x bandwidth)")
+    p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
+                   help="decimation factor of the parallel filter (default rate / (10 x bandwidth))")
+    p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=0.0,
+                   help="drop a joint's samples below this |velocity| [rad/s] (default 0: keep all)")
+    p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
+    p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
+    p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
+    p.set_defaults(func=cmd_identify)
+
+
+def _device(arg: str):
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+
+    path = Path(arg)
+    if path.suffix.lower() == ".toml" or path.exists():
+        return load_device(path)
+    return load_device(bundled(arg))
+
+
+def cmd_identify(args) -> int:
+    from tendyn.device import compile_device
+    from tendyn.ident import IDIM
+    from tendyn.io import atomic_write_text, read_log, save_png, to_jsonable
+
+    dev = _device(args.device)
+    if dev.kind != "serial":
+        raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
+    if args.out is not None and Path(args.out).suffix.lower() != ".json":
+        raise UsageError(f"must end in .json (got {args.out})", "out")
+    logs = [read_log(p) for p in args.logs]
+    rate = logs[0].meta["rate_hz"]
+    if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
+        raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
+    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
+               velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent)
+    try:
+        est.fit(logs if len(logs) > 1 else logs[0])
+    except ValueError as exc:
+        if type(exc).__name__ in ("LogError",):
+            raise
+        raise UsageError(str(exc)) from None
+    res = est.result_
+    doc = to_jsonable(res.to_dict())
+    doc["logs"] = [str(p) for p in args.logs]
+    if args.out:
+        atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+    if args.report:
+        out = Path(args.report)
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / "table.txt", res.table() + "\n")
+        save_png(res.plot(), out / "torques.png")
+    if args.json:
+        print(json.dumps(doc, indent=2))
+    else:
+        print(res.table())
+    print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
+    return 0
