@@ -110,6 +110,9 @@ def main() -> int:
         bench_simulator(results)
     except ImportError as exc:  # mujoco is a benchmark-only dependency
         print(f"[bench] simulator benchmark skipped: {exc}", file=sys.stderr)
+    from tx40_identify import bench_tx40_identify
+
+    bench_tx40_identify(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)

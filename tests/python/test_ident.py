@@ -177,7 +177,7 @@ def _synthetic_tx40(m, rate_hz=1000.0, duration=8.0, noise=0.0, seed=0):
 def test_noise_free_fit_and_one_sample_misalignment_is_caught(tx40):
     log = _synthetic_tx40(tx40)
     est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
-    assert est.result_.residual_rel < 2e-3
+    assert est.result_.residual_rel < 5e-3
     names = est.names_
     for j in range(1, 7):
         assert est.params_[names.index(f"FV{j}")] > 0

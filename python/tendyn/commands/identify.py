@@ -24,6 +24,9 @@ def register(subparsers) -> None:
     p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=0.0,
                    help="drop a joint's samples below this |velocity| [rad/s] (default 0: keep all)")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
     p.set_defaults(func=cmd_identify)
@@ -39,6 +42,15 @@ def _device(arg: str):
     return load_device(bundled(arg))
 
 
+def _scheduler(arg, n_logs: int):
+    """None (in process) for one log or ``--scheduler none``; else "local" or the given address."""
+    if arg is not None and arg.lower() == "none":
+        return None
+    if arg is not None:
+        return arg
+    return "local" if n_logs > 1 else None
+
+
 def cmd_identify(args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident import IDIM
@@ -49,12 +61,13 @@ def cmd_identify(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
     if args.out is not None and Path(args.out).suffix.lower() != ".json":
         raise UsageError(f"must end in .json (got {args.out})", "out")
-    logs = [read_log(p) for p in args.logs]
+    logs = [read_log(p) for p in args.logs]     # read here: a bad log is exit 2 before any work
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
     est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
-               velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent)
+               velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
+               scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet)
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
     except ValueError as exc:

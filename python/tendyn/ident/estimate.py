@@ -10,6 +10,9 @@ and Clarabel; the same statistics are reported at its solution.
 
 from __future__ import annotations
 
+import os
+import sys
+
 import numpy as np
 
 from tendyn.results import Result, format_table, new_figure
@@ -18,6 +21,17 @@ from .model import IdentModel, unit_of
 from .treatment import Block, default_treatment, stack_blocks, treat
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares"]
+
+_MODELS: dict = {}
+
+
+def _treat_log(device, log, parts, settings):
+    """Treated joint blocks of one log (a Log or a path) on a Dask worker; one IdentModel per device per
+    worker process."""
+    key = (str(device.path), device.name)
+    if key not in _MODELS:
+        _MODELS[key] = IdentModel(device)
+    return IDIM._treat_here(_MODELS[key], log, parts, settings)
 
 
 def least_squares(W, Y):
@@ -80,11 +94,9 @@ class IdentificationResult(Result):
         n = len(self.joint_numbers)
         for j, num in enumerate(self.joint_numbers):
             sel = self.rows == j
-            t = self.time[: int(sel.sum())]
-            off = 0.0
-            ax.plot(t, self.y[sel] + off, lw=0.8, label=f"measured {num}" if j == 0 else None, color=f"C{j}")
-            ax.plot(t, self.y_hat[sel] + off, lw=0.8, ls="--", color="k",
-                    label="estimated" if j == 0 else None)
+            t = self.time[sel]
+            ax.plot(t, self.y[sel], lw=0.8, label=f"measured, joint {num}", color=f"C{j}")
+            ax.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated" if j == 0 else None)
         ax.set_xlabel("time [s] (decimated samples)")
         ax.set_ylabel("joint torque [N·m]")
         ax.set_title(f"{self.device}: measured vs estimated torque, {n} joints")
@@ -113,10 +125,15 @@ class IDIM:
         Allowed relative growth of the relative residual when dropping a parameter.
     consistent : bool
         Physically consistent estimate (pseudo-inertia LMIs, cvxpy + Clarabel).
+    scheduler : None, "local" or str
+        Where the logs of a campaign are treated: None in this process, ``"local"`` on a local Dask cluster,
+        otherwise the address of a Dask scheduler (``tcp://host:8786``).
+    progress : bool
+        Progress bar (stderr) over the logs.
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=0.0,
-                 essential=False, essential_tol=0.02, consistent=False):
+                 essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False):
         self.device = device
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -126,6 +143,8 @@ class IDIM:
         self.essential = essential
         self.essential_tol = essential_tol
         self.consistent = consistent
+        self.scheduler = scheduler
+        self.progress = progress
 
     # -- data ------------------------------------------------------------------------------------------
     def _model(self) -> IdentModel:
@@ -137,19 +156,23 @@ class IDIM:
         """Treated (Y, W_standard, rows, times) of the logs; ``parts`` (a, b) keeps the fraction [a, b) of each."""
         model = self._model()
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
-        allblocks: list[list[Block]] = []
-        self.treatment_ = None
-        for log in logs:
-            time, q, tau = model.joint_signals(log)
-            if parts is not None:
-                n = time.size
-                sl = slice(int(parts[0] * n), int(parts[1] * n))
-                time, q, tau = time[sl], q[sl], tau[sl]
-            rate = float(log.meta["rate_hz"]) if hasattr(log, "meta") else 1.0 / float(np.median(np.diff(time)))
-            tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
-                                   self.order, self.velocity_threshold)
-            self.treatment_ = tr
-            allblocks.append(treat(model, time, q, tau, tr))
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold)
+        if self.scheduler is not None and len(logs) > 1:
+            out = self._distributed(logs, parts, settings)
+        else:
+            out = []
+            bar = None
+            if self.progress and len(logs) > 1:
+                from tqdm import tqdm
+                bar = tqdm(total=len(logs), desc="treating logs", unit="log", file=sys.stderr)
+            for log in logs:
+                out.append(self._treat_here(model, log, parts, settings))
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
+        allblocks = [b for b, _ in out]
+        self.treatment_ = out[-1][1]
         na = model.n_active
         Ys, Ws, Rs, Ts = [], [], [], []
         for blocks in allblocks:
@@ -163,6 +186,52 @@ class IDIM:
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
         return Y[order], W[order], rows[order], t[order], na
+
+    @staticmethod
+    def _treat_here(model, log, parts, settings):
+        from tendyn.io import read_log
+
+        if not hasattr(log, "meta"):
+            log = read_log(log)
+        time, q, tau = model.joint_signals(log)
+        if parts is not None:
+            n = time.size
+            sl = slice(int(parts[0] * n), int(parts[1] * n))
+            time, q, tau = time[sl], q[sl], tau[sl]
+        tr = default_treatment(float(log.meta["rate_hz"]), getattr(model.device, "bandwidth_hz", None), *settings)
+        return treat(model, time, q, tau, tr), tr
+
+    def _distributed(self, logs, parts, settings):
+        """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
+        from dask.distributed import Client, LocalCluster, as_completed
+
+        dev = self._model().device
+        own = None
+        if self.scheduler == "local":
+            own = LocalCluster(n_workers=min(len(logs), os.cpu_count() or 1), threads_per_worker=1,
+                               processes=True, dashboard_address=None)
+            client = Client(own)
+        else:
+            client = Client(self.scheduler)
+        try:
+            futures = [client.submit(_treat_log, dev, log, parts, settings, pure=False) for log in logs]
+            index = {f.key: i for i, f in enumerate(futures)}
+            results = [None] * len(futures)
+            bar = None
+            if self.progress:
+                from tqdm import tqdm
+                bar = tqdm(total=len(futures), desc="treating logs (dask)", unit="log", file=sys.stderr)
+            for fut in as_completed(futures):
+                results[index[fut.key]] = fut.result()
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
+            return results
+        finally:
+            client.close()
+            if own is not None:
+                own.close()
 
     # -- fit -------------------------------------------------------------------------------------------
     def _solve(self, Wb, Y, rows, na):

@@ -79,7 +79,9 @@ class BaseSet:
             if k == k0:
                 continue
             c = float(row[k])
-            parts.append(f"{'-' if c < 0 else '+'} {abs(c):.6g}*{standard_names[k]}")
+            txt = f"{abs(c):.6g}"
+            txt = txt if any(ch in txt for ch in ".en") else txt + ".0"
+            parts.append(f"{'-' if c < 0 else '+'} {txt}*{standard_names[k]}")
         return " ".join(parts)
 
 

@@ -1,0 +1,138 @@
+"""Identification of logs too large for memory: chunk by chunk, never holding W.
+
+Each chunk of samples is filtered with an overlap on both sides (the zero-phase Butterworth of the positions
+looks forward and backward; an overlap of many time constants makes the chunked result equal to the
+in-memory one to rounding), differentiated, turned into decimated regressor rows by the core on the global
+decimation grid (output k centred on input h + k K, the same samples as in memory), and reduced to the
+normal equations per joint block: Wⱼᵀ Wⱼ, Wⱼᵀ Yⱼ, Yⱼᵀ Yⱼ, rⱼ. OLS, WLS, σ̂², the covariance, cond(W) and the
+per-joint residuals all follow from these sums.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .model import IdentModel
+from .treatment import butter_zero_phase, central_differences, default_treatment, parallel_filter_taps
+
+__all__ = ["NormalEquations", "accumulate", "iter_parquet_chunks", "solve_normal"]
+
+
+class NormalEquations:
+    """Per-joint sums of the observation system: A[j] = Wⱼᵀ Wⱼ, B[j] = Wⱼᵀ Yⱼ, C[j] = Yⱼᵀ Yⱼ, r[j] rows."""
+
+    def __init__(self, n_joints: int, n_params: int):
+        self.A = np.zeros((n_joints, n_params, n_params))
+        self.B = np.zeros((n_joints, n_params))
+        self.C = np.zeros(n_joints)
+        self.r = np.zeros(n_joints, dtype=np.int64)
+
+    def add(self, j: int, W: np.ndarray, y: np.ndarray) -> None:
+        self.A[j] += W.T @ W
+        self.B[j] += W.T @ y
+        self.C[j] += y @ y
+        self.r[j] += y.size
+
+    def merge(self, other: "NormalEquations") -> "NormalEquations":
+        self.A += other.A; self.B += other.B; self.C += other.C; self.r += other.r
+        return self
+
+
+def solve_normal(ne: NormalEquations, method: str = "ols"):
+    """(x, stderr, cond, residual_rel, per_joint_residual_rel) from the accumulated sums."""
+    def ls(weights):
+        A = np.tensordot(weights ** 2, ne.A, 1)
+        B = np.tensordot(weights ** 2, ne.B, 1)
+        x = np.linalg.solve(A, B)
+        rss_j = ne.C - 2 * ne.B @ x + np.einsum("i,jik,k->j", x, ne.A, x)
+        return x, A, np.maximum(rss_j, 0.0)
+
+    nj, b = ne.B.shape
+    r = int(ne.r.sum())
+    w = np.ones(nj)
+    x, A, rss = ls(w)
+    if method == "wls":
+        s2j = rss / np.maximum(ne.r - b * ne.r / r, 1.0)
+        w = 1.0 / np.sqrt(s2j)
+        x, A, rss = ls(w)
+    sigma2 = float((w ** 2 * rss).sum()) / (r - b)
+    se = np.sqrt(np.diag(sigma2 * np.linalg.inv(A)))
+    ev = np.linalg.eigvalsh(A)
+    cond = float(np.sqrt(ev[-1] / ev[0]))
+    per = np.sqrt(rss / ne.C)
+    return x, se, cond, float(np.sqrt(rss.sum() / ne.C.sum())), per
+
+
+def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overlap: int | None = None,
+               columns=None) -> tuple[NormalEquations, object]:
+    """Normal equations of a log given as an iterator of (time, q, tau) chunks (joint signals, in order).
+
+    ``overlap`` input samples are kept on each side of a chunk for the Butterworth filter (default: 40 time
+    constants of the filter, at least the FIR half-length + 2).
+    """
+    tr = treatment or default_treatment(rate_hz, getattr(model.device, "bandwidth_hz", None))
+    taps = parallel_filter_taps(tr.decimate)
+    K, h = tr.decimate, (taps.size - 1) // 2
+    if overlap is None:
+        overlap = int(40 * tr.rate_hz / (2 * np.pi * tr.cutoff_hz)) + h + 2
+    cols = model.base.columns if columns is None else columns
+    ne = NormalEquations(model.n_active, len(cols))
+    dt = 1.0 / tr.rate_hz
+    buf_t = buf_q = buf_tau = None
+    start = 0                   # global index of buf[0]
+    next_k = 0                  # next global output index to produce
+    done = False
+    it = iter(chunks)
+    while not done:
+        try:
+            t, q, tau = next(it)
+            if buf_t is None:
+                buf_t, buf_q, buf_tau = t, q, tau
+            else:
+                buf_t = np.concatenate([buf_t, t]); buf_q = np.vstack([buf_q, q]); buf_tau = np.vstack([buf_tau, tau])
+        except StopIteration:
+            done = True
+        if buf_t is None:
+            return ne, tr
+        n = buf_t.size
+        end_global = start + n            # exclusive
+        # centre samples c = h + kK we may produce now: full FIR window and the filter's overlap on the right
+        right_ok = end_global if done else end_global - overlap
+        k_hi = (right_ok - 1 - h - h) // K if right_ok - 1 - 2 * h >= 0 else -1     # window [c-h, c+h] < right_ok
+        if k_hi >= next_k:
+            qf = butter_zero_phase(buf_q, tr.cutoff_hz, tr.rate_hz, tr.order)
+            qd = central_differences(qf, dt)
+            qdd = central_differences(qd, dt)
+            lo = next_k * K - start               # local index of the first window start
+            hi = k_hi * K + 2 * h + 1 - start     # local exclusive end of the last window
+            W = model.regressor(qf[lo:hi], qd[lo:hi], qdd[lo:hi], taps, K)
+            from tendyn import _core
+            ydec = _core.fir_decimate(taps, K, np.ascontiguousarray(buf_tau[lo:hi]))
+            n_out = ydec.shape[0]
+            Wb = W[:, list(cols)]
+            for j in range(model.n_active):
+                ne.add(j, Wb[j * n_out:(j + 1) * n_out], ydec[:, j])
+            next_k = k_hi + 1
+        # drop what no future output needs (keep the filter overlap before the next window)
+        keep_from = max(0, min(next_k * K - start - overlap, n))
+        if keep_from > 0:
+            buf_t, buf_q, buf_tau = buf_t[keep_from:], buf_q[keep_from:], buf_tau[keep_from:]
+            start += keep_from
+    return ne, tr
+
+
+def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
+    """(time, q, tau) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
+    :meth:`IdentModel.joint_signals`."""
+    import pyarrow.parquet as pq
+
+    nm = model.n_motors
+    f = pq.ParquetFile(str(path))
+    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + [f"torque_motor_{i + 1}" for i in range(nm)]
+    Ginv = np.linalg.inv(model.G)
+    for batch in f.iter_batches(batch_size=rows, columns=names):
+        cols = [batch.column(k).to_numpy() for k in range(len(names))]
+        t = cols[0]
+        qm = np.column_stack(cols[1:1 + nm])
+        y = np.column_stack(cols[1 + nm:])
+        yield t, qm @ Ginv.T + model.joint_offsets, y @ model.G
