@@ -82,7 +82,7 @@ inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d
                                        const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen::Index K,
                                        Eigen::Ref<RowMatrixXd> out) {
   const Eigen::Index nt = m.pin.nv, na = L.cols(), nm = G.rows(), n = Q.rows();
-  const Eigen::Index ntaps = taps.size(), h = (ntaps - 1) / 2;
+  const Eigen::Index ntaps = taps.size();
   if (L.rows() != nt || c.size() != nt || G.cols() != na) return Status::SizeMismatch;
   if (Q.cols() != na || V.cols() != na || A.cols() != na || V.rows() != n || A.rows() != n)
     return Status::SizeMismatch;
@@ -94,8 +94,16 @@ inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d
   out.setZero();
   if (no == 0) return Status::Ok;
   const Eigen::MatrixXd Gt = G.transpose();
+  // Row j of Lᵀ Y_tree can only be nonzero from the first link supported by a tree joint r with
+  // L(r, j) ≠ 0 (Pinocchio numbers descendants after their ancestors): accumulate from there on.
+  Eigen::VectorXi first(na);
+  for (Eigen::Index j = 0; j < na; ++j) {
+    Eigen::Index r = 0;
+    while (r < nt && L(r, j) == 0.0) ++r;
+    first[j] = static_cast<int>(10 * r);
+  }
   Eigen::VectorXd q(nt), v(nt), a(nt), qm_d(nm), qm_dd(nm);
-  Eigen::MatrixXd Ya(na, p);
+  RowMatrixXd Ya(na, p);  // row-major: each row is added whole into the outputs
   const Eigen::Index last = (no - 1) * K + ntaps;  // input samples that reach an output
   for (Eigen::Index s = 0; s < last; ++s) {
     const auto qa = Q.row(s).transpose();
@@ -127,10 +135,15 @@ inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d
     for (Eigen::Index k = k_lo; k < no && k * K <= s; ++k) {
       const double w = taps[s - k * K];
       if (w == 0.0) continue;
-      for (Eigen::Index j = 0; j < na; ++j) out.row(j * no + k) += w * Ya.row(j);
+      for (Eigen::Index j = 0; j < na; ++j) {
+        auto o = out.row(j * no + k);
+        const Eigen::Index f = first[j];
+        o.segment(f, p_in - f).noalias() += w * Ya.row(j).segment(f, p_in - f);
+        o.segment(p_in + 4 * j, 4).noalias() += w * Ya.row(j).segment(p_in + 4 * j, 4);
+        o.tail(3 * nm).noalias() += w * Ya.row(j).tail(3 * nm);
+      }
     }
   }
-  (void)h;
   return Status::Ok;
 }
 
