@@ -116,10 +116,16 @@ def test_regressor_matches_pinocchio_per_sample(name):
 
 
 def test_khalil_pinocchio_order_round_trip():
-    x = np.arange(20.0)
-    k = khalil_from_pinocchio(x)
-    assert k[0] == 4 and k[9] == 0 and k[10] == 14              # XX1 is Pinocchio's 5th, M1 its 1st
-    np.testing.assert_array_equal(pinocchio_from_khalil(k), x)
+    import pinocchio as pin
+
+    # independent route: Pinocchio's own dynamic parameters of a known inertia vs Khalil's definition
+    m, c = 2.0, np.array([0.1, -0.2, 0.3])
+    Ic = np.array([[0.5, 0.01, 0.02], [0.01, 0.6, 0.03], [0.02, 0.03, 0.7]])
+    J = Ic + m * (c @ c * np.eye(3) - np.outer(c, c))           # about the frame origin
+    khalil = [J[0, 0], J[0, 1], J[0, 2], J[1, 1], J[1, 2], J[2, 2], *(m * c), m]
+    pin_order = pin.Inertia(m, c, Ic).toDynamicParameters()
+    np.testing.assert_allclose(khalil_from_pinocchio(np.tile(pin_order, 2)), np.tile(khalil, 2), atol=1e-14)
+    np.testing.assert_allclose(pinocchio_from_khalil(np.array(khalil)), pin_order, atol=1e-14)
 
 
 def test_base_parameters_reproduce_the_standard_torque(tx40):
@@ -303,3 +309,47 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
     assert json.loads(out.read_text())["params"] == doc["params"]
     assert main(["identify", "tx40", str(log), "--cutoff-hz", "3000"]) == 2
     assert "--cutoff-hz: must be below half the log rate" in capsys.readouterr().err
+
+
+# -- scale: chunked normal equations, Dask campaign -------------------------------------------------------
+
+def test_streaming_equals_in_memory(tx40):
+    from tendyn.ident.stream import accumulate, solve_normal
+
+    log = _synthetic_tx40(tx40, noise=0.01)
+    tr = Treatment(20.0, 4, 10, 0.0, 1000.0, 10.0)
+    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
+    time, q, tau = tx40.joint_signals(log)
+    chunks = ((time[i:i + 997], q[i:i + 997], tau[i:i + 997]) for i in range(0, time.size, 997))
+    ne, _ = accumulate(tx40, chunks, 1000.0, tr)
+    assert int(ne.r.sum()) == est.result_.n_rows
+    x, se, cond, resid, per = solve_normal(ne)
+    np.testing.assert_allclose(x, est.params_, rtol=1e-7, atol=1e-9 * np.max(np.abs(est.params_)))
+    np.testing.assert_allclose(se, est.stderr_, rtol=1e-5)
+    assert resid == pytest.approx(est.result_.residual_rel, rel=1e-6)
+    np.testing.assert_allclose(per, est.result_.per_joint_residual_rel, rtol=1e-6)
+
+
+def test_campaign_on_a_dask_scheduler(tx40):
+    distributed = pytest.importorskip("dask.distributed")
+    logs = [_synthetic_tx40(tx40, noise=0.01, seed=s) for s in (1, 2)]
+    here = IDIM(tx40.device, cutoff_hz=20.0, decimate=10).fit(logs, crossval=False)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=False,
+                                  dashboard_address=None) as cluster:
+        there = IDIM(tx40.device, cutoff_hz=20.0, decimate=10, scheduler=cluster.scheduler_address).fit(
+            logs, crossval=False)
+    np.testing.assert_allclose(there.params_, here.params_, rtol=1e-12)
+
+
+def test_streaming_estimator_on_a_parquet_log(tx40, tmp_path):
+    from tendyn.ident.stream import StreamingIDIM
+    from tendyn.io import write_log
+
+    log = _synthetic_tx40(tx40, noise=0.01, seed=4)
+    path = write_log(log, tmp_path / "big.parquet")
+    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
+    st = StreamingIDIM(tx40.device, cutoff_hz=20.0, decimate=10, chunk_rows=1234).fit(path)
+    np.testing.assert_allclose(st.params_, est.params_, rtol=1e-7, atol=1e-9 * np.max(np.abs(est.params_)))
+    assert st.result_.n_rows == est.result_.n_rows
+    assert st.result_.crossval["residual_rel"] < 0.05
+    assert type(st.result_.plot()).__name__ == "Figure"

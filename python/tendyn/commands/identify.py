@@ -26,6 +26,8 @@ def register(subparsers) -> None:
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")
+    p.add_argument("--stream", action="store_true",
+                   help="identify a Parquet log too large for memory chunk by chunk (normal equations, no W held)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
@@ -61,6 +63,8 @@ def cmd_identify(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
     if args.out is not None and Path(args.out).suffix.lower() != ".json":
         raise UsageError(f"must end in .json (got {args.out})", "out")
+    if args.stream:
+        return _identify_stream(dev, args)
     logs = [read_log(p) for p in args.logs]     # read here: a bad log is exit 2 before any work
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
@@ -89,4 +93,25 @@ def cmd_identify(args) -> int:
     else:
         print(res.table())
     print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
+    return 0
+
+
+def _identify_stream(dev, args) -> int:
+    from tendyn.device import compile_device
+    from tendyn.ident.stream import StreamingIDIM
+    from tendyn.io import atomic_write_text, to_jsonable
+
+    if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
+        raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
+    for opt in ("consistent", "essential"):
+        if getattr(args, opt):
+            raise UsageError(f"--{opt} is not available with --stream", opt)
+    est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
+                        decimate=args.decimate).fit(args.logs[0])
+    res = est.result_
+    doc = to_jsonable(res.to_dict())
+    doc["logs"] = [str(p) for p in args.logs]
+    if args.out:
+        atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+    print(json.dumps(doc, indent=2) if args.json else res.table())
     return 0

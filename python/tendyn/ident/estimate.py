@@ -108,6 +108,13 @@ class IdentificationResult(Result):
 
     def _draw(self, ax):
         n = len(self.joint_numbers)
+        if self.y is None or len(self.y) == 0:    # a streamed fit keeps no samples: draw the %σ instead
+            ax.bar(range(len(self.names)), self.rel_stderr_pct, color="C0")
+            ax.set_xticks(range(len(self.names)), self.names, rotation=90, fontsize=6)
+            ax.set_yscale("log")
+            ax.set_ylabel("relative deviation %σ [%]")
+            ax.set_title(f"{self.device}: base parameters ({self.method})")
+            return
         for j, num in enumerate(self.joint_numbers):
             sel = self.rows == j
             t = self.time[sel]

@@ -64,19 +64,24 @@ def solve_normal(ne: NormalEquations, method: str = "ols"):
 
 
 def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overlap: int | None = None,
-               columns=None) -> tuple[NormalEquations, object]:
+               columns=None, split_at: int | None = None):
     """Normal equations of a log given as an iterator of (time, q, tau) chunks (joint signals, in order).
 
     ``overlap`` input samples are kept on each side of a chunk for the Butterworth filter (default: 40 time
-    constants of the filter, at least the FIR half-length + 2).
+    constants of its slowest pole, τ = 1 / (sin(π / 2n) 2π f_c), plus the FIR half-length: e^-40 of the
+    edge transient reaches the kept samples, so chunks reproduce the in-memory filter to rounding).
+    ``split_at`` (a decimated output index): return ((rows before, rows from there on), treatment) instead of
+    (all rows, treatment) — the two halves of a cross-validation in the same pass.
     """
     tr = treatment or default_treatment(rate_hz, getattr(model.device, "bandwidth_hz", None))
     taps = parallel_filter_taps(tr.decimate)
     K, h = tr.decimate, (taps.size - 1) // 2
     if overlap is None:
-        overlap = int(40 * tr.rate_hz / (2 * np.pi * tr.cutoff_hz)) + h + 2
+        tau = 1.0 / (np.sin(np.pi / (2 * tr.order)) * 2 * np.pi * tr.cutoff_hz)
+        overlap = int(40 * tau * tr.rate_hz) + h + 2
     cols = model.base.columns if columns is None else columns
     ne = NormalEquations(model.n_active, len(cols))
+    ne_b = NormalEquations(model.n_active, len(cols))
     dt = 1.0 / tr.rate_hz
     buf_t = buf_q = buf_tau = None
     start = 0                   # global index of buf[0]
@@ -93,7 +98,7 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
         except StopIteration:
             done = True
         if buf_t is None:
-            return ne, tr
+            return ((ne, ne_b) if split_at is not None else ne), tr
         n = buf_t.size
         end_global = start + n            # exclusive
         # centre samples c = h + kK we may produce now: full FIR window and the filter's overlap on the right
@@ -110,15 +115,20 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
             ydec = _core.fir_decimate(taps, K, np.ascontiguousarray(buf_tau[lo:hi]))
             n_out = ydec.shape[0]
             Wb = W[:, list(cols)]
+            cut = n_out if split_at is None else int(np.clip(split_at - next_k, 0, n_out))
             for j in range(model.n_active):
-                ne.add(j, Wb[j * n_out:(j + 1) * n_out], ydec[:, j])
+                Wj, yj = Wb[j * n_out:(j + 1) * n_out], ydec[:, j]
+                if cut > 0:
+                    ne.add(j, Wj[:cut], yj[:cut])
+                if cut < n_out:
+                    ne_b.add(j, Wj[cut:], yj[cut:])
             next_k = k_hi + 1
         # drop what no future output needs (keep the filter overlap before the next window)
         keep_from = max(0, min(next_k * K - start - overlap, n))
         if keep_from > 0:
             buf_t, buf_q, buf_tau = buf_t[keep_from:], buf_q[keep_from:], buf_tau[keep_from:]
             start += keep_from
-    return ne, tr
+    return ((ne, ne_b) if split_at is not None else ne), tr
 
 
 def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
@@ -136,3 +146,67 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
         qm = np.column_stack(cols[1:1 + nm])
         y = np.column_stack(cols[1 + nm:])
         yield t, qm @ Ginv.T + model.joint_offsets, y @ model.G
+
+
+class StreamingIDIM:
+    """OLS/WLS identification of a Parquet log too large for memory (scikit-learn shape).
+
+    Parameters
+    ----------
+    device : Device or CompiledDevice
+    method : "ols" or "wls"
+    cutoff_hz, decimate, order : as for :class:`tendyn.ident.IDIM` (defaults from the rate and bandwidth)
+    chunk_rows : int
+        Samples read per Parquet batch.
+
+    ``fit(path)`` reads the log batch by batch, accumulates the per-joint normal equations and solves them;
+    learned: ``params_``, ``stderr_``, ``rel_stderr_``, ``cond_``, ``names_``, ``result_``. The
+    cross-validation fits the first half of the samples and predicts the second (two accumulations).
+    """
+
+    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, chunk_rows=500_000):
+        self.device = device
+        self.method = method
+        self.cutoff_hz = cutoff_hz
+        self.decimate = decimate
+        self.order = order
+        self.chunk_rows = chunk_rows
+
+    def fit(self, path):
+        import json
+
+        import pyarrow.parquet as pq
+
+        from .estimate import IdentificationResult, cached_model
+
+        model = cached_model(self.device)
+        pf = pq.ParquetFile(str(path))
+        meta = json.loads(pf.schema_arrow.metadata[b"tendyn"].decode())
+        rate = float(meta["rate_hz"])
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
+                               self.order)
+        n = pf.metadata.num_rows
+        from tendyn import _core
+
+        n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
+        (ne_a, ne_b), _ = accumulate(model, iter_parquet_chunks(model, path, self.chunk_rows), rate, tr,
+                                     split_at=n_out // 2)
+        ne = NormalEquations(*ne_a.B.shape).merge(ne_a).merge(ne_b)   # the whole log, as in memory
+        x, se, cond, resid, per = solve_normal(ne, self.method)
+        xa, _, _, _, _ = solve_normal(ne_a, self.method)
+        rss_b = ne_b.C - 2 * ne_b.B @ xa + np.einsum("i,jik,k->j", xa, ne_b.A, xa)
+        cv = {"fit": "first half", "validate": "second half",
+              "residual_rel": float(np.sqrt(max(rss_b.sum(), 0.0) / ne_b.C.sum())),
+              "per_joint_residual_rel": [float(v) for v in np.sqrt(np.maximum(rss_b, 0) / ne_b.C)],
+              "params": [float(v) for v in xa]}
+        base = model.base
+        self.names_ = list(base.names)
+        self.params_, self.stderr_, self.cond_ = x, se, cond
+        self.rel_stderr_ = 100 * se / np.maximum(np.abs(x), 1e-300)
+        self.treatment_ = tr
+        empty = np.zeros(0)
+        self.result_ = IdentificationResult(
+            model.device.name, self.method + "+stream", self.names_,
+            [base.expression(i, model.standard_names) for i in range(len(base.names))], x, se, cond,
+            int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv)
+        return self
