@@ -318,7 +318,7 @@ def test_streaming_equals_in_memory(tx40):
 
     log = _synthetic_tx40(tx40, noise=0.01)
     tr = Treatment(20.0, 4, 10, 0.0, 1000.0, 10.0)
-    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
+    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(log, crossval=False)
     time, q, tau = tx40.joint_signals(log)
     chunks = ((time[i:i + 997], q[i:i + 997], tau[i:i + 997]) for i in range(0, time.size, 997))
     ne, _ = accumulate(tx40, chunks, 1000.0, tr)
@@ -347,7 +347,7 @@ def test_streaming_estimator_on_a_parquet_log(tx40, tmp_path):
 
     log = _synthetic_tx40(tx40, noise=0.01, seed=4)
     path = write_log(log, tmp_path / "big.parquet")
-    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
+    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(log, crossval=False)
     st = StreamingIDIM(tx40.device, cutoff_hz=20.0, decimate=10, chunk_rows=1234).fit(path)
     np.testing.assert_allclose(st.params_, est.params_, rtol=1e-7, atol=1e-9 * np.max(np.abs(est.params_)))
     assert st.result_.n_rows == est.result_.n_rows

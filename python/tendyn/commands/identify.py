@@ -21,8 +21,9 @@ def register(subparsers) -> None:
                    help="-3 dB cut-off of the zero-phase Butterworth on positions [Hz] (default 5 x bandwidth)")
     p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
                    help="decimation factor of the parallel filter (default rate / (10 x bandwidth))")
-    p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=0.0,
-                   help="drop a joint's samples below this |velocity| [rad/s] (default 0: keep all)")
+    p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=None,
+                   help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: 2 %% of "
+                        "each joint's peak speed)")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")

@@ -10,6 +10,7 @@ and Clarabel; the same statistics are reported at its solution.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 
@@ -23,6 +24,9 @@ from .treatment import Block, default_treatment, stack_blocks, treat
 __all__ = ["IDIM", "IdentificationResult", "least_squares"]
 
 _MODELS: dict = {}
+
+DEFAULT_VELOCITY_FRACTION = 0.02
+"""Default velocity threshold: samples of a joint slower than this fraction of its peak |q̇| are dropped."""
 
 
 def cached_model(device) -> IdentModel:
@@ -140,8 +144,9 @@ class IDIM:
         Decimation factor of the parallel filter (None: rate / (10 × bandwidth)).
     order : int
         Butterworth order.
-    velocity_threshold : float
-        Drop a joint's rows where its |q̇| is below this [rad/s] (0: keep all).
+    velocity_threshold : float or None
+        Drop a joint's rows where its |q̇| is below this [rad/s] (the sign of the Coulomb term is undefined
+        there); 0 keeps all; None (default): 2 % of each joint's peak |q̇| in the log.
     essential : bool
         Keep only the essential parameters.
     essential_tol : float
@@ -155,7 +160,7 @@ class IDIM:
         Progress bar (stderr) over the logs.
     """
 
-    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=0.0,
+    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False):
         self.device = device
         self.method = method
@@ -201,14 +206,21 @@ class IDIM:
         for blocks in allblocks:
             Y, W, rows = stack_blocks(blocks)
             t = np.concatenate([b.time for b in blocks])
-            keep = np.ones(Y.size, bool)
-            if self.velocity_threshold > 0:
-                vel = np.concatenate([b.velocity for b in blocks])
-                keep = np.abs(vel) >= self.velocity_threshold
+            vel = np.concatenate([b.velocity for b in blocks])
+            thr = self._thresholds(blocks)
+            keep = np.abs(vel) >= np.repeat(thr, [b.y.size for b in blocks])
+            self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
         return Y[order], W[order], rows[order], t[order], na
+
+    def _thresholds(self, blocks) -> np.ndarray:
+        """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
+        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
+        if self.velocity_threshold is None:
+            return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
+        return np.full(len(blocks), float(self.velocity_threshold))
 
     @staticmethod
     def _treat_here(model, log, parts, settings):

@@ -69,7 +69,7 @@ class Treatment:
     cutoff_hz: float
     order: int
     decimate: int
-    velocity_threshold: float
+    velocity_threshold: float | tuple | None
     rate_hz: float
     bandwidth_hz: float
 
@@ -77,29 +77,39 @@ class Treatment:
     def parallel_cutoff_hz(self) -> float:
         return 0.8 * self.rate_hz / (2 * self.decimate) if self.decimate > 1 else self.rate_hz / 2
 
+    def _vt_text(self) -> str:
+        v = self.velocity_threshold
+        if v is None:
+            return "2 % of each joint's peak speed"
+        if isinstance(v, tuple):
+            return "(" + ", ".join(f"{x:.3g}" for x in v) + ") rad/s per joint"
+        return f"{v:g} rad/s"
+
     def describe(self) -> str:
         return (f"treatment: Butterworth order {self.order} zero-phase on positions, -3 dB at {self.cutoff_hz:g} Hz; "
                 f"central differences; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
                 f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
                 f"({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); velocity threshold "
-                f"{self.velocity_threshold:g} rad/s (log rate {self.rate_hz:g} Hz, device bandwidth "
+                f"{self._vt_text()} (log rate {self.rate_hz:g} Hz, device bandwidth "
                 f"{self.bandwidth_hz:g} Hz)")
 
     def to_dict(self) -> dict:
+        v = self.velocity_threshold
         return {"cutoff_hz": self.cutoff_hz, "order": self.order, "decimate": self.decimate,
-                "velocity_threshold": self.velocity_threshold, "rate_hz": self.rate_hz,
+                "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
                 "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz}
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
-                      velocity_threshold: float = 0.0) -> Treatment:
+                      velocity_threshold: float | None = 0.0) -> Treatment:
     """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win)."""
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
     if cutoff_hz is None:
         cutoff_hz = min(5.0 * bw, rate_hz / 10.0)
     if decimate is None:
         decimate = max(1, int(rate_hz // (10.0 * bw)))
-    return Treatment(float(cutoff_hz), int(order), int(decimate), float(velocity_threshold), float(rate_hz), bw)
+    vt = None if velocity_threshold is None else float(velocity_threshold)
+    return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw)
 
 
 @dataclass
