@@ -113,6 +113,10 @@ def main() -> int:
     from tx40_identify import bench_tx40_identify
 
     bench_tx40_identify(results)
+    from ident_scale import bench_dask, bench_stream
+
+    bench_dask(results)
+    bench_stream(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)
