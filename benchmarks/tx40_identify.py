@@ -64,8 +64,11 @@ def python_loop_identify(model, log, treatment):
         return y[::K]
     Wd = dec(rows)                         # (n_out, na, p)
     taud = dec(tau)
-    W = np.concatenate([Wd[:, j, :] for j in range(na)])[:, model.standard_columns][:, list(model.base.columns)]
-    Yv = np.concatenate([taud[:, j] for j in range(na)])
+    qdd_ = dec(qd)
+    thr = np.broadcast_to(np.asarray(treatment.velocity_threshold or 0.0, float), (na,))
+    keep = [np.abs(qdd_[:, j]) >= thr[j] for j in range(na)]          # the same near-zero-speed removal
+    W = np.concatenate([Wd[keep[j], j, :] for j in range(na)])[:, model.standard_columns][:, list(model.base.columns)]
+    Yv = np.concatenate([taud[keep[j], j] for j in range(na)])
     x, *_ = np.linalg.lstsq(W, Yv, rcond=None)
     return x
 
