@@ -256,6 +256,13 @@ def test_tx40_essential_and_consistent(tx40, tx40_log):
     assert con.result_.residual_rel < 0.12
     for j in range(1, 7):
         assert con.params_[con.names_.index(f"FV{j}")] >= 0
+    x = con.standard_params_                       # a physical mass distribution per link
+    for j in range(1, 7):
+        g = {p: x[f"{p}{j}"] for p in ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")}
+        I = np.array([[g["XX"], g["XY"], g["XZ"]], [g["XY"], g["YY"], g["YZ"]], [g["XZ"], g["YZ"], g["ZZ"]]])
+        h = np.array([g["MX"], g["MY"], g["MZ"]])
+        J = np.block([[0.5 * np.trace(I) * np.eye(3) - I, h[:, None]], [h[None, :], np.array([[g["M"]]])]])
+        assert np.linalg.eigvalsh(J).min() > -1e-7, f"link {j}"
 
 
 # -- import map ----------------------------------------------------------------------------------------
@@ -307,6 +314,14 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
     assert set(doc["params"][0]) == {"name", "value", "stderr", "rel_stderr_pct", "unit", "expression"}
     assert "residual_rel" in doc["crossval"]
     assert json.loads(out.read_text())["params"] == doc["params"]
+    report = tmp_path / "report"
+    assert main(["identify", "tx40", str(log), "--method", "wls", "--report", str(report), "--quiet"]) == 0
+    assert (report / "table.txt").read_text().startswith("tx40: base parameters (WLS)")
+    assert (report / "torques.png").stat().st_size > 1000
+    capsys.readouterr()
+    assert main(["identify", "tx40", str(log), "--stream", "--json"]) == 0
+    streamed = json.loads(capsys.readouterr().out)
+    assert streamed["method"] == "ols+stream" and len(streamed["params"]) == len(doc["params"])
     assert main(["identify", "tx40", str(log), "--cutoff-hz", "3000"]) == 2
     assert "--cutoff-hz: must be below half the log rate" in capsys.readouterr().err
 

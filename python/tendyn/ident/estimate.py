@@ -90,7 +90,8 @@ class IdentificationResult(Result):
         params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": unit_of(n),
                    "expression": e}
                   for n, v, s, p, e in zip(self.names, self.values, self.stderr, self.rel_stderr_pct, self.expressions)]
-        return {"device": self.device, "method": self.method, "cond": self.cond, "n_rows": self.n_rows,
+        return {"device": self.device, "method": self.method, "cond": self.cond,
+                "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
                 "params": params, "crossval": self.crossval,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
@@ -98,7 +99,9 @@ class IdentificationResult(Result):
     def table(self) -> str:
         rows = [(n, f"{v:.5g}", unit_of(n), f"{p:.3g}") for n, v, p in zip(self.names, self.values, self.rel_stderr_pct)]
         text = format_table(("Parameter", "Value", "Unit", "Relative deviation %"), rows,
-                            title=f"{self.device}: base parameters ({self.method.upper()}), cond(W) = {self.cond:.4g}, "
+                            title=f"{self.device}: base parameters ({self.method.upper()}), cond(W) = {self.cond:.4g}"
+                                  + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
+                                  + ", "
                                   f"W {self.n_rows} x {len(self.names)}")
         tail = ["", "relative residual per joint: " + ", ".join(
             f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
@@ -315,6 +318,7 @@ class IDIM:
             from .consistent import consistent_fit
 
             xs = consistent_fit(model, Wstd * weights[:, None], Y * weights)
+            self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
             x = (base.combination @ xs)[cols]
             res = (Y - Wsel @ x) * weights
             s2 = float(res @ res) / (Y.size - len(cols))
@@ -325,7 +329,9 @@ class IDIM:
         self.expressions_ = [base.expression(i, model.standard_names) for i in cols]
         self.params_, self.stderr_ = x, se
         self.rel_stderr_ = 100.0 * se / np.maximum(np.abs(x), 1e-300)
-        self.cond_ = float(np.linalg.cond(Wsel * weights[:, None]))
+        Ww = Wsel * weights[:, None]
+        self.cond_ = float(np.linalg.cond(Ww))
+        self.cond_scaled_ = float(np.linalg.cond(Ww / np.linalg.norm(Ww, axis=0)))
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
@@ -334,6 +340,7 @@ class IDIM:
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
                                             model.active_numbers, cv)
+        self.result_.cond_scaled = self.cond_scaled_
         self._cols = cols
         return self
 
@@ -362,7 +369,11 @@ class IDIM:
             fitp, valp, desc = (logs, (0.0, 0.5)), (logs, (0.5, 1.0)), ("first half", "second half")
         Y, W, rows, _, na = self.observations(*fitp)
         Wb = W[:, list(base.columns)][:, cols]
-        x, _, _ = self._solve(Wb, Y, rows, na)
+        x, _, w = self._solve(Wb, Y, rows, na)
+        if self.consistent:        # the same estimator on the first part
+            from .consistent import consistent_fit
+
+            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w))[cols]
         Yv, Wv, rv, _, _ = self.observations(*valp)
         Wvb = Wv[:, list(base.columns)][:, cols]
         res = Yv - Wvb @ x
