@@ -322,6 +322,13 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
     assert main(["identify", "tx40", str(log), "--stream", "--json"]) == 0
     streamed = json.loads(capsys.readouterr().out)
     assert streamed["method"] == "ols+stream" and len(streamed["params"]) == len(doc["params"])
+    bad = tmp_path / "no_torque.csv"
+    from tendyn.io import write_log
+
+    write_log(make_log({"time": [0.0, 0.1], **{f"q_motor_{i}": [0.0, 0.0] for i in range(1, 7)}}, device="tx40",
+                       rate_hz=10.0, seed=None, experiment="exciting"), bad)
+    assert main(["identify", "tx40", str(bad)]) == 2
+    assert "no_torque.csv: column torque_motor_: identification needs the motor torques" in capsys.readouterr().err
     assert main(["identify", "tx40", str(log), "--cutoff-hz", "3000"]) == 2
     assert "--cutoff-hz: must be below half the log rate" in capsys.readouterr().err
 

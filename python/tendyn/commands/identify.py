@@ -66,7 +66,16 @@ def cmd_identify(args) -> int:
         raise UsageError(f"must end in .json (got {args.out})", "out")
     if args.stream:
         return _identify_stream(dev, args)
+    from tendyn.ident.estimate import cached_model
+    from tendyn.io import LogError
+
     logs = [read_log(p) for p in args.logs]     # read here: a bad log is exit 2 before any work
+    model = cached_model(dev)
+    for path, log in zip(args.logs, logs):      # the signals identification needs, named with their file
+        try:
+            model.joint_signals(log)
+        except LogError as exc:
+            raise LogError(exc.problem, file=path.name, column=exc.column) from None
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
