@@ -17,23 +17,23 @@ def _upstream(x, sdot, a, b, nu):
     return c / (1 - sb)
 
 
-def motor_torque_feedforward(arr, torque_joint, qdot):
+def motor_torque_feedforward(arr, torque_joint, qd):
     """arr: routing arrays (motor_radius, K, driven_radius, reducer_ratio, reducer_efficiency, tau0, nu, beta)."""
     K = arr["K"]
     r_m = arr["motor_radius"]
     n = r_m.size
-    qdot_m = (K @ qdot) / r_m
+    qd_motor = (K @ qd) / r_m
     Sdot = np.zeros((n, n))
     for i in range(n):
-        Sdot[i, 0] = r_m[i] * qdot_m[i]
+        Sdot[i, 0] = r_m[i] * qd_motor[i]
         for b in range(1, i + 1):
-            Sdot[i, b] = Sdot[i, b - 1] - K[i, b - 1] * qdot[b - 1]
+            Sdot[i, b] = Sdot[i, b - 1] - K[i, b - 1] * qd[b - 1]
     T = np.zeros((n, n))
     Cm = np.zeros(n)
     for i in range(n - 1, -1, -1):
         own = torque_joint[i] - K[i + 1:, i] @ T[i + 1:, i]
         ratio, eta = arr["reducer_ratio"][i], arr["reducer_efficiency"][i]
-        p = own * qdot[i]
+        p = own * qd[i]
         pulley = own / ratio
         if p > 0:
             pulley = own / (eta * ratio)

@@ -96,6 +96,65 @@ def bench_simulator(results: list, seconds: float = 10.0, rate_hz: float = 10_00
                         baseline_value=seconds / base, ratio=base / best))
 
 
+def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int = 5000) -> None:
+    """One L-EXOS compensator cycle (velocity estimate + gravity + losses) through the C ABI: mean from batch
+    timing, median and p99.9 from per-call timing, over `calls` cycles; against a plain C++ Eigen
+    implementation (same executable, same run) and a numpy implementation of the same cycle."""
+    from numpy_compensator import NumpyCompensator
+
+    from tendyn.control import Compensator
+    from tendyn.device import compile_device
+
+    dev = compile_device(load_device(bundled("lexos")))
+    comp = Compensator.from_device(dev)
+    m = comp.model
+    ref = NumpyCompensator(dev.device.routing_arrays(), dev.joint_frames, dev.device.kinematics.gravity,
+                           m.underestimation, m.velocity_band, m.filter_gain(), m.rate_hz)
+    rng = np.random.default_rng(7)
+    t = np.arange(baseline_calls) / m.rate_hz
+    qm = np.column_stack([3.0 * np.sin(2 * np.pi * (0.3 + 0.17 * i) * t) for i in range(4)])
+    qm += 4e-4 * rng.normal(size=qm.shape)
+    tj = rng.normal(size=qm.shape)
+    for k in range(200):  # the numpy cycle is the same cycle
+        np.testing.assert_allclose(ref.cycle(qm[k], tj[k]), comp.cycle(qm[k], tj[k]), rtol=1e-9, atol=1e-11)
+    timer = os.environ.get("TENDYN_COMPENSATOR_TIMER", str(HERE.parent / "build/bench/benchmarks/compensator_timer"))
+    if not Path(timer).exists():
+        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/compensator_timer.cpp)")
+    print(f"[bench] compensator cycle through the C ABI, {calls} calls (batch and one by one) …", file=sys.stderr)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "lexos.comp"
+        comp.export(path)
+        out = subprocess.run([timer, str(path), str(calls), "7"], capture_output=True, text=True, check=True)
+    timed = json.loads(out.stdout)
+    if not timed["max_abs_diff"] < 1e-9:
+        raise SystemExit(f"compensator_timer: the Eigen baseline disagrees with the core ({timed['max_abs_diff']})")
+    print(f"[bench] numpy compensator cycle, {baseline_calls} calls …", file=sys.stderr)
+    ref = NumpyCompensator(dev.device.routing_arrays(), dev.joint_frames, dev.device.kinematics.gravity,
+                           m.underestimation, m.velocity_band, m.filter_gain(), m.rate_hz)
+    base = np.empty(baseline_calls)
+    t0 = time.perf_counter()
+    for k in range(baseline_calls):
+        a = time.perf_counter_ns()
+        ref.cycle(qm[k], tj[k])
+        base[k] = time.perf_counter_ns() - a
+    np_mean = (time.perf_counter() - t0) / baseline_calls * 1e9
+    mean, med, p999 = timed["mean_ns"], timed["median_ns"], timed["p999_ns"]
+    emean, emed, ep999 = timed["eigen_mean_ns"], timed["eigen_median_ns"], timed["eigen_p999_ns"]
+    name = "lexos_compensator_cycle"
+    results.append(dict(name=name, value=mean / 1e3, unit="us/call", baseline="plain C++ Eigen (same cycle)",
+                        baseline_value=emean / 1e3, ratio=emean / mean))
+    results.append(dict(name=name, value=mean / 1e3, unit="us/call", baseline="numpy (same cycle)",
+                        baseline_value=np_mean / 1e3, ratio=np_mean / mean))
+    results.append(dict(name=f"{name}_median", value=med / 1e3, unit="us/call", baseline="plain C++ Eigen (same cycle)",
+                        baseline_value=emed / 1e3, ratio=emed / med))
+    results.append(dict(name=f"{name}_median", value=med / 1e3, unit="us/call", baseline="numpy (same cycle)",
+                        baseline_value=np.median(base) / 1e3, ratio=np.median(base) / med))
+    results.append(dict(name=f"{name}_p99.9", value=p999 / 1e3, unit="us/call", baseline="plain C++ Eigen (same cycle)",
+                        baseline_value=ep999 / 1e3, ratio=ep999 / p999))
+    results.append(dict(name=f"{name}_p99.9", value=p999 / 1e3, unit="us/call", baseline="numpy (same cycle)",
+                        baseline_value=np.percentile(base, 99.9) / 1e3, ratio=np.percentile(base, 99.9) / p999))
+
+
 def print_table(results: list) -> None:
     print(f"{'benchmark':<34} {'tendyn':>12} {'baseline':>12} {'unit':>9} {'ratio':>9}  baseline")
     for r in results:
@@ -106,10 +165,15 @@ def print_table(results: list) -> None:
 def main() -> int:
     results: list = []
     bench_feedforward(results)
+    bench_compensator(results)
     try:
         bench_simulator(results)
     except ImportError as exc:  # mujoco is a benchmark-only dependency
         print(f"[bench] simulator benchmark skipped: {exc}", file=sys.stderr)
+    from s1_bench import bench_dask_sweep, bench_sensitivity_sweep
+
+    bench_sensitivity_sweep(results)
+    bench_dask_sweep(results)
     from tx40_identify import bench_tx40_identify
 
     bench_tx40_identify(results)

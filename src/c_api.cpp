@@ -1,17 +1,34 @@
 // tendyn — C ABI over the header-only core (the only C++ source file of the library).
 #include "tendyn/c_api.h"
 
+#include <cmath>
 #include <cstring>
 #include <new>
 #include <string>
 
 #include "tendyn/losses.hpp"
 #include "tendyn/model_file.hpp"
+#include "tendyn/compensator_file.hpp"
+#include "tendyn/render.hpp"
 
 struct tendyn_transmission {
   tendyn::TransmissionModel model;
   tendyn::TransmissionData data;
   explicit tendyn_transmission(tendyn::TransmissionModel m) : model(std::move(m)), data(model) {}
+};
+
+struct tendyn_compensator {
+  tendyn::CompensatorModel model;
+  tendyn::CompensatorData data;
+  explicit tendyn_compensator(tendyn::CompensatorModel m) : model(std::move(m)), data(model) {}
+};
+
+struct tendyn_renderer {
+  tendyn::CompensatorModel model;
+  tendyn::CompensatorData data;
+  tendyn::RenderModel render;
+  tendyn::RenderData render_data;
+  explicit tendyn_renderer(const tendyn::CompensatorModel& m) : model(m), data(model) {}
 };
 
 namespace {
@@ -100,22 +117,145 @@ tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const double* q, d
 }
 
 tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
-                                              const double* qdot, double* torque_motor) {
-  if (!t || !torque_joint || !qdot || !torque_motor) return TENDYN_NULL_ARGUMENT;
+                                              const double* qd, double* torque_motor) {
+  if (!t || !torque_joint || !qd || !torque_motor) return TENDYN_NULL_ARGUMENT;
   const int n = t->model.n;
   const tendyn::Status s =
-      tendyn::motor_torque_feedforward(t->model, t->data, CVecMap(torque_joint, n), CVecMap(qdot, n));
+      tendyn::motor_torque_feedforward(t->model, t->data, CVecMap(torque_joint, n), CVecMap(qd, n));
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = t->data.torque_motor;
   return to_c(s);
 }
 
 tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
-                                          const double* qdot, double* torque_joint) {
-  if (!t || !torque_motor || !qdot || !torque_joint) return TENDYN_NULL_ARGUMENT;
+                                          const double* qd, double* torque_joint) {
+  if (!t || !torque_motor || !qd || !torque_joint) return TENDYN_NULL_ARGUMENT;
   const int n = t->model.n;
   const tendyn::Status s =
-      tendyn::joint_torque_forward(t->model, t->data, CVecMap(torque_motor, n), CVecMap(qdot, n));
+      tendyn::joint_torque_forward(t->model, t->data, CVecMap(torque_motor, n), CVecMap(qd, n));
   if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_joint, n) = t->data.torque_joint;
+  return to_c(s);
+}
+
+tendyn_status tendyn_compensator_load(const char* path, const char* expected_device, tendyn_compensator** out,
+                                      char* message, unsigned long message_size) {
+  if (!out || !path) return TENDYN_NULL_ARGUMENT;
+  *out = nullptr;
+  tendyn::CompensatorModel m;
+  std::string error;
+  if (!tendyn::load_compensator_model(path, expected_device ? expected_device : "", &m, &error)) {
+    last_error = error;
+    copy_message(error, message, message_size);
+    return TENDYN_INVALID_MODEL;
+  }
+  last_error.clear();
+  copy_message("", message, message_size);
+  *out = new (std::nothrow) tendyn_compensator(std::move(m));
+  return *out ? TENDYN_OK : TENDYN_INVALID_MODEL;
+}
+
+void tendyn_compensator_destroy(tendyn_compensator* c) { delete c; }
+
+int tendyn_compensator_size(const tendyn_compensator* c) { return c ? c->model.transmission.n : 0; }
+
+tendyn_status tendyn_compensator_reset(tendyn_compensator* c) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  c->data.reset();
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_compensator_cycle(tendyn_compensator* c, const double* q_motor, const double* torque_joint,
+                                       double* torque_motor, double* compute_time) {
+  if (!c || !q_motor || !torque_joint || !torque_motor) return TENDYN_NULL_ARGUMENT;
+  const int n = c->model.transmission.n;
+  tendyn::Status s;
+  if (compute_time) {  // timed cycle (two clock reads)
+    s = tendyn::compensator_cycle(c->model, c->data, CVecMap(q_motor, n), CVecMap(torque_joint, n));
+    *compute_time = c->data.compute_time;
+  } else {             // the caller does not want the time: skip the clock
+    s = tendyn::compensator_sense(c->model, c->data, CVecMap(q_motor, n), false);
+    if (!tendyn::is_error(s)) s = tendyn::compensator_command(c->model, c->data, CVecMap(torque_joint, n));
+  }
+  if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = c->data.torque_motor;
+  return to_c(s);
+}
+
+tendyn_status tendyn_compensator_cycle_force(tendyn_compensator* c, const double* q_motor, const double* force_ee,
+                                             double* torque_motor, double* compute_time) {
+  if (!c || !q_motor || !force_ee || !torque_motor) return TENDYN_NULL_ARGUMENT;
+  const int n = c->model.transmission.n;
+  const tendyn::Status s =
+      tendyn::compensator_cycle_force(c->model, c->data, CVecMap(q_motor, n), Eigen::Map<const Eigen::Vector3d>(force_ee));
+  if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = c->data.torque_motor;
+  if (compute_time) *compute_time = c->data.compute_time;
+  return to_c(s);
+}
+
+tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, double* qd, double* qd_motor,
+                                       double* gravity_torque, double* ee_position) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  const int n = c->model.transmission.n;
+  if (q) Eigen::Map<Eigen::VectorXd>(q, n) = c->data.q;
+  if (qd) Eigen::Map<Eigen::VectorXd>(qd, n) = c->data.qd;
+  if (qd_motor) Eigen::Map<Eigen::VectorXd>(qd_motor, n) = c->data.qd_motor;
+  if (gravity_torque) Eigen::Map<Eigen::VectorXd>(gravity_torque, n) = c->data.chain.gravity_torque;
+  if (ee_position) std::memcpy(ee_position, c->data.chain.ee_position.data(), 3 * sizeof(double));
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_renderer_create(const tendyn_compensator* c, double stiffness, double damping,
+                                     double surface_friction, tendyn_renderer** out) {
+  if (!c || !out) return TENDYN_NULL_ARGUMENT;
+  *out = nullptr;
+  tendyn_renderer* r = new (std::nothrow) tendyn_renderer(c->model);
+  if (!r) return TENDYN_INVALID_MODEL;
+  r->render.stiffness = stiffness;
+  r->render.damping = damping;
+  r->render.surface_friction = surface_friction;
+  if (tendyn::is_error(r->render.validate())) {
+    last_error = "renderer: stiffness, damping and surface_friction must be finite and >= 0";
+    delete r;
+    return TENDYN_INVALID_MODEL;
+  }
+  *out = r;
+  return TENDYN_OK;
+}
+
+void tendyn_renderer_destroy(tendyn_renderer* r) { delete r; }
+
+tendyn_status tendyn_renderer_add_plane(tendyn_renderer* r, const double* normal, double offset) {
+  if (!r || !normal) return TENDYN_NULL_ARGUMENT;
+  return r->render.add_plane(Eigen::Map<const Eigen::Vector3d>(normal), offset) ? TENDYN_OK : TENDYN_INVALID_MODEL;
+}
+
+tendyn_status tendyn_renderer_set_sphere(tendyn_renderer* r, const double* center, double radius) {
+  if (!r || !center) return TENDYN_NULL_ARGUMENT;
+  const Eigen::Vector3d c = Eigen::Map<const Eigen::Vector3d>(center);
+  if (!c.allFinite() || !(radius >= 0.0)) return TENDYN_INVALID_MODEL;
+  r->render.sphere = radius > 0.0;
+  r->render.sphere_center = c;
+  r->render.sphere_radius = radius;
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_renderer_set_texture(tendyn_renderer* r, double amplitude, double period, const double* direction) {
+  if (!r || !direction) return TENDYN_NULL_ARGUMENT;
+  const Eigen::Vector3d e = Eigen::Map<const Eigen::Vector3d>(direction);
+  if (!std::isfinite(amplitude) || !(period > 0.0) || !(std::abs(e.norm() - 1.0) < 1e-9)) return TENDYN_INVALID_MODEL;
+  r->render.texture_amplitude = amplitude;
+  r->render.texture_period = period;
+  r->render.texture_direction = e;
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_renderer_cycle(tendyn_renderer* r, const double* q_motor, double* torque_motor, double* force_ee,
+                                    double* x_god, double* compute_time) {
+  if (!r || !q_motor || !torque_motor) return TENDYN_NULL_ARGUMENT;
+  const int n = r->model.transmission.n;
+  const tendyn::Status s = tendyn::render_cycle(r->render, r->render_data, r->model, r->data, CVecMap(q_motor, n));
+  if (!tendyn::is_error(s)) Eigen::Map<Eigen::VectorXd>(torque_motor, n) = r->data.torque_motor;
+  if (force_ee) std::memcpy(force_ee, r->render_data.force.data(), 3 * sizeof(double));
+  if (x_god) std::memcpy(x_god, r->render_data.x_god.data(), 3 * sizeof(double));
+  if (compute_time) *compute_time = r->render_data.compute_time;
   return to_c(s);
 }
 

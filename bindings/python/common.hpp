@@ -26,5 +26,6 @@ void expose_losses(nb::module_& m);
 void expose_rigid_body(nb::module_& m);
 void expose_sim(nb::module_& m);
 void expose_tendon_bench(nb::module_& m);
+void expose_compensator(nb::module_& m);
 
 }  // namespace tendyn::py

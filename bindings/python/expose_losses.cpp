@@ -40,12 +40,12 @@ void expose_losses(nb::module_& m) {
         [](const M& mo, D& d, VecRef tj, VecRef qd) {
           return check(motor_torque_feedforward(mo, d, tj, qd), "motor_torque_feedforward");
         },
-        nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"), nb::arg("qdot"));
+        nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"), nb::arg("qd"));
   m.def("joint_torque_forward",
         [](const M& mo, D& d, VecRef tm, VecRef qd) {
           return check(joint_torque_forward(mo, d, tm, qd), "joint_torque_forward");
         },
-        nb::arg("model"), nb::arg("data"), nb::arg("torque_motor"), nb::arg("qdot"));
+        nb::arg("model"), nb::arg("data"), nb::arg("torque_motor"), nb::arg("qd"));
 }
 
 }  // namespace tendyn::py

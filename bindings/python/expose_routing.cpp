@@ -131,9 +131,9 @@ void expose_routing(nb::module_& m) {
   nb::class_<D>(m, "TransmissionData", "Preallocated workspace and outputs of the transmission calls.")
       .def(nb::init<const M&>(), nb::arg("model"))
       .def_ro("q", &D::q)
-      .def_ro("qdot", &D::qdot)
+      .def_ro("qd", &D::qd)
       .def_ro("q_motor", &D::q_motor)
-      .def_ro("qdot_motor", &D::qdot_motor)
+      .def_ro("qd_motor", &D::qd_motor)
       .def_ro("S", &D::S)
       .def_ro("Sdot", &D::Sdot)
       .def_ro("tension", &D::tension)
@@ -151,8 +151,8 @@ void expose_routing(nb::module_& m) {
         nb::arg("model"), nb::arg("data"), nb::arg("q"));
   m.def("branch_displacements", &branch_displacements, nb::arg("model"), nb::arg("data"));
   m.def("velocities_from_joint",
-        [](const M& mo, D& d, VecRef qdot) { return check(velocities_from_joint(mo, d, qdot), "velocities_from_joint"); },
-        nb::arg("model"), nb::arg("data"), nb::arg("qdot"));
+        [](const M& mo, D& d, VecRef qd) { return check(velocities_from_joint(mo, d, qd), "velocities_from_joint"); },
+        nb::arg("model"), nb::arg("data"), nb::arg("qd"));
   m.def("motor_torque_lossless",
         [](const M& mo, D& d, VecRef tj) { return check(motor_torque_lossless(mo, d, tj), "motor_torque_lossless"); },
         nb::arg("model"), nb::arg("data"), nb::arg("torque_joint"));

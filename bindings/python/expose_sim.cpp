@@ -71,10 +71,10 @@ void expose_sim(nb::module_& m) {
       .def("reset", &D::reset, nb::arg("q0"), nb::arg("seed"))
       .def_ro("time", &D::time)
       .def_ro("step_count", &D::step_count)
-      .def_ro("qa", &D::qa)
-      .def_ro("va", &D::va)
-      .def_ro("qm", &D::qm)
-      .def_ro("vm", &D::vm)
+      .def_ro("q", &D::q)
+      .def_ro("qd", &D::qd)
+      .def_ro("q_motor", &D::q_motor)
+      .def_ro("qd_motor", &D::qd_motor)
       .def_ro("q_motor_meas", &D::q_motor_meas)
       .def_ro("torque_motor_meas", &D::torque_motor_meas)
       .def_ro("torque_motor_cmd", &D::torque_motor_cmd)
@@ -87,9 +87,9 @@ void expose_sim(nb::module_& m) {
       .def_ro("work_external", &D::work_external)
       .def_ro("dissipated", &D::dissipated)
       .def("set_velocity",
-           [](D& d, VecRef va, VecRef vm) { d.va = va; d.vm = vm; d.vm_prev = vm; },
-           nb::arg("va"), nb::arg("vm"))
-      .def("set_motor_position", [](D& d, VecRef qm) { d.qm = qm; }, nb::arg("qm"));
+           [](D& d, VecRef qd, VecRef qd_motor) { d.qd = qd; d.qd_motor = qd_motor; d.qd_motor_prev = qd_motor; },
+           nb::arg("qd"), nb::arg("qd_motor"))
+      .def("set_motor_position", [](D& d, VecRef q_motor) { d.q_motor = q_motor; }, nb::arg("q_motor"));
 
   m.def("step",
         [](const M& mo, D& d, VecRef ref_q, VecRef ref_v, VecRef ff, VecRef ext) {

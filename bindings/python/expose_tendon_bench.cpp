@@ -133,6 +133,114 @@ void expose_tendon_bench(nb::module_& m) {
         nb::arg("tension_a"), nb::arg("tension_b"),
         "Run u (one command [N] per step) and write the end-of-step outputs into the preallocated float64 "
         "arrays (same length as u).");
+
+  // ---- controller in the loop (mirrors BenchControllerModel / BenchControllerData / run_closed_loop) ----
+  using CM = BenchControllerModel;
+  using CD = BenchControllerData;
+  using Mat = nb::ndarray<const double, nb::ndim<2>, nb::device::cpu>;
+  nb::class_<CM>(m, "BenchControllerModel",
+                 "A discrete-time LTI controller C(z), x+ = A x + B e, u = C x + D e, e = r - F_m (sensed),\n"
+                 "run every `decimation` bench steps (zero-order hold), |u| <= u_limit [N]. Order <= max_order.")
+      .def(nb::init<>())
+      .def_ro_static("max_order", &CM::max_order)
+      .def_prop_ro("order", [](const CM& c) { return c.order; })
+      .def_prop_rw("D", [](const CM& c) { return c.D; },
+                   [](CM& c, double v) {
+                     if (!std::isfinite(v)) throw nb::value_error("BenchControllerModel.D must be finite");
+                     c.D = v;
+                   }, "[-] feed-through")
+      .def_prop_rw("decimation", [](const CM& c) { return c.decimation; },
+                   [](CM& c, int v) {
+                     if (v < 1) throw nb::value_error("BenchControllerModel.decimation must be >= 1");
+                     c.decimation = v;
+                   }, "bench steps per control period")
+      .def_prop_rw("u_limit", [](const CM& c) { return c.u_limit; },
+                   [](CM& c, double v) {
+                     if (!(v > 0.0)) throw nb::value_error("BenchControllerModel.u_limit must be > 0 [N]");
+                     c.u_limit = v;
+                   }, "[N] command limit (inf = none)")
+      .def("set_state_space",
+           [](CM& c, Mat A, nb::ndarray<const double, nb::ndim<1>, nb::device::cpu> B,
+              nb::ndarray<const double, nb::ndim<1>, nb::device::cpu> C, double D) {
+             const std::size_t n = B.shape(0);
+             if (n > static_cast<std::size_t>(CM::max_order))
+               throw nb::value_error(("BenchControllerModel: order " + std::to_string(n) + " > max_order " +
+                                      std::to_string(CM::max_order)).c_str());
+             if (A.shape(0) != n || A.shape(1) != n || C.shape(0) != n)
+               throw nb::value_error("BenchControllerModel.set_state_space: A must be n x n, B and C of length n");
+             CM t = c;
+             t.order = static_cast<int>(n);
+             t.D = D;
+             for (std::size_t i = 0; i < n; ++i) {
+               t.B[i] = B(i);
+               t.C[i] = C(i);
+               for (std::size_t j = 0; j < n; ++j) t.A[i * CM::max_order + j] = A(i, j);
+             }
+             if (is_error(t.validate()))
+               throw nb::value_error("BenchControllerModel.set_state_space: entries must be finite");
+             c = t;
+           },
+           nb::arg("A"), nb::arg("B"), nb::arg("C"), nb::arg("D"),
+           "Set the realisation (A n x n, B n, C n, D scalar); n = 0 for a pure gain.")
+      .def("state_space",
+           [](const CM& c) {
+             nb::list A;
+             for (int i = 0; i < c.order; ++i) {
+               nb::list row;
+               for (int j = 0; j < c.order; ++j) row.append(c.A[i * CM::max_order + j]);
+               A.append(row);
+             }
+             nb::list B, C;
+             for (int i = 0; i < c.order; ++i) {
+               B.append(c.B[i]);
+               C.append(c.C[i]);
+             }
+             return nb::make_tuple(A, B, C, c.D);
+           },
+           "(A, B, C, D) as nested lists.")
+      .def("validate", &CM::validate);
+
+  nb::class_<CD>(m, "BenchControllerData", "State of a BenchControllerModel (controller state, held command).")
+      .def(nb::init<const CM&>(), nb::arg("model"))
+      .def_prop_ro("x", [](const CD& cd) {
+        nb::list out;
+        for (int i = 0; i < CM::max_order; ++i) out.append(cd.x[i]);
+        return out;
+      })
+      .def_ro("u", &CD::u)
+      .def_ro("error", &CD::error)
+      .def_ro("phase", &CD::phase)
+      .def_ro("saturated", &CD::saturated);
+
+  m.def("reset",
+        [](const CM& c, CD& cd) { return check(reset(c, cd), "reset"); }, nb::arg("controller"),
+        nb::arg("controller_data"));
+  m.def("controller_update",
+        [](const CM& c, CD& cd, double e) { return check(controller_update(c, cd, e), "controller_update"); },
+        nb::arg("controller"), nb::arg("controller_data"), nb::arg("error"));
+  m.def("step_closed_loop",
+        [](const M& mo, D& d, const CM& c, CD& cd, double r) {
+          return check(step_closed_loop(mo, d, c, cd, r), "step_closed_loop");
+        },
+        nb::arg("model"), nb::arg("data"), nb::arg("controller"), nb::arg("controller_data"), nb::arg("reference"));
+  m.def("run_closed_loop",
+        [](const M& mo, D& d, const CM& c, CD& cd, ConstArr r, Arr force_measured, Arr u_cmd, Arr force_true) {
+          const std::size_t n = r.shape(0);
+          check_len(force_measured, n, "force_measured");
+          check_len(u_cmd, n, "u_cmd");
+          check_len(force_true, n, "force_true");
+          Status s;
+          {
+            nb::gil_scoped_release release;
+            s = run_closed_loop(mo, d, c, cd, r.data(), static_cast<std::int64_t>(n), force_measured.data(),
+                                u_cmd.data(), force_true.data());
+          }
+          return check(s, "run_closed_loop");
+        },
+        nb::arg("model"), nb::arg("data"), nb::arg("controller"), nb::arg("controller_data"), nb::arg("reference"),
+        nb::arg("force_measured"), nb::arg("u_cmd"), nb::arg("force_true"),
+        "Run the reference r [N] (one value per bench step) in closed loop; write F_m (sensed), the command u and "
+        "the true F_m into the preallocated float64 arrays (length of r).");
 }
 
 }  // namespace tendyn::py

@@ -24,9 +24,9 @@ int main(int argc, char** argv) {
   if (tendyn_transmission_size(t) != n) { fprintf(stderr, "expected %d transmissions\n", n); return 1; }
 
   const double torque_joint[n] = {2.0, 0.0, 0.0, 1.0}; /* N·m wanted */
-  const double qdot[n] = {0.5, 0.0, 0.0, 0.2};         /* rad/s now */
+  const double qd[n] = {0.5, 0.0, 0.0, 0.2};         /* rad/s now */
   double torque_motor[n];
-  s = tendyn_motor_torque_feedforward(t, torque_joint, qdot, torque_motor);
+  s = tendyn_motor_torque_feedforward(t, torque_joint, qd, torque_motor);
   if (s < 0) { fprintf(stderr, "feedforward: %s\n", tendyn_status_message(s)); return 1; }
   printf("torque_motor");
   for (int i = 0; i < n; ++i) printf(" %.17g", torque_motor[i]);

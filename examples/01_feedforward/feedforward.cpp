@@ -21,9 +21,9 @@ int main(int argc, char** argv) {
   tendyn::TransmissionData data(model);  // all allocation happens here
 
   const Eigen::Vector4d torque_joint(2.0, 0.0, 0.0, 1.0);  // N·m wanted
-  const Eigen::Vector4d qdot(0.5, 0.0, 0.0, 0.2);          // rad/s now
+  const Eigen::Vector4d qd(0.5, 0.0, 0.0, 0.2);          // rad/s now
   if (model.n != 4) { std::fprintf(stderr, "expected 4 transmissions\n"); return 1; }
-  const tendyn::Status s = tendyn::motor_torque_feedforward(model, data, torque_joint, qdot);
+  const tendyn::Status s = tendyn::motor_torque_feedforward(model, data, torque_joint, qd);
   if (tendyn::is_error(s)) { std::fprintf(stderr, "%s\n", tendyn::status_message(s)); return 1; }
   std::printf("torque_motor");
   for (int i = 0; i < model.n; ++i) std::printf(" %.17g", data.torque_motor(i));

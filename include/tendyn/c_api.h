@@ -67,10 +67,67 @@ TENDYN_API tendyn_status tendyn_motor_from_joint(tendyn_transmission* t, const d
 
 /* Feedforward: joint torques wanted + joint velocity -> motor torques to command (with losses). */
 TENDYN_API tendyn_status tendyn_motor_torque_feedforward(tendyn_transmission* t, const double* torque_joint,
-                                                         const double* qdot, double* torque_motor);
+                                                         const double* qd, double* torque_motor);
 /* Forward: motor torques + joint velocity -> joint torques delivered (with losses). */
 TENDYN_API tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, const double* torque_motor,
-                                                     const double* qdot, double* torque_joint);
+                                                     const double* qd, double* torque_joint);
+
+/* ---- compensator and haptic renderer (include/tendyn/compensator.hpp, render.hpp) ----------------------
+ *
+ * A compensator turns motor encoder readings and wanted joint torques (or an end-effector force) into the
+ * motor torques that also cover gravity and the identified transmission losses (S0 §IV-B: feedforward
+ * beta(q) = friction + gravity; C10, C46). Velocity is estimated inside (first-order filtered difference at
+ * the control rate of the file). Load it from a compensator model file exported by Python
+ * (`tendyn.control.Compensator.from_device(dev, friction=...).export(path)`, format:
+ * include/tendyn/compensator_file.hpp). After loading no call allocates, none throws. */
+typedef struct tendyn_compensator tendyn_compensator;
+
+/* Load a compensator model file. expected_device (may be NULL) must equal the file's `device` field.
+ * On failure *out is NULL, the status is TENDYN_INVALID_MODEL and message (if not NULL) names the file,
+ * the line and the field, e.g. "lexos.comp: line 31: mass: 3 values, expected 4 (n)". Allocates. */
+TENDYN_API tendyn_status tendyn_compensator_load(const char* path, const char* expected_device,
+                                                 tendyn_compensator** out, char* message,
+                                                 unsigned long message_size);
+TENDYN_API void tendyn_compensator_destroy(tendyn_compensator* c);
+/* Number of motors = joints (0 for NULL). */
+TENDYN_API int tendyn_compensator_size(const tendyn_compensator* c);
+/* Forget the velocity history: the next cycle starts at rest. */
+TENDYN_API tendyn_status tendyn_compensator_reset(tendyn_compensator* c);
+/* One cycle at the file's control rate: q_motor (n) [rad] encoder readings, torque_joint (n) [N m] joint
+ * torques wanted on top of gravity -> torque_motor (n) [N m] to command. compute_time (may be NULL)
+ * receives the wall time of the cycle [s]; with NULL the cycle reads no clock. TENDYN_SELF_LOCKED is a
+ * usable result. */
+TENDYN_API tendyn_status tendyn_compensator_cycle(tendyn_compensator* c, const double* q_motor,
+                                                  const double* torque_joint, double* torque_motor,
+                                                  double* compute_time);
+/* The same for a wanted end-effector force force_ee (3) [N], base frame: torque_joint = J(q)^T force_ee. */
+TENDYN_API tendyn_status tendyn_compensator_cycle_force(tendyn_compensator* c, const double* q_motor,
+                                                        const double* force_ee, double* torque_motor,
+                                                        double* compute_time);
+/* State of the last cycle; any pointer may be NULL: q, qd (n) joint estimates [rad, rad/s], qd_motor (n)
+ * filtered motor velocity [rad/s], gravity_torque (n) [N m], ee_position (3) [m]. */
+TENDYN_API tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, double* qd,
+                                                  double* qd_motor, double* gravity_torque, double* ee_position);
+
+/* A haptic renderer on a copy of a compensator (S0 eq. 23, corrected: ERRATA):
+ * F_d = (K_st + K_d s)(X_god - X_hat) + F_fr + F_T, god-object proxy against planes and one sphere, torques
+ * through the compensator. Create and shape the scene at setup; then one tendyn_renderer_cycle per period. */
+typedef struct tendyn_renderer tendyn_renderer;
+/* stiffness K_st [N/m], damping K_d [N s/m], surface_friction mu [-] (Coulomb on the proxy). Allocates. */
+TENDYN_API tendyn_status tendyn_renderer_create(const tendyn_compensator* c, double stiffness, double damping,
+                                                double surface_friction, tendyn_renderer** out);
+TENDYN_API void tendyn_renderer_destroy(tendyn_renderer* r);
+/* Free space is normal . x >= offset (normal (3), unit, out of the solid; offset [m]); up to 8 planes. */
+TENDYN_API tendyn_status tendyn_renderer_add_plane(tendyn_renderer* r, const double* normal, double offset);
+/* A solid sphere, center (3) [m], radius [m] (replaces the previous one; radius 0 removes it). */
+TENDYN_API tendyn_status tendyn_renderer_set_sphere(tendyn_renderer* r, const double* center, double radius);
+/* Texture grating F_T = amplitude |F_n| sin(2 pi X_god . direction / period) n (amplitude [-], period [m]). */
+TENDYN_API tendyn_status tendyn_renderer_set_texture(tendyn_renderer* r, double amplitude, double period,
+                                                     const double* direction);
+/* One rendering cycle: q_motor (n) [rad] -> torque_motor (n) [N m]; force_ee (3) [N] (may be NULL) receives
+ * F_d, x_god (3) [m] (may be NULL) the proxy, compute_time (may be NULL) the wall time [s]. */
+TENDYN_API tendyn_status tendyn_renderer_cycle(tendyn_renderer* r, const double* q_motor, double* torque_motor,
+                                               double* force_ee, double* x_god, double* compute_time);
 
 TENDYN_API const char* tendyn_status_message(tendyn_status s);
 

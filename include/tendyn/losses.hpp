@@ -131,16 +131,16 @@ inline double branch_tension_downstream(double y, double sdot, BranchFriction f,
 /// difference, so it passes the tension unchanged (static friction is not compensated, S0 §III).
 ///
 /// @param torque_joint  τ_J [N·m], (n)
-/// @param qdot          joint velocity [rad/s], (n)
-/// Writes data.qdot, qdot_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
+/// @param qd          joint velocity [rad/s], (n)
+/// Writes data.qd, qd_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
 /// self_locked. Returns SelfLocked when a self-locking reducer holds a back-driving load (the
 /// motor is then asked for nothing at that pulley), an error on bad input.
 template <class V1, class V2>
 inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionData& d,
-                                       const V1& torque_joint, const V2& qdot) {
+                                       const V1& torque_joint, const V2& qd) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(torque_joint)) return Status::NonFiniteInput;
-  const Status sv = velocities_from_joint(m, d, qdot);
+  const Status sv = velocities_from_joint(m, d, qd);
   if (is_error(sv)) return sv;
   Status status = Status::Ok;
   for (int i = m.n - 1; i >= 0; --i) {
@@ -148,7 +148,7 @@ inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionD
     for (int k = i + 1; k < m.n; ++k) own -= m.K(k, i) * d.tension(k, i);
     // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`.
     const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
-    const double power = own * qdot(i);
+    const double power = own * qd(i);
     double pulley = own / ratio;  // at rest: held statically, lossless
     d.self_locked(i) = 0;
     if (power > 0.0) {
@@ -185,13 +185,13 @@ inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionD
 /// break-away it passes the drive minus static friction, in the drive's direction.
 ///
 /// @param torque_motor  C_m [N·m], (n)
-/// @param qdot          joint velocity [rad/s], (n)
+/// @param qd          joint velocity [rad/s], (n)
 template <class V1, class V2>
 inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData& d,
-                                   const V1& torque_motor, const V2& qdot) {
+                                   const V1& torque_motor, const V2& qd) {
   if (torque_motor.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(torque_motor)) return Status::NonFiniteInput;
-  const Status sv = velocities_from_joint(m, d, qdot);
+  const Status sv = velocities_from_joint(m, d, qd);
   if (is_error(sv)) return sv;
   Status status = Status::Ok;
   for (int i = 0; i < m.n; ++i) {
@@ -215,7 +215,7 @@ inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData&
   for (int j = 0; j < m.n; ++j) {
     const double pulley = m.driven_radius(j) * d.tension(j, j);
     const double ratio = m.reducer_ratio(j), eta_d = m.reducer_efficiency(j);
-    const double power = pulley * qdot(j);
+    const double power = pulley * qd(j);
     double own = eta_d * ratio * pulley;  // driving, or at rest with motion impending from the motor
     d.self_locked(j) = 0;
     if (power < 0.0) {

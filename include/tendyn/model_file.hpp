@@ -22,6 +22,10 @@
 // the file, the line and the field (`lexos.model: line 9: beta[2,1] = 1.5: must be < 1`). Values are
 // written in the shortest form that reads back to the same double (15 or 17 significant digits), so a
 // saved model reads back bit for bit.
+//
+// A line `section <name> <version>` ends the transmission part: a compensator model file continues with
+// its sections there (include/tendyn/compensator_file.hpp); the transmission reader stops at it, so the
+// transmission of a compensator file loads with tendyn_transmission_load too.
 #pragma once
 
 #include <cstdio>
@@ -96,6 +100,7 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
     std::istringstream ls(line);
     std::string key;
     if (!(ls >> key)) continue;
+    if (header && key == "section") break;  // a compensator file: its sections follow (compensator_file.hpp)
     if (!header) {
       int version = 0;
       if (key != model_file_header || !(ls >> version))

@@ -240,8 +240,8 @@ inline std::string describe(const ValidationIssue& is) {
 
 /// Preallocated workspace and outputs of the transmission calls.
 struct TransmissionData {
-  Eigen::VectorXd q, qdot;            ///< joint position [rad], velocity [rad/s]
-  Eigen::VectorXd q_motor, qdot_motor;///< motor position [rad], velocity [rad/s]
+  Eigen::VectorXd q, qd;            ///< joint position [rad], velocity [rad/s]
+  Eigen::VectorXd q_motor, qd_motor;///< motor position [rad], velocity [rad/s]
   Eigen::MatrixXd S, Sdot;            ///< branch displacement [m] / velocity [m/s], [i, b]
   Eigen::MatrixXd tension;            ///< tension at joint b after branch b [N], [i, b]
   Eigen::VectorXd tension_motor;      ///< tension leaving the motor pulley [N]
@@ -251,8 +251,8 @@ struct TransmissionData {
   Eigen::VectorXi self_locked;        ///< 1 where a self-locking reducer holds the load
 
   explicit TransmissionData(const TransmissionModel& m)
-      : q(Eigen::VectorXd::Zero(m.n)), qdot(Eigen::VectorXd::Zero(m.n)),
-        q_motor(Eigen::VectorXd::Zero(m.n)), qdot_motor(Eigen::VectorXd::Zero(m.n)),
+      : q(Eigen::VectorXd::Zero(m.n)), qd(Eigen::VectorXd::Zero(m.n)),
+        q_motor(Eigen::VectorXd::Zero(m.n)), qd_motor(Eigen::VectorXd::Zero(m.n)),
         S(Eigen::MatrixXd::Zero(m.n, m.n)), Sdot(Eigen::MatrixXd::Zero(m.n, m.n)),
         tension(Eigen::MatrixXd::Zero(m.n, m.n)), tension_motor(Eigen::VectorXd::Zero(m.n)),
         torque_motor(Eigen::VectorXd::Zero(m.n)), torque_joint(Eigen::VectorXd::Zero(m.n)),
@@ -381,18 +381,23 @@ inline void branch_displacements(const TransmissionModel& m, TransmissionData& d
 }
 
 /// Joint velocities → motor and branch velocities (same linear maps as positions).
-/// Writes data.qdot, data.qdot_motor, data.Sdot.
+/// Writes data.qd, data.qd_motor, data.Sdot.
 template <class VecIn>
-inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData& d, const VecIn& qdot) {
-  if (qdot.size() != m.n) return Status::SizeMismatch;
-  if (!all_finite(qdot)) return Status::NonFiniteInput;
-  for (int i = 0; i < m.n; ++i) d.qdot(i) = qdot(i);
+inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
+  if (qd.size() != m.n) return Status::SizeMismatch;
+  if (!all_finite(qd)) return Status::NonFiniteInput;
+  for (int i = 0; i < m.n; ++i) d.qd(i) = qd(i);
   for (int i = 0; i < m.n; ++i) {
     double s = 0.0;
-    for (int j = 0; j <= i; ++j) s += m.K(i, j) * qdot(j);
-    d.qdot_motor(i) = s / m.motor_radius(i);
-    d.Sdot(i, 0) = m.motor_radius(i) * d.qdot_motor(i);
-    for (int b = 1; b <= i; ++b) d.Sdot(i, b) = d.Sdot(i, b - 1) - m.K(i, b - 1) * qdot(b - 1);
+    for (int j = 0; j <= i; ++j) s += m.K(i, j) * qd(j);
+    d.qd_motor(i) = s / m.motor_radius(i);
+    // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
+    // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
+    for (int b = 0; b <= i; ++b) {
+      double sb = 0.0;
+      for (int l = b; l <= i; ++l) sb += m.K(i, l) * qd(l);
+      d.Sdot(i, b) = sb;
+    }
   }
   return Status::Ok;
 }

@@ -132,8 +132,8 @@ struct SimData {
   RigidBodyData body;
   double time = 0.0;
   long step_count = 0;
-  Eigen::VectorXd qa, va;           ///< active joint position [rad] / velocity [rad/s] (truth)
-  Eigen::VectorXd qm, vm;           ///< motor position / velocity (truth) [rad, rad/s]
+  Eigen::VectorXd q, qd;            ///< active joint position [rad] / velocity [rad/s] (truth)
+  Eigen::VectorXd q_motor, qd_motor; ///< motor position / velocity (truth) [rad, rad/s]
   Eigen::VectorXd q_tree, v_tree;
   Eigen::MatrixXd ML, M, Mt, AGt, W;  // Mt: M + hD, then its Cholesky factor; AGt holds Y = L⁻¹ Gᵀ
   Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
@@ -142,7 +142,7 @@ struct SimData {
   Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
   Eigen::MatrixXd tension;          ///< cable tension estimate at joint b after branch b [N]
   Eigen::VectorXd tension_motor;    ///< tension leaving each motor pulley [N]
-  Eigen::VectorXd vm_prev;          ///< motor velocity at the previous step (rotor inertia share)
+  Eigen::VectorXd qd_motor_prev;    ///< motor velocity at the previous step (rotor inertia share)
   Rng rng;
   bool first_control = true;
   // diagnostics
@@ -153,7 +153,7 @@ struct SimData {
 
   explicit SimData(const SimModel& m);
   /// Set the joint state (velocities zero) and reset sensors, controller, diagnostics. Motor positions
-  /// start at zero: for capstan drives set qm (e.g. N q0 for relaxed springs) after the reset.
+  /// start at zero: for capstan drives set q_motor (e.g. N q0 for relaxed springs) after the reset.
   void reset(const Eigen::VectorXd& q0, std::uint64_t seed);
 };
 
@@ -249,8 +249,8 @@ inline Status SimModel::finalize() {
 
 inline SimData::SimData(const SimModel& m)
     : body(m.body),
-      qa(Eigen::VectorXd::Zero(m.na)), va(Eigen::VectorXd::Zero(m.na)),
-      qm(Eigen::VectorXd::Zero(m.na)), vm(Eigen::VectorXd::Zero(m.na)),
+      q(Eigen::VectorXd::Zero(m.na)), qd(Eigen::VectorXd::Zero(m.na)),
+      q_motor(Eigen::VectorXd::Zero(m.na)), qd_motor(Eigen::VectorXd::Zero(m.na)),
       q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
       ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), AGt(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
@@ -266,7 +266,7 @@ inline SimData::SimData(const SimModel& m)
       v_motor_est(Eigen::VectorXd::Zero(m.na)), qm_meas_prev(Eigen::VectorXd::Zero(m.na)),
       tmp_na(Eigen::VectorXd::Zero(m.na)),
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
-      vm_prev(Eigen::VectorXd::Zero(m.na)) {}
+      qd_motor_prev(Eigen::VectorXd::Zero(m.na)) {}
 
 /// Cholesky factor of a small SPD matrix in place (lower triangle; plain loops, no allocation).
 /// Returns false if the matrix is not positive definite.
@@ -323,8 +323,8 @@ inline void cholesky_solve_in_place(const Eigen::MatrixXd& factor, Mat& B) {
 /// Motor position from the state (slaved for tendon drives).
 inline void motor_state(const SimModel& m, SimData& d) {
   if (m.drive == DriveKind::Tendon) {
-    d.qm.noalias() = m.Gm.lazyProduct(d.qa);
-    d.vm.noalias() = m.Gm.lazyProduct(d.va);
+    d.q_motor.noalias() = m.Gm.lazyProduct(d.q);
+    d.qd_motor.noalias() = m.Gm.lazyProduct(d.qd);
   }
 }
 
@@ -337,7 +337,7 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
   for (int i = 0; i < m.na; ++i) {  // quantised motor encoders
     const double counts = m.encoder_counts(i);
     const double qstep = counts > 0.0 ? 6.283185307179586 / counts : 0.0;
-    d.q_motor_meas(i) = qstep > 0.0 ? qstep * std::floor(d.qm(i) / qstep + 0.5) : d.qm(i);
+    d.q_motor_meas(i) = qstep > 0.0 ? qstep * std::floor(d.q_motor(i) / qstep + 0.5) : d.q_motor(i);
   }
   d.q_est.noalias() = m.joint_from_motor.lazyProduct(d.q_motor_meas);
   if (d.first_control) {
@@ -390,7 +390,7 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
     switch (static_cast<SiteKind>(m.site_kind(k))) {
       case SiteKind::Branch: {
         double sdot = 0.0;
-        for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.va(j);
+        for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
         const BranchFriction f = branch_friction(m.tendon, i, b, sdot);
         const double up = b == 0 ? d.tension_motor(i) : d.tension(i, b - 1);
         const double drive = std::max(std::abs(up), std::abs(d.tension(i, b)));
@@ -423,12 +423,12 @@ inline void update_tensions(const SimModel& m, SimData& d) {
   const double h = m.dt;
   int k = 0;
   for (int i = 0; i < m.na; ++i) {
-    const double accel = (d.vm(i) - d.vm_prev(i)) / h;
+    const double accel = (d.qd_motor(i) - d.qd_motor_prev(i)) / h;
     double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / m.tendon.motor_radius(i);
     d.tension_motor(i) = t;
     for (int b = 0; b <= i; ++b, ++k) {
       double sdot = 0.0;
-      for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.va(j);
+      for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
       t -= -d.p(k) / h + m.tendon.nu(i, b) * sdot;
       d.tension(i, b) = t;
     }
@@ -474,9 +474,9 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
 
   // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
-  d.q_tree.noalias() = m.L.lazyProduct(d.qa);
+  d.q_tree.noalias() = m.L.lazyProduct(d.q);
   d.q_tree += m.c;
-  d.v_tree.noalias() = m.L.lazyProduct(d.va);
+  d.v_tree.noalias() = m.L.lazyProduct(d.qd);
   pinocchio::crba(m.body.pin, d.body.pin, d.q_tree);
   d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
   pinocchio::nonLinearEffects(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
@@ -495,14 +495,14 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
     d.F.head(na).noalias() += m.Gm.transpose().lazyProduct(d.torque_motor);  // Kᵀ R_m⁻¹ C_m
   } else {
     for (int i = 0; i < na; ++i) {
-      const double spring = m.stiffness_motor(i) * (d.qm(i) - m.ratio(i) * d.qa(i));
+      const double spring = m.stiffness_motor(i) * (d.q_motor(i) - m.ratio(i) * d.q(i));
       d.F(i) += m.ratio(i) * spring;
       d.F(na + i) = d.torque_motor(i) - spring;
     }
   }
   for (int i = 0; i < na; ++i) {
-    d.v(i) = d.va(i);
-    if (m.drive == DriveKind::Elastic) d.v(na + i) = d.vm(i);
+    d.v(i) = d.qd(i);
+    if (m.drive == DriveKind::Elastic) d.v(na + i) = d.qd_motor(i);
   }
 
   // (M + hD) v⁺ = M v + h F + Gᵀ p
@@ -530,19 +530,19 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   // viscous dissipation and work done by the motors / external torques over the step
   d.Dv.noalias() = m.D.lazyProduct(d.vfree);
   d.dissipated += h * d.vfree.dot(d.Dv);
-  d.vm_prev = d.vm;
+  d.qd_motor_prev = d.qd_motor;
   for (int i = 0; i < na; ++i) {
-    d.va(i) = d.vfree(i);
-    d.qa(i) += h * d.va(i);
-    d.work_external += h * (torque_ext(i) - m.offset_joint(i)) * d.va(i);
+    d.qd(i) = d.vfree(i);
+    d.q(i) += h * d.qd(i);
+    d.work_external += h * (torque_ext(i) - m.offset_joint(i)) * d.qd(i);
     if (m.drive == DriveKind::Elastic) {
-      d.vm(i) = d.vfree(na + i);
-      d.qm(i) += h * d.vm(i);
+      d.qd_motor(i) = d.vfree(na + i);
+      d.q_motor(i) += h * d.qd_motor(i);
     }
   }
   motor_state(m, d);
-  if (!all_finite(d.va) || !all_finite(d.vm) || !all_finite(d.qa)) return Status::Diverged;
-  for (int i = 0; i < na; ++i) d.work_motor += h * d.torque_motor(i) * d.vm(i);
+  if (!all_finite(d.qd) || !all_finite(d.qd_motor) || !all_finite(d.q)) return Status::Diverged;
+  for (int i = 0; i < na; ++i) d.work_motor += h * d.torque_motor(i) * d.qd_motor(i);
   update_tensions(m, d);
   d.time += h;
   ++d.step_count;
@@ -551,15 +551,15 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
 
 /// Mechanical energy [J]: kinetic (links + rotors) + gravity + capstan springs.
 inline double mechanical_energy(const SimModel& m, SimData& d) {
-  d.q_tree.noalias() = m.L * d.qa;
+  d.q_tree.noalias() = m.L * d.q;
   d.q_tree += m.c;
-  d.v_tree.noalias() = m.L * d.va;
+  d.v_tree.noalias() = m.L * d.qd;
   double e = pinocchio::computeKineticEnergy(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
   e += pinocchio::computePotentialEnergy(m.body.pin, d.body.pin, d.q_tree);
   for (int i = 0; i < m.na; ++i) {
-    e += 0.5 * m.rotor_inertia(i) * d.vm(i) * d.vm(i);
+    e += 0.5 * m.rotor_inertia(i) * d.qd_motor(i) * d.qd_motor(i);
     if (m.drive == DriveKind::Elastic) {
-      const double s = d.qm(i) - m.ratio(i) * d.qa(i);
+      const double s = d.q_motor(i) - m.ratio(i) * d.q(i);
       e += 0.5 * m.stiffness_motor(i) * s * s;
     }
   }
@@ -567,11 +567,11 @@ inline double mechanical_energy(const SimModel& m, SimData& d) {
 }
 
 inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
-  qa = q0;
-  va.setZero();
-  vm.setZero();
-  vm_prev.setZero();
-  qm.setZero();
+  q = q0;
+  qd.setZero();
+  qd_motor.setZero();
+  qd_motor_prev.setZero();
+  q_motor.setZero();
   time = 0.0;
   step_count = 0;
   p.setZero();
@@ -619,10 +619,10 @@ inline Status run(const SimModel& m, SimData& d, const Mat& ref_q, const Mat& re
     if (logged) {
       motor_state(m, d);
       log.time(row) = d.time;
-      log.q_joint.row(row) = d.qa.transpose();
-      log.qd_joint.row(row) = d.va.transpose();
-      log.q_motor.row(row) = d.qm.transpose();
-      log.qd_motor.row(row) = d.vm.transpose();
+      log.q_joint.row(row) = d.q.transpose();
+      log.qd_joint.row(row) = d.qd.transpose();
+      log.q_motor.row(row) = d.q_motor.transpose();
+      log.qd_motor.row(row) = d.qd_motor.transpose();
     }
     const Status st = step(m, d, ref_q.row(s).transpose(), ref_v.row(s).transpose(),
                            ff.row(s).transpose(), torque_ext.row(s).transpose());

@@ -368,4 +368,119 @@ inline Status run(const TendonBenchModel& m, TendonBenchData& d, const double* u
   return Status::Ok;
 }
 
+
+// ---- discrete-time controller in the bench loop (S1 §4: proportional, C = L/P̂) ---------------------
+//
+// Any proper C(z) of order ≤ BenchControllerModel::max_order as a state-space realisation
+//   x[j+1] = A x[j] + B e[j],   u[j] = C x[j] + D e[j],   e[j] = r[j] − F_m,measured[j]
+// (unity negative feedback on the SENSED tendon force, noise included). It runs every `decimation`
+// bench steps (control rate = 1/(decimation · dt)); u is held in between (zero-order hold). F_m is the
+// sensor output at the end of the previous bench step, i.e. sampled at the control instant; r is the
+// reference of the step that starts the control period. The command is limited to ±u_limit [N]
+// (amplifier saturation, inf = none). Fixed storage: no allocation, no exception.
+
+/// A discrete-time LTI controller C(z) in state-space form (fixed storage, row-major A).
+struct BenchControllerModel {
+  static constexpr int max_order = 16;
+  int order = 0;                      ///< number of states n (0 = static gain D)
+  double A[max_order * max_order] = {};  ///< [-] n × n, row-major (A[i*max_order + j])
+  double B[max_order] = {};           ///< [1/N·state] n
+  double C[max_order] = {};           ///< [N/state] n
+  double D = 0.0;                     ///< [-] feed-through (N of command per N of force error)
+  int decimation = 1;                 ///< bench steps per control period (≥ 1)
+  double u_limit = std::numeric_limits<double>::infinity();  ///< [N] |u| ≤ u_limit (> 0)
+
+  /// InvalidModel if the order or decimation is out of range, a matrix entry is non-finite or
+  /// u_limit ≤ 0 / NaN. No allocation.
+  Status validate() const {
+    if (order < 0 || order > max_order || decimation < 1) return Status::InvalidModel;
+    if (!std::isfinite(D) || !(u_limit > 0.0)) return Status::InvalidModel;
+    for (int i = 0; i < order; ++i) {
+      if (!std::isfinite(B[i]) || !std::isfinite(C[i])) return Status::InvalidModel;
+      for (int j = 0; j < order; ++j)
+        if (!std::isfinite(A[i * max_order + j])) return Status::InvalidModel;
+    }
+    return Status::Ok;
+  }
+};
+
+/// State of a BenchControllerModel: controller state, held command, last error.
+struct BenchControllerData {
+  double x[BenchControllerModel::max_order] = {};   ///< controller state
+  double x_next[BenchControllerModel::max_order] = {};  ///< scratch of the update
+  double u = 0.0;       ///< [N] command held over the current control period
+  double error = 0.0;   ///< [N] r − F_m,measured at the last control instant
+  int phase = 0;        ///< bench steps since the last control instant (0 = update now)
+  bool saturated = false;  ///< the last update hit ±u_limit
+
+  BenchControllerData() = default;
+  explicit BenchControllerData(const BenchControllerModel&) {}
+};
+
+/// Zero the controller state and the held command.
+inline Status reset(const BenchControllerModel& c, BenchControllerData& cd) {
+  const Status s = c.validate();
+  if (is_error(s)) return s;
+  for (int i = 0; i < BenchControllerModel::max_order; ++i) cd.x[i] = cd.x_next[i] = 0.0;
+  cd.u = cd.error = 0.0;
+  cd.phase = 0;
+  cd.saturated = false;
+  return Status::Ok;
+}
+
+/// One control update with the error e [N]: u = C x + D e (limited), x ← A x + B e. No allocation.
+inline Status controller_update(const BenchControllerModel& c, BenchControllerData& cd, double e) {
+  if (!std::isfinite(e)) return Status::NonFiniteInput;
+  const int n = c.order;
+  double u = c.D * e;
+  for (int i = 0; i < n; ++i) u += c.C[i] * cd.x[i];
+  for (int i = 0; i < n; ++i) {
+    double v = c.B[i] * e;
+    const double* row = c.A + i * BenchControllerModel::max_order;
+    for (int j = 0; j < n; ++j) v += row[j] * cd.x[j];
+    cd.x_next[i] = v;
+  }
+  for (int i = 0; i < n; ++i) cd.x[i] = cd.x_next[i];
+  cd.saturated = std::fabs(u) > c.u_limit;
+  if (cd.saturated) u = u > 0.0 ? c.u_limit : -c.u_limit;
+  if (!std::isfinite(u)) return Status::Diverged;
+  cd.u = u;
+  cd.error = e;
+  return Status::Ok;
+}
+
+/// One bench step in closed loop with reference r [N]: at a control instant the controller reads the
+/// sensed force F_m (with noise) and updates the held command; then the bench steps with it.
+inline Status step_closed_loop(const TendonBenchModel& m, TendonBenchData& d, const BenchControllerModel& c,
+                               BenchControllerData& cd, double r) {
+  if (!std::isfinite(r)) return Status::NonFiniteInput;
+  if (cd.phase == 0) {
+    const Status s = controller_update(c, cd, r - d.force_measured);
+    if (is_error(s)) return s;
+  }
+  cd.phase = (cd.phase + 1) % c.decimation;
+  const Status s = step(m, d, cd.u);
+  if (is_error(s)) return s;
+  if (!std::isfinite(d.x_a) || !std::isfinite(d.x_b) || !std::isfinite(d.x_load)) return Status::Diverged;
+  return Status::Ok;
+}
+
+/// Run a reference sequence r[0..n) in closed loop from the current states; per step, write the sensed
+/// force F_m and the command u applied during the step. Output pointers may be null. No allocation.
+inline Status run_closed_loop(const TendonBenchModel& m, TendonBenchData& d, const BenchControllerModel& c,
+                              BenchControllerData& cd, const double* r, std::int64_t n, double* force_measured,
+                              double* u_cmd, double* force_true) {
+  if (n < 0) return Status::SizeMismatch;
+  const Status v = c.validate();
+  if (is_error(v)) return v;
+  for (std::int64_t i = 0; i < n; ++i) {
+    const Status s = step_closed_loop(m, d, c, cd, r[i]);
+    if (is_error(s)) return s;
+    if (force_measured) force_measured[i] = d.force_measured;
+    if (u_cmd) u_cmd[i] = cd.u;
+    if (force_true) force_true[i] = d.force_true;
+  }
+  return Status::Ok;
+}
+
 }  // namespace tendyn

@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
     counting::armed = false;
     std::printf("%s: %ld steps, %ld allocations, q = %.4f %.4f %.4f\n",
                 kind == tendyn::DriveKind::Tendon ? "tendon" : "elastic", steps, counting::count,
-                d.qa(0), d.qa(1), d.qa(2));
+                d.q(0), d.q(1), d.q(2));
     if (counting::count != 0) ++failures;
   }
   return failures;

@@ -52,6 +52,44 @@ def test_example_01_model_file_is_exported_from_lexos_toml(tmp_path):
     assert committed.read_text() == fresh.read_text(), "lexos.model is stale: re-export it (see the docstring)"
 
 
+# ---- example 02: compensation cycles on the exported L-EXOS model ------------------------------------------
+
+EX02 = REPO / "examples" / "02_compensation"
+
+
+def _lines(text: str) -> dict:
+    return {ln.split()[0]: np.array([float(x) for x in ln.split()[1:]])
+            for ln in text.splitlines() if ln and not ln.startswith("#")}
+
+
+def test_example_02_same_numbers_in_c_cpp_python():
+    """Example 02 in C, C++ (both built against the installed package) and Python: equal to 1e-12."""
+    exes = [BUILT / "example_02_compensation_c", BUILT / "example_02_compensation_cpp"]
+    if not all(e.exists() for e in exes):
+        if os.environ.get("TENDYN_REQUIRE_EXAMPLES"):
+            pytest.fail(f"example 02 not built in {BUILT} (make test builds it against the installed package)")
+        pytest.skip("C/C++ example 02 not built (run `make test`)")
+    py = _lines(subprocess.run([sys.executable, str(EX02 / "compensation.py")],
+                               capture_output=True, text=True, check=True).stdout)
+    assert set(py) == {"torque_motor", "sum_torque_motor"}
+    for exe in exes:
+        native = _lines(subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout)
+        for key in py:
+            np.testing.assert_allclose(native[key], py[key], rtol=1e-12, atol=1e-12)
+
+
+def test_example_02_model_file_is_exported_from_lexos_toml(tmp_path):
+    """examples/02_compensation/lexos.comp is what Python exports from the bundled lexos.toml today
+    (regenerate: ``python examples/02_compensation/compensation.py --export``)."""
+    from tendyn.control import Compensator
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+
+    fresh = tmp_path / "lexos.comp"
+    Compensator.from_device(load_device(bundled("lexos"))).export(fresh)
+    assert (EX02 / "lexos.comp").read_text() == fresh.read_text(), "lexos.comp is stale: re-export it"
+
+
 def test_example_03_tx40_identification_runs():
     """Example 03 identifies the real TX40 from the shared measured data (skipped only if they are absent)."""
     data = REPO.parent / "shared" / "external-data" / "staubli_tx40"

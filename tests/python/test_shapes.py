@@ -100,7 +100,25 @@ def _results(lexos, bench):
         "bench_frf": bench_frf(bench, amplitudes=(0.6,), omega=omega),
         "statics": statics_demo(lexos, joints=(0, 3), points=5),
         "friction_sweep": sweep,
+        **_ident_results(lexos),
     }
+
+
+def _ident_results(lexos):
+    """The S0 friction results (issue 8), built from small made-up fits (no simulation here)."""
+    from tendyn.ident import FrictionFit, decompose
+    from tendyn.pipelines.s0_friction import StrategyComparison
+
+    v = np.array([2.0, 4.0, 6.0, 8.0, 10.0])
+    fits, cmp = {}, StrategyComparison("L-EXOS", list(v))
+    for t in range(1, 5):
+        for k, s in enumerate(("S1", "S2")):
+            c0, nu = 0.008 * t * (1.1 - 0.1 * k), 6.4e-4 * t
+            pts = np.column_stack([v, c0 + nu * v, np.full(5, 100.0)])
+            cmp.fits[(t, s)] = FrictionFit(t, c0, nu, 1e-4, 1e-5, 1e-3, 10.0, s, "pairs", list(v), 5, pts)
+        cmp.truth[t] = (0.008 * t, 6.4e-4 * t)
+    dec = decompose(lexos, [cmp.truth[t][0] for t in range(1, 5)], [cmp.truth[t][1] for t in range(1, 5)])
+    return {"friction_fit": cmp.fits[(2, "S2")], "s0_comparison": cmp, "loss_decomposition": dec}
 
 
 @pytest.fixture(scope="module")
@@ -243,7 +261,10 @@ ALLOWED = {
     "io": {"io"},
     "sim": {"sim", "device", "io", "results", "transmission", "_core"},
     "analysis": {"analysis", "device", "io", "results", "transmission", "_core"},
-    "pipelines": {"pipelines", "sim", "analysis", "device", "io", "results", "transmission", "_core"},
+    "control": {"control", "device", "io", "results", "transmission", "_core"},
+    "ident": {"ident", "device", "io", "results", "transmission", "_core"},
+    "pipelines": {"pipelines", "sim", "analysis", "control", "ident", "device", "io", "results", "transmission",
+                  "_core"},
     "results": {"results"},
     "transmission": {"transmission", "_core", "device.schema"},
     "capstan": {"capstan"},

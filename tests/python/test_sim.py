@@ -36,7 +36,7 @@ def test_forward_dynamics_matches_pinocchio(lexos, rng):
         d.set_velocity(v, Gm @ v)
         z = np.zeros(4)
         _core.step(m, d, z, z, cm, z)
-        a_sim = (np.array(d.va) - v) / m.dt
+        a_sim = (np.array(d.qd) - v) / m.dt
         M = pin.crba(py, pdata, q)
         M = np.triu(M) + np.triu(M, 1).T
         nle = pin.nonLinearEffects(py, pdata, q, v)

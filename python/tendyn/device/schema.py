@@ -572,7 +572,7 @@ class Drive:
 
     @property
     def viscous_joint(self) -> float:
-        """Viscous friction seen at the joint [N m s/rad] = N^2 * viscous_motor (motor speed N qdot)."""
+        """Viscous friction seen at the joint [N m s/rad] = N^2 * viscous_motor (motor speed N qd)."""
         return self.ratio ** 2 * self.viscous_motor
 
     @property

@@ -404,7 +404,8 @@ def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] |
 
         return [SimRun(log, truth) for log, truth in tb.bench_experiment(
             device, experiment, rate_hz=o["rate"], log_rate_hz=o["log_rate"], seed=o["seed"],
-            amplitude_N=o["torque"], freqs_hz=o.get("freqs"), cycles=o.get("cycles"),
+            amplitude_N=o["torque"], omega=None if o.get("freqs") is None else 2 * math.pi * np.asarray(o["freqs"]),
+            cycles=o.get("cycles"),
             duration_s=o.get("duration"), progress=progress)]
     from tendyn.sim import experiments as ex
 

@@ -185,6 +185,38 @@ def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: f
     return tri + s, dtri + ds
 
 
+def constant_velocity_references(motor_from_joint, transmission: int, speeds, strategy: str, travel: float,
+                                 accel: float, q0, dt: float):
+    """References of the S0 constant-velocity test (used by :func:`constant_velocity` and by
+    ``tendyn plan``): returns (ref_q, ref_qd, space), (n_samples, n) on the grid ``dt`` [s].
+
+    S1 — motor space ("motor"): motor ``transmission`` follows the back-and-forth profile, every other motor
+    is held at its start q_m0 = G q0. S2 — joint space ("joint"): joint ``transmission`` moves at the motor
+    speeds scaled by 1/G[j, j] (the motor speed with the other joints still), every other joint is held at q0.
+    motor_from_joint G (n, n) [-] maps joint to motor positions (R_m⁻¹ K); speeds [rad/s], travel [rad]
+    and accel [rad/s²] are on the motor."""
+    Gm = np.asarray(motor_from_joint, float)
+    na = Gm.shape[0]
+    j = _check_index(transmission, na, "transmission") - 1
+    q0 = np.asarray(q0, float)
+    q_prof, qd_prof = constant_velocity_profile(np.asarray(speeds, float), travel, accel, dt)
+    n = q_prof.size
+    if strategy == "S1":
+        ref_q = np.tile(Gm @ q0, (n, 1))
+        ref_qd = np.zeros((n, na))
+        ref_q[:, j] += q_prof
+        ref_qd[:, j] = qd_prof
+        return ref_q, ref_qd, "motor"
+    if strategy == "S2":
+        scale = 1.0 / Gm[j, j]   # joint j speed for motor speed 1 with the other joints still
+        ref_q = np.tile(q0, (n, 1))
+        ref_qd = np.zeros((n, na))
+        ref_q[:, j] += q_prof * scale
+        ref_qd[:, j] = qd_prof * scale
+        return ref_q, ref_qd, "joint"
+    raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
+
+
 # ---- experiments ---------------------------------------------------------------------------------
 
 def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", travel: float = 20.0,
@@ -205,26 +237,12 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
     device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
-    j = _check_index(transmission, na, "transmission") - 1
+    _check_index(transmission, na, "transmission")
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
-    q_prof, qd_prof = constant_velocity_profile(np.asarray(speeds, float), travel, accel, m.dt)
-    n = q_prof.size
     Gm = np.array(m.tendon.motor_from_joint_position) if m.drive == _core.DriveKind.Tendon else np.diag(m.ratio)
-    if strategy == "S1":
-        m.mode = _core.ControlMode.MotorPID
-        ref_q = np.tile(Gm @ q0, (n, 1))
-        ref_qd = np.zeros((n, na))
-        ref_q[:, j] += q_prof
-        ref_qd[:, j] = qd_prof
-        space = "motor"
-    else:
-        m.mode = _core.ControlMode.JointPID
-        scale = 1.0 / Gm[j, j]   # joint j speed for motor speed 1 with the other joints still
-        ref_q = np.tile(q0, (n, 1))
-        ref_qd = np.zeros((n, na))
-        ref_q[:, j] += q_prof * scale
-        ref_qd[:, j] = qd_prof * scale
-        space = "joint"
+    ref_q, ref_qd, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0, m.dt)
+    n = ref_q.shape[0]
+    m.mode = _core.ControlMode.MotorPID if space == "motor" else _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz, space=space)
     m.velocity_cutoff_hz = 100.0
     ff = np.zeros((n, na))

@@ -34,6 +34,12 @@ from ..results import FrequencyResponse, Result, format_table
 
 __all__ = [
     "BenchRun",
+    "ClosedLoopRun",
+    "Controller",
+    "h1_estimate",
+    "loop_io",
+    "loop_stepped_sine",
+    "simulate_closed_loop",
     "FrequencyResponse",
     "LowSpeedLoop",
     "PeakSearch",
@@ -331,12 +337,12 @@ LOW_SPEED_FREQ_HZ = 0.2
 
 
 def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float, rate_hz: float = 20000.0,
-                     log_rate_hz: float = 1000.0, seed: int = 0, freqs_hz: Sequence[float] | None = None,
+                     log_rate_hz: float = 1000.0, seed: int = 0, omega: Sequence[float] | None = None,
                      cycles: int | None = None, duration_s: float | None = None, progress=None) -> list:
     """One experiment of ``tendyn simulate`` on a bench: a list of (log, truth) pairs.
 
-    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each of
-    ``freqs_hz``, one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``freqs_hz``
+    ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each frequency
+    of ``omega`` [rad/s], one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``omega``
     over ``duration_s`` (then 1 s of zero command); ``"low-speed-loop"``: ``cycles`` cycles at
     :data:`LOW_SPEED_FREQ_HZ`. Logs sample every ``rate_hz / log_rate_hz`` steps (must be whole).
     """
@@ -353,13 +359,14 @@ def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float,
 
     if experiment == "stepped-sine":
         out = []
+        freqs_hz = np.asarray(omega, float) / (2.0 * math.pi)
         for k, f in enumerate(freqs_hz):
             out.append((sine_run(float(f), "stepped_sine"), truth))
             if progress:
                 progress(k + 1, len(freqs_hz))
         return out
     if experiment == "swept-sine":
-        f0, f1 = float(min(freqs_hz)), float(max(freqs_hz))
+        f0, f1 = float(min(omega)) / (2.0 * math.pi), float(max(omega)) / (2.0 * math.pi)
         res = swept_sine(bench, f0_hz=f0, f1_hz=f1, duration_s=duration_s, amplitude_N=amplitude_N,
                          rate_hz=rate_hz, seed=seed)
         opts = {"f0_hz": f0, "f1_hz": f1, "duration_s": duration_s, "amplitude_N": amplitude_N}
@@ -367,3 +374,156 @@ def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float,
     if experiment == "low-speed-loop":
         return [(sine_run(LOW_SPEED_FREQ_HZ, "low_speed_loop"), truth)]
     raise ValueError(f"unknown bench experiment {experiment!r}")
+
+
+# ---- closed loop: a discrete controller inside the C++ bench loop (S1 §4) ------------------------------
+
+@dataclass(frozen=True)
+class Controller:
+    """A discrete-time LTI controller C(z) for the bench loop: x⁺ = A x + B e, u = C x + D e with
+    e = r − F_m (the SENSED tendon force, noise included), updated at ``control_hz`` [Hz] (must divide the
+    bench step rate), command held in between, |u| ≤ ``u_limit`` [N]. Runs in C++
+    (:class:`tendyn._core.BenchControllerModel`, :func:`tendyn._core.run_closed_loop`).
+    """
+
+    A: Any = ()
+    B: Any = ()
+    C: Any = ()
+    D: float = 0.0
+    control_hz: float = 20000.0
+    u_limit: float = math.inf
+    label: str = ""
+
+    @classmethod
+    def gain(cls, K: float, control_hz: float = 20000.0, **kw) -> "Controller":
+        """A proportional controller u = K e."""
+        return cls((), (), (), float(K), control_hz, label=kw.pop("label", f"K = {K:g}"), **kw)
+
+    @classmethod
+    def from_realisation(cls, real: Any, **kw) -> "Controller":
+        """From an object with A, B, C, D, dt (e.g. :class:`tendyn.control.loop_shaping.DiscreteRealisation`)."""
+        return cls(np.asarray(real.A, float), np.asarray(real.B, float), np.asarray(real.C, float), float(real.D),
+                   1.0 / float(real.dt), **kw)
+
+    def core_model(self, rate_hz: float) -> "_core.BenchControllerModel":
+        dec = rate_hz / self.control_hz
+        if abs(dec - round(dec)) > 1e-9 * dec or round(dec) < 1:
+            raise ValueError(f"control_hz ({self.control_hz:g}) must divide the step rate ({rate_hz:g})")
+        cm = _core.BenchControllerModel()
+        A = np.asarray(self.A, float).reshape(len(np.ravel(self.B)), -1) if np.size(self.B) else np.zeros((0, 0))
+        cm.set_state_space(np.ascontiguousarray(A), np.ascontiguousarray(np.ravel(self.B), dtype=float),
+                           np.ascontiguousarray(np.ravel(self.C), dtype=float), float(self.D))
+        cm.decimation = int(round(dec))
+        if math.isfinite(self.u_limit):
+            cm.u_limit = float(self.u_limit)
+        return cm
+
+
+@dataclass
+class ClosedLoopRun:
+    """One closed-loop run, per bench step: ``reference`` r [N], ``u`` command [N], ``force`` sensed F_m [N],
+    ``force_true`` F_m without noise [N], ``time`` [s] (end of each step)."""
+
+    time: np.ndarray
+    reference: np.ndarray
+    u: np.ndarray
+    force: np.ndarray
+    force_true: np.ndarray
+    rate_hz: float
+    seed: int
+
+
+def simulate_closed_loop(bench: TendonBench | CompiledDevice, controller: Controller | None, reference: Any,
+                         rate_hz: float = 20000.0, seed: int = 0, **changes: Any) -> ClosedLoopRun:
+    """Run the reference sequence (one value per step) from rest with ``controller`` in the loop (None =
+    open loop, u = r). ``changes`` override bench fields (e.g. ``noise_force=0.01``)."""
+    b = _bench(bench)
+    if changes:
+        b = b.replace(**changes)
+    r = np.ascontiguousarray(np.asarray(reference, dtype=np.float64).ravel())
+    if not np.all(np.isfinite(r)):
+        raise ValueError("reference must be finite")
+    model = bench_model(b, rate_hz)
+    data = _core.TendonBenchData(model, int(seed))
+    n = r.size
+    time = (np.arange(n) + 1.0) / float(rate_hz)
+    if controller is None:
+        out = [np.empty(n) for _ in range(7)]
+        _core.run(model, data, r, *out)
+        return ClosedLoopRun(time, r, r.copy(), out[0], out[5] - out[6], float(rate_hz), int(seed))
+    cm = controller.core_model(rate_hz)
+    cd = _core.BenchControllerData(cm)
+    fm, u, ft = np.empty(n), np.empty(n), np.empty(n)
+    _core.run_closed_loop(model, data, cm, cd, r, fm, u, ft)
+    return ClosedLoopRun(time, r, u, fm, ft, float(rate_hz), int(seed))
+
+
+def h1_estimate(x: np.ndarray, y: np.ndarray, freq_hz: float, rate_hz: float, cycles_per_segment: int = 2) -> complex:
+    """H1 = S_xy/S_xx at ``freq_hz`` (scipy ``csd``/``welch``, rectangular segments of whole cycles, no
+    overlap): averaged over the segments, so uncorrelated output noise averages out of S_xy."""
+    from scipy import signal
+
+    nper = int(round(cycles_per_segment * rate_hz / freq_hz))
+    nper = min(nper, x.size)
+    kw = dict(fs=rate_hz, window="boxcar", nperseg=nper, noverlap=0, detrend=False, scaling="spectrum")
+    f, pxy = signal.csd(x, y, **kw)
+    _, pxx = signal.welch(x, **kw)
+    k = int(np.argmin(np.abs(f - freq_hz)))
+    return complex(pxy[k] / pxx[k])
+
+
+def loop_stepped_sine(bench: TendonBench | CompiledDevice, controller: Controller | None, *, omega: Sequence[float],
+                      amplitude_N: float, cycles: int = 8, settle_cycles: int = 10, settle_s: float = 0.5,
+                      rate_hz: float = 20000.0, seed: int = 0, estimator: str = "h1", output: str = "force",
+                      **changes: Any) -> FrequencyResponse:
+    """Stepped-sine FRF of F_m/r with ``controller`` in the loop (None: open loop, F_m/F_τ).
+
+    Each frequency starts from rest and settles for max(settle_cycles, ceil(settle_s f)) cycles; the first
+    harmonic over ``cycles`` whole cycles is estimated by ``estimator``: ``"h1"`` (:func:`h1_estimate`, scipy
+    csd/welch) or ``"lockin"`` (single-bin DFT). The half-step offset between the reference (mid-step) and the
+    outputs (end of step) is removed. ``output="u"`` gives the command response u/r instead of F_m/r.
+    """
+    freqs = np.asarray(omega, dtype=float).ravel() / (2.0 * math.pi)
+    if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0) or np.any(freqs >= rate_hz / 4):
+        raise ValueError("omega must be finite, > 0 and < 2π rate_hz/4")
+    if not (math.isfinite(amplitude_N) and amplitude_N > 0):
+        raise ValueError("amplitude_N must be > 0")
+    if estimator not in ("h1", "lockin"):
+        raise ValueError(f"estimator must be 'h1' or 'lockin' (got {estimator!r})")
+    ratios = np.empty(freqs.size, dtype=complex)
+    for i, f in enumerate(freqs):
+        n_settle = max(int(settle_cycles), int(math.ceil(settle_s * f)))
+        n0 = int(round(n_settle / f * rate_hz))
+        n1 = int(round((n_settle + int(cycles)) / f * rate_hz))
+        r = _sine_command(amplitude_N, f, n1, rate_hz)
+        run = simulate_closed_loop(bench, controller, r, rate_hz, int(seed) + i, **changes)
+        y = (run.force if output == "force" else run.u)[n0:n1]
+        x = run.reference[n0:n1]
+        if estimator == "h1":
+            h = h1_estimate(x, y, f, rate_hz)
+        else:
+            kernel = np.exp(-2j * math.pi * f * (np.arange(n0, n1) + 0.5) / rate_hz)
+            h = np.dot(y, kernel) / np.dot(x, kernel)
+        ratios[i] = h * np.exp(1j * math.pi * f / rate_hz)  # outputs sit half a step after the reference sample
+    name = controller.label if controller is not None and controller.label else ("closed loop" if controller else "open loop")
+    return FrequencyResponse(2.0 * math.pi * freqs, ratios, output="F_m" if output == "force" else "u",
+                             input="r" if controller is not None else "F_tau", unit="-", method="stepped_sine",
+                             amplitude=float(amplitude_N), label=f"{name}, {amplitude_N:.2f} N",
+                             meta={"cycles": int(cycles), "rate_hz": float(rate_hz), "seed": int(seed),
+                                   "estimator": estimator, "amplitude_unit": "N",
+                                   "controller": None if controller is None else controller.label})
+
+
+def loop_io(bench: TendonBench | CompiledDevice, controller: Controller | None, *, freq_hz: float, amplitude_N: float,
+            cycles: int = 2, settle_cycles: int = 1, rate_hz: float = 20000.0, seed: int = 0, decimate: int = 20,
+            **changes: Any) -> LowSpeedLoop:
+    """Input/output record r → F_m of a slow sine with ``controller`` in the loop (None: open loop), as a
+    :class:`LowSpeedLoop` (S1 Figs. 10b and 13): ``u`` holds the reference r, ``force`` the sensed F_m and
+    ``position`` the command applied to the amplifier [N] (in closed loop it differs from r)."""
+    n0 = int(round(settle_cycles / freq_hz * rate_hz))
+    n1 = int(round((settle_cycles + cycles) / freq_hz * rate_hz))
+    r = _sine_command(amplitude_N, freq_hz, n1, rate_hz)
+    run = simulate_closed_loop(bench, controller, r, rate_hz, seed, **changes)
+    sl = slice(n0, n1, max(1, int(decimate)))
+    return LowSpeedLoop(run.time[sl], run.reference[sl], run.force[sl], run.u[sl], float(freq_hz), float(amplitude_N),
+                        _bench(bench).name)

@@ -1,0 +1,296 @@
+// tendyn — the compensator model file: a transmission model file plus two versioned sections.
+//
+// Written by Python (`tendyn.control.Compensator.export(path)`, through save_compensator_model below) from
+// a device and its identified friction (FRICTION.json), read by C++ (load_compensator_model) and C
+// (tendyn_compensator_load in c_api.h). Setup time only: these functions allocate and do file I/O.
+//
+// Format: the transmission model file (model_file.hpp, `tendyn-transmission-model 1` and one line per
+// transmission field), then
+//
+//     section chain 1
+//     device L-EXOS                          (the rest of the line: the device name)
+//     n 4
+//     gravity 0 0 -9.81                      [m/s²], base frame
+//     parent -1 0 1 2                        0-based parent joint, −1 = base
+//     placement r00 r01 r02 r10 … r22 px py pz   (12 values per joint: rotation row-major, then origin [m],
+//                                                 of the joint frame in the parent joint frame at q = 0)
+//     axis 0 0 1 …                           (3 per joint, unit, joint frame)
+//     prismatic 0 0 0 0
+//     mass 2 2 1.2 0.8                       [kg]
+//     com 0.05 0 0 …                         (3 per joint) [m], joint frame
+//     ee_joint 3                             0-based joint carrying the end effector
+//     ee_point 0.32 0 0                      [m], in that joint frame
+//     section compensator 1
+//     underestimation 0.9                    k [-] in [0, 1.5]
+//     velocity_band 0.5                      [rad/s], motor side
+//     velocity_cutoff_hz 30                  [Hz]
+//     rate_hz 1000                           [Hz]
+//
+// Every field of both sections is required, once; unknown sections, versions or fields, wrong counts,
+// values that are not numbers (NaN and Inf are refused) and a model that fails validation are errors whose
+// message names the file, the line and the field (`lexos.comp: line 31: mass: 3 values, expected 4`).
+// A caller may name the device it expects: a file for another device is refused, naming `device`.
+#pragma once
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "tendyn/compensator.hpp"
+#include "tendyn/model_file.hpp"
+
+namespace tendyn {
+
+inline constexpr int chain_section_version = 1;
+inline constexpr int compensator_section_version = 1;
+
+/// Text of the compensator model file of `m` (format above).
+inline std::string compensator_model_text(const CompensatorModel& m) {
+  std::string out = transmission_model_text(m.transmission);
+  const ChainModel& c = m.chain;
+  auto line = [&](const char* key, const double* v, int count) {
+    out += key;
+    for (int k = 0; k < count; ++k) out += " " + format_double(v[k]);
+    out += "\n";
+  };
+  out += "section chain " + std::to_string(chain_section_version) + "\n";
+  out += "# kinematics and gravity of the driven chain (include/tendyn/chain.hpp), indices 0-based\n";
+  out += "device " + (m.device.empty() ? std::string("unnamed") : m.device) + "\n";
+  out += "n " + std::to_string(c.n) + "\n";
+  line("gravity", c.gravity.data(), 3);
+  std::vector<double> v;
+  for (int j = 0; j < c.n; ++j) v.push_back(c.parent(j));
+  line("parent", v.data(), c.n);
+  v.clear();
+  for (int j = 0; j < c.n; ++j) {
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) v.push_back(c.rotation[j](r, k));
+    for (int r = 0; r < 3; ++r) v.push_back(c.translation[j](r));
+  }
+  line("placement", v.data(), 12 * c.n);
+  v.clear();
+  for (int j = 0; j < c.n; ++j) v.insert(v.end(), c.axis[j].data(), c.axis[j].data() + 3);
+  line("axis", v.data(), 3 * c.n);
+  v.clear();
+  for (int j = 0; j < c.n; ++j) v.push_back(c.prismatic(j));
+  line("prismatic", v.data(), c.n);
+  line("mass", c.mass.data(), c.n);
+  v.clear();
+  for (int j = 0; j < c.n; ++j) v.insert(v.end(), c.com[j].data(), c.com[j].data() + 3);
+  line("com", v.data(), 3 * c.n);
+  const double ee = c.ee_joint;
+  line("ee_joint", &ee, 1);
+  line("ee_point", c.ee_point.data(), 3);
+  out += "section compensator " + std::to_string(compensator_section_version) + "\n";
+  out += "# settings: k [-], velocity band [rad/s] motor side, filter cut-off [Hz], control rate [Hz]\n";
+  line("underestimation", &m.underestimation, 1);
+  line("velocity_band", &m.velocity_band, 1);
+  line("velocity_cutoff_hz", &m.velocity_cutoff_hz, 1);
+  line("rate_hz", &m.rate_hz, 1);
+  return out;
+}
+
+/// Write the compensator model file atomically (temporary file, then rename).
+inline bool save_compensator_model(const CompensatorModel& m, const std::string& path, std::string* error) {
+  const std::string problem = m.first_issue();
+  if (!problem.empty()) {
+    if (error) *error = path + ": not written: " + problem;
+    return false;
+  }
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    if (!f) {
+      if (error) *error = path + ": cannot open for writing";
+      return false;
+    }
+    f << compensator_model_text(m);
+    if (!f.good()) {
+      if (error) *error = path + ": write failed";
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    if (error) *error = path + ": cannot rename the temporary file";
+    return false;
+  }
+  return true;
+}
+
+/// Parse compensator-file text. `expected_device` (may be empty) must equal the file's `device`.
+inline bool parse_compensator_model(const std::string& text, const std::string& name, const std::string& expected_device,
+                                    CompensatorModel* out, std::string* error) {
+  auto fail = [&](int line, const std::string& what) {
+    if (error) *error = name + (line > 0 ? ": line " + std::to_string(line) : std::string()) + ": " + what;
+    return false;
+  };
+  CompensatorModel m;
+  if (!parse_transmission_model(text, name, &m.transmission, error)) return false;
+
+  static const char* chain_keys[] = {"device", "n", "gravity", "parent", "placement", "axis",
+                                     "prismatic", "mass", "com", "ee_joint", "ee_point"};
+  static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
+  constexpr int n_chain = 11, n_comp = 4;
+  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0};
+  int section = 0;  // 0 transmission part, 1 chain, 2 compensator
+  int section_line[3] = {0, 0, 0};
+  int n = -1;
+  std::istringstream in(text);
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    const auto hash = line.find('#');
+    if (hash != std::string::npos) line.erase(hash);
+    std::istringstream ls(line);
+    std::string key;
+    if (!(ls >> key)) continue;
+    if (key == "section") {
+      std::string sname;
+      int version = 0;
+      if (!(ls >> sname >> version)) return fail(lineno, "section: expected 'section <name> <version>'");
+      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : 0;
+      if (!which) return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator)");
+      const int want = which == 1 ? chain_section_version : compensator_section_version;
+      if (version != want)
+        return fail(lineno, "section " + sname + ": version " + std::to_string(version) +
+                                " is not supported (this build reads " + std::to_string(want) + ")");
+      if (section_line[which]) return fail(lineno, "section " + sname + ": given twice");
+      section = which;
+      section_line[which] = lineno;
+      continue;
+    }
+    if (section == 0) continue;  // the transmission part, parsed above
+    const char* const* keys = section == 1 ? chain_keys : comp_keys;
+    const int count = section == 1 ? n_chain : n_comp;
+    int* seen = section == 1 ? chain_seen : comp_seen;
+    int idx = -1;
+    for (int k = 0; k < count; ++k)
+      if (key == keys[k]) idx = k;
+    if (idx < 0) {
+      std::string known;
+      for (int k = 0; k < count; ++k) known += std::string(k ? ", " : "") + keys[k];
+      return fail(lineno, key + ": unknown field of section " + (section == 1 ? "chain" : "compensator") +
+                              " (known: " + known + ")");
+    }
+    if (seen[idx]) return fail(lineno, key + ": given twice (first on line " + std::to_string(seen[idx]) + ")");
+    seen[idx] = lineno;
+    if (section == 1 && idx == 0) {
+      std::string rest;
+      std::getline(ls, rest);
+      const auto b = rest.find_first_not_of(" \t"), e = rest.find_last_not_of(" \t\r");
+      m.device = b == std::string::npos ? std::string() : rest.substr(b, e - b + 1);
+      if (m.device.empty()) return fail(lineno, "device: missing name");
+      if (!expected_device.empty() && m.device != expected_device)
+        return fail(lineno, "device: the file is for '" + m.device + "', expected '" + expected_device + "'");
+      continue;
+    }
+    std::vector<double> values;
+    std::string tok;
+    while (ls >> tok) {
+      char* end = nullptr;
+      const double v = std::strtod(tok.c_str(), &end);
+      if (end == tok.c_str() || *end != '\0') return fail(lineno, key + ": '" + tok + "' is not a number");
+      if (!std::isfinite(v)) return fail(lineno, key + ": '" + tok + "' is not finite");
+      values.push_back(v);
+    }
+    auto expect = [&](int want, const char* shape) {
+      if (static_cast<int>(values.size()) == want) return true;
+      fail(lineno, key + ": " + std::to_string(values.size()) + " values, expected " + std::to_string(want) + " (" +
+                       shape + ")");
+      return false;
+    };
+    auto integer = [](double v) { return v == std::floor(v) && std::abs(v) < 1e9; };
+    if (section == 2) {
+      if (!expect(1, "one number")) return false;
+      double* dst[] = {&m.underestimation, &m.velocity_band, &m.velocity_cutoff_hz, &m.rate_hz};
+      *dst[idx] = values[0];
+      continue;
+    }
+    if (idx == 1) {
+      if (!expect(1, "one number") ) return false;
+      if (!(values[0] >= 1.0 && integer(values[0]))) return fail(lineno, "n: must be an integer >= 1");
+      n = static_cast<int>(values[0]);
+      m.chain = ChainModel(n);
+      continue;
+    }
+    if (n < 0) return fail(lineno, key + ": 'n' must come before it in section chain");
+    switch (idx) {
+      case 2:
+        if (!expect(3, "x y z")) return false;
+        m.chain.gravity = Eigen::Vector3d(values[0], values[1], values[2]);
+        break;
+      case 3:
+        if (!expect(n, "n")) return false;
+        for (int j = 0; j < n; ++j) {
+          if (!integer(values[j])) return fail(lineno, "parent[" + std::to_string(j) + "]: must be an integer");
+          m.chain.parent(j) = static_cast<int>(values[j]);
+        }
+        break;
+      case 4:
+        if (!expect(12 * n, "12 per joint: rotation row-major, origin")) return false;
+        for (int j = 0; j < n; ++j) {
+          for (int r = 0; r < 3; ++r)
+            for (int k = 0; k < 3; ++k) m.chain.rotation[j](r, k) = values[12 * j + 3 * r + k];
+          for (int r = 0; r < 3; ++r) m.chain.translation[j](r) = values[12 * j + 9 + r];
+        }
+        break;
+      case 5:
+        if (!expect(3 * n, "3 per joint")) return false;
+        for (int j = 0; j < n; ++j) m.chain.axis[j] = Eigen::Vector3d(values[3 * j], values[3 * j + 1], values[3 * j + 2]);
+        break;
+      case 6:
+        if (!expect(n, "n")) return false;
+        for (int j = 0; j < n; ++j) m.chain.prismatic(j) = static_cast<int>(values[j]);
+        break;
+      case 7:
+        if (!expect(n, "n")) return false;
+        for (int j = 0; j < n; ++j) m.chain.mass(j) = values[j];
+        break;
+      case 8:
+        if (!expect(3 * n, "3 per joint")) return false;
+        for (int j = 0; j < n; ++j) m.chain.com[j] = Eigen::Vector3d(values[3 * j], values[3 * j + 1], values[3 * j + 2]);
+        break;
+      case 9:
+        if (!expect(1, "one joint index")) return false;
+        if (!integer(values[0])) return fail(lineno, "ee_joint: must be an integer");
+        m.chain.ee_joint = static_cast<int>(values[0]);
+        break;
+      case 10:
+        if (!expect(3, "x y z")) return false;
+        m.chain.ee_point = Eigen::Vector3d(values[0], values[1], values[2]);
+        break;
+    }
+  }
+  if (!section_line[1]) return fail(0, "section chain: missing (a compensator file needs the chain and its gravity)");
+  if (!section_line[2]) return fail(0, "section compensator: missing (its settings are required)");
+  for (int k = 0; k < n_chain; ++k)
+    if (!chain_seen[k]) return fail(0, std::string("chain.") + chain_keys[k] + ": missing required field");
+  for (int k = 0; k < n_comp; ++k)
+    if (!comp_seen[k]) return fail(0, std::string(comp_keys[k]) + ": missing required field");
+  const std::string problem = m.first_issue();
+  if (!problem.empty()) return fail(0, problem);
+  *out = std::move(m);
+  return true;
+}
+
+/// Read a compensator model file. `expected_device` may be empty (no check). Returns false and sets
+/// `error` (file, line, field, what is wrong) on failure.
+inline bool load_compensator_model(const std::string& path, const std::string& expected_device, CompensatorModel* m,
+                                   std::string* error) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    if (error) *error = path + ": cannot open the compensator model file";
+    return false;
+  }
+  std::stringstream ss;
+  ss << f.rdbuf();
+  const auto slash = path.find_last_of("/\\");
+  return parse_compensator_model(ss.str(), slash == std::string::npos ? path : path.substr(slash + 1),
+                                 expected_device, m, error);
+}
+
+}  // namespace tendyn

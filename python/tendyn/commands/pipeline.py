@@ -1,0 +1,72 @@
+"""`tendyn pipeline NAME [DEVICE] [--report DIR] [--json]`: one paper's workflow end to end.
+
+Pipelines register themselves in :data:`PIPELINES` (name → :class:`Pipeline`) from their own command
+module (``tendyn.commands.pipeline_s1`` registers ``s1``), so that several can be added independently; this
+module owns the one ``pipeline`` subparser and dispatches its ``NAME`` positional to the registry.
+"""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from typing import Callable
+
+from tendyn.errors import UsageError
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """A registered pipeline: ``run(args) -> int`` (parses nothing itself), its default device and help."""
+
+    name: str
+    run: Callable
+    default_device: str
+    help: str = ""
+
+
+PIPELINES: dict[str, Pipeline] = {}
+
+
+def register_pipeline(p: Pipeline) -> None:
+    """Add a pipeline to the registry (idempotent for the same name)."""
+    PIPELINES[p.name] = p
+
+
+def _dispatch(args) -> int:
+    _load_pipeline_modules()
+    p = PIPELINES.get(args.name)
+    if p is None:
+        raise UsageError(f"unknown pipeline {args.name!r} (known: {', '.join(sorted(PIPELINES)) or 'none'})", "name")
+    if args.device is None:
+        args.device = p.default_device
+    return p.run(args)
+
+
+def _load_pipeline_modules() -> None:
+    import importlib
+    import pkgutil
+
+    import tendyn.commands as commands
+
+    for info in pkgutil.iter_modules(commands.__path__):
+        if info.name.startswith("pipeline_"):
+            importlib.import_module(f"tendyn.commands.{info.name}")
+
+
+def register(subparsers) -> None:
+    if "pipeline" in getattr(subparsers, "choices", {}):
+        return
+    _load_pipeline_modules()
+    names = ", ".join(f"{k} ({v.help})" for k, v in sorted(PIPELINES.items()))
+    p = subparsers.add_parser("pipeline", help="run one paper's workflow end to end", epilog=f"pipelines: {names}")
+    p.add_argument("name", metavar="NAME", help=f"pipeline name: {', '.join(sorted(PIPELINES))}")
+    p.add_argument("device", nargs="?", default=None, help="device file or bundled twin [default: the pipeline's]")
+    p.add_argument("--report", default=None, metavar="DIR", help="write figures (PNG) and data (JSON) into DIR")
+    p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    p.add_argument("--quick", action="store_true", help="coarser grids and shorter runs (tests)")
+    p.set_defaults(func=_dispatch)
+
+
+def say(msg: str) -> None:
+    """Progress on stderr."""
+    print(f"[pipeline] {msg} …", file=sys.stderr, flush=True)

@@ -1,0 +1,234 @@
+"""The real-time compensator (``include/tendyn/compensator.hpp``) from a device and its identified friction.
+
+From motor encoder readings and the wanted joint torques (or end-effector force) one cycle computes the motor
+torques that also cover gravity and the transmission losses, direction of power flow included (S0 §IV-B,
+feedforward β(q̄) = friction + gravity; C10, C46):
+
+>>> from tendyn.device import load_device
+>>> from tendyn.devices import bundled
+>>> comp = Compensator.from_device(load_device(bundled("lexos")), underestimation=0.9)
+>>> comp.cycle([0.0, 0.0, 0.0, 0.0]).shape
+(4,)
+
+Every computation runs in the core; this class only builds the model and allocates what a Python user gets
+back. :meth:`Compensator.export` writes the model file a C controller loads with ``tendyn_compensator_load``
+(format: ``include/tendyn/compensator_file.hpp``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from tendyn import _core
+from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.transmission import Transmission, as_vector
+
+__all__ = ["Compensator", "chain_model", "end_effector_point", "transmission_with_friction",
+           "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ"]
+
+DEFAULT_UNDERESTIMATION = 0.9
+"""k [-]: friction compensated with under-estimated coefficients (C46), 10 % below the model."""
+DEFAULT_VELOCITY_BAND = 0.5
+"""v_band [rad/s], motor side: below it the friction feedforward fades to zero (2 % of a slow 25 rad/s move)."""
+DEFAULT_VELOCITY_CUTOFF_HZ = 30.0
+"""First-order velocity filter cut-off [Hz] (encoder quantisation noise at 1 kHz vs. phase lag)."""
+
+
+def end_effector_point(device: Device | CompiledDevice) -> tuple[int, np.ndarray]:
+    """(0-based joint, point [m] in that joint frame) of the end effector: for standard DH the origin of the
+    last DH frame (the handle of L-EXOS, ``a4`` along x4), seen from the last joint frame; otherwise the
+    origin of the last joint frame."""
+    compiled = compile_device(device)
+    kin = compiled.device.kinematics
+    n = len(compiled.joint_frames)
+    if kin.convention == "dh":
+        from tendyn.device.rigid_body import rot_x, rot_z, trans
+
+        js = kin.joints[-1]
+        link = rot_z(js.theta_offset) @ trans(z=js.d) @ trans(x=js.a) @ rot_x(js.alpha)
+        return n - 1, np.array(link[:3, 3], float)
+    return n - 1, np.zeros(3)
+
+
+def chain_model(device: Device | CompiledDevice) -> Any:
+    """The core :class:`tendyn._core.ChainModel` (kinematics + gravity, no Pinocchio) of a serial device,
+    from the same joint frames as its Pinocchio model."""
+    compiled = compile_device(device)
+    frames = compiled.joint_frames
+    c = _core.ChainModel(len(frames))
+    c.gravity = np.asarray(compiled.device.kinematics.gravity, float)
+    c.parent = np.array([f.parent - 1 for f in frames], dtype=np.int32)
+    c.rotation = [np.array(f.placement[:3, :3], float) for f in frames]
+    c.translation = [np.array(f.placement[:3, 3], float) for f in frames]
+    c.axis = [np.asarray(f.axis, float) for f in frames]
+    c.prismatic = np.array([1 if f.prismatic else 0 for f in frames], dtype=np.int32)
+    c.mass = np.array([f.mass for f in frames], float)
+    c.com = [np.asarray(f.com, float) for f in frames]
+    c.ee_joint, c.ee_point = end_effector_point(compiled)
+    problem = c.first_issue()
+    if problem:
+        raise ValueError(f"{compiled.name}: chain model: {problem}")
+    return c
+
+
+def _read_friction(friction) -> Mapping:
+    if isinstance(friction, (str, Path)):
+        path = Path(friction)
+        try:
+            return json.loads(path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{path}: cannot read the friction file: {exc}") from None
+    if not isinstance(friction, Mapping):
+        raise TypeError(f"friction must be a mapping or a path to FRICTION.json (got {type(friction).__name__})")
+    return friction
+
+
+def transmission_with_friction(device: Device | CompiledDevice, friction=None) -> Transmission:
+    """The device's transmission with its branch losses replaced by identified ones.
+
+    Parameters
+    ----------
+    friction : None, mapping or path to FRICTION.json
+        None keeps the device's own losses. Otherwise per-branch arrays (n, n), 0-based
+        ``[transmission, branch]`` as the core fields: ``tau0`` [N], ``nu`` [N·s/m] and optionally ``beta`` [-]
+        (the loss decomposition of S0 eqs. 18–21, corrected: ERRATA), either at the top level or under a
+        ``"branch_losses"`` key. Fields not given keep the device's values.
+
+    Raises
+    ------
+    ValueError
+        A file that cannot be read, a wrong shape or a value the core refuses (naming the field).
+    """
+    compiled = compile_device(device)
+    base = compiled.transmission
+    if base is None:
+        raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
+    if friction is None:
+        return base
+    data = _read_friction(friction)
+    data = data.get("branch_losses", data)
+    arrays = base.to_dict()
+    n = base.n
+    given = [k for k in ("tau0", "nu", "beta") if k in data]
+    if not given:
+        raise ValueError("friction: expected per-branch arrays 'tau0' and/or 'nu' (n, n) [N, N s/m]")
+    for key in given:
+        a = np.asarray(data[key], float)
+        if a.shape != (n, n):
+            raise ValueError(f"friction: {key} must have shape ({n}, {n}) (got {a.shape})")
+        arrays[key] = a
+    losses = {k: arrays[k] for k in arrays if k in ("tau0", "nu", "beta") or k.startswith("bearing_")}
+    return Transmission.from_arrays(arrays["motor_radius"], arrays["K"], arrays["reducer_ratio"],
+                                    arrays["reducer_efficiency"], arrays["pretension"], **losses)
+
+
+class Compensator:
+    """Gravity + transmission-loss compensator on the C++ core (one model, its preallocated data).
+
+    Build it with :meth:`from_device` or :meth:`load`. The model is validated once and is read-only
+    afterwards; for other settings build a new one (:meth:`with_settings`).
+    """
+
+    def __init__(self, model: Any):
+        if not isinstance(model, _core.CompensatorModel):
+            raise TypeError(f"model must be a tendyn._core.CompensatorModel (got {type(model).__name__})")
+        problem = model.first_issue()
+        if problem:
+            raise ValueError(f"invalid compensator model: {problem}")
+        self._model = model
+        self._data = _core.CompensatorData(model)
+
+    # ---- construction ------------------------------------------------------------------------
+    @classmethod
+    def from_device(cls, device: Device | CompiledDevice, friction=None,
+                    underestimation: float = DEFAULT_UNDERESTIMATION,
+                    velocity_band: float = DEFAULT_VELOCITY_BAND,
+                    velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ,
+                    rate_hz: float = 1000.0) -> "Compensator":
+        """Compensator of a serial cable-driven device.
+
+        Parameters
+        ----------
+        friction : None, mapping or path to FRICTION.json
+            identified branch losses (:func:`transmission_with_friction`); None uses the device's own
+        underestimation : k [-] in [0, 1.5], scales the friction part (0: gravity compensation only)
+        velocity_band : v_band [rad/s], motor side; the friction feedforward fades linearly to zero below it
+        velocity_cutoff_hz : first-order velocity-filter cut-off [Hz] (0: raw difference)
+        rate_hz : control rate [Hz]
+        """
+        compiled = compile_device(device)
+        m = _core.CompensatorModel()
+        m.transmission = transmission_with_friction(compiled, friction).model
+        m.chain = chain_model(compiled)
+        m.underestimation = float(underestimation)
+        m.velocity_band = float(velocity_band)
+        m.velocity_cutoff_hz = float(velocity_cutoff_hz)
+        m.rate_hz = float(rate_hz)
+        m.device = compiled.name
+        return cls(m)
+
+    @classmethod
+    def load(cls, path, expected_device: str | None = None) -> "Compensator":
+        """Read a compensator model file (ValueError names the file, line and field)."""
+        return cls(_core.load_compensator_model(str(path), expected_device or ""))
+
+    def with_settings(self, **settings) -> "Compensator":
+        """A new compensator with the same transmission and chain and other settings (underestimation,
+        velocity_band, velocity_cutoff_hz, rate_hz)."""
+        m = _core.CompensatorModel()
+        m.transmission, m.chain, m.device = self._model.transmission, self._model.chain, self._model.device
+        for key in ("underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"):
+            value = settings.pop(key, getattr(self._model, key))
+            setattr(m, key, float(value))
+        if settings:
+            raise TypeError(f"unknown settings {sorted(settings)}")
+        return Compensator(m)
+
+    def export(self, path) -> None:
+        """Write the compensator model file atomically (read by ``tendyn_compensator_load``)."""
+        _core.save_compensator_model(self._model, str(path))
+
+    def text(self) -> str:
+        """The model file's text."""
+        return _core.compensator_model_text(self._model)
+
+    # ---- properties --------------------------------------------------------------------------
+    @property
+    def model(self) -> Any:
+        return self._model
+
+    @property
+    def data(self) -> Any:
+        return self._data
+
+    @property
+    def n(self) -> int:
+        return self._model.transmission.n
+
+    @property
+    def device(self) -> str:
+        return self._model.device
+
+    # ---- cycles ------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Forget the velocity history (the next cycle starts at rest)."""
+        self._data.reset()
+
+    def cycle(self, q_motor, torque_joint=None) -> np.ndarray:
+        """One cycle: encoder readings q_motor [rad] and joint torques wanted on top of gravity [N·m]
+        (default 0) → motor torques to command [N·m] (a copy; ``data`` holds the rest, ``compute_time`` [s])."""
+        qm = as_vector(q_motor, "q_motor", self.n)
+        tj = np.zeros(self.n) if torque_joint is None else as_vector(torque_joint, "torque_joint", self.n)
+        _core.compensator_cycle(self._model, self._data, qm, tj)
+        return np.array(self._data.torque_motor)
+
+    def cycle_force(self, q_motor, force_ee) -> np.ndarray:
+        """One cycle for an end-effector force [N] (base frame): τ_wanted = Jᵀ F."""
+        qm = as_vector(q_motor, "q_motor", self.n)
+        f = as_vector(force_ee, "force_ee", 3)
+        _core.compensator_cycle_force(self._model, self._data, qm, f)
+        return np.array(self._data.torque_motor)

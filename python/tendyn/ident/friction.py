@@ -1,0 +1,444 @@
+"""Global friction of one tendon transmission from constant-velocity logs (S0 §III-A, claim C7).
+
+Model (S0 eq. 13, corrected: ERRATA — the motion sign restored)::
+
+    C_m = C_m0 sgn(q̇_m) + ν q̇_m          [N·m] at the motor, q̇_m [rad/s]
+
+The estimator reads only what a bench records: the motor encoder ``q_motor_<i>`` and the measured
+motor torque ``torque_motor_<i>`` (plus, for the gravity model, the other motor encoders). It finds the
+constant-speed plateaus itself (:mod:`tendyn.ident.plateaus`) and removes gravity
+
+* ``"pairs"`` (S0's way): a forward and a backward pass over the same path put the arm in the same
+  configuration at the same motor position, so C(+v) = g + C_m0 + νv and C(−v) = g − C_m0 − νv; half
+  their difference, position bin by position bin, is C_m0 + ν|v| whatever g(q) is (and whatever is even
+  in the speed, e.g. centrifugal torques);
+* ``"model"``: subtract the device's gravity model (rigid body + lossless statics, C_g = R_m K⁻ᵀ g(q)
+  with q from the motor encoders) from every sample, then fit C_m0 sgn(v) + νv to plateau bins of both
+  directions;
+* ``"both"``: subtract the model, then take the half-differences of the pairs.
+
+Least squares with the statistics of S2 eqs. (4)–(7), corrected: ERRATA — σ̂² = ‖Y − WX̂‖²/(r − b) (the
+square), Cov = σ̂²(WᵀW)⁻¹, %σ = 100 σ/|x̂|.
+
+The estimator never reads a truth sidecar; it takes :class:`tendyn.io.Log` objects (or paths, read with
+:func:`tendyn.io.read_log`, which reads the log only).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tendyn.ident.plateaus import Plateau, find_plateaus
+from tendyn.results import Result
+
+GRAVITY_MODES = ("pairs", "model", "both")
+STRATEGIES = ("S1", "S2")
+
+
+class IdentificationError(ValueError):
+    """The logs do not allow the fit (too few speeds, no plateau, no pair); the message says which."""
+
+
+@dataclass(eq=False)
+class FrictionFit(Result):
+    """Identified global friction of one transmission (S0 eq. 13, corrected: ERRATA).
+
+    coulomb_motor C_m0 [N·m], viscous_motor ν [N·m·s/rad], their standard deviations, %σ, cond(W),
+    residual standard deviation σ̂ [N·m], the strategy of the logs (``"S1"``, ``"S2"`` or ``None``), the
+    motor speeds used [rad/s] (magnitudes, one per direction pair/plateau), the observations (speed [rad/s],
+    torque [N·m], weight [samples]) the line was fitted to (weighted least squares: a bin's weight is the
+    number of samples it averages), and the strategy's residual-error bound [N·m] when known (ERRATA
+    eq. 15; :func:`residual_error_bound`).
+    """
+
+    transmission: int
+    coulomb_motor: float
+    viscous_motor: float
+    coulomb_motor_std: float
+    viscous_motor_std: float
+    residual_std: float
+    cond: float
+    strategy: str | None
+    gravity: str
+    speeds_motor: list
+    n_points: int
+    points: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 3)))
+    residual_bound: float | None = None
+
+    @property
+    def rel_std_pct(self) -> tuple[float, float]:
+        """%σ of (C_m0, ν) (S2 eq. 7)."""
+        return (_pct(self.coulomb_motor_std, self.coulomb_motor), _pct(self.viscous_motor_std, self.viscous_motor))
+
+    def predict(self, qdot_motor) -> np.ndarray:
+        """C_m [N·m] at motor speeds [rad/s] (zero at zero speed)."""
+        v = np.asarray(qdot_motor, float)
+        return self.coulomb_motor * np.sign(v) + self.viscous_motor * v
+
+    def to_dict(self) -> dict:
+        """The FRICTION.json entry of this transmission (see docs/friction-file.md)."""
+        rc, rv = (x if math.isfinite(x) else None for x in self.rel_std_pct)   # None when the value is 0
+        return {"transmission": self.transmission, "coulomb_motor": self.coulomb_motor,
+                "viscous_motor": self.viscous_motor, "coulomb_motor_std": self.coulomb_motor_std,
+                "viscous_motor_std": self.viscous_motor_std, "coulomb_motor_rel_std_pct": rc,
+                "viscous_motor_rel_std_pct": rv, "residual_std": self.residual_std, "cond": self.cond,
+                "strategy": self.strategy, "gravity": self.gravity,
+                "speeds_motor": [float(v) for v in self.speeds_motor], "n_points": self.n_points,
+                "residual_bound": self.residual_bound}
+
+    def table(self) -> str:
+        rc, rv = self.rel_std_pct
+        bound = "—" if self.residual_bound is None else f"{self.residual_bound:.4g}"
+        return "\n".join([
+            f"transmission {self.transmission} ({self.strategy or '?'}, gravity: {self.gravity}, "
+            f"{len(self.speeds_motor)} speeds, {self.n_points} points, cond {self.cond:.3g})",
+            f"{'parameter':<22}{'value':>12}{'σ':>12}{'%σ':>8}",
+            f"{'C_m0 [N·m]':<22}{self.coulomb_motor:>12.5g}{self.coulomb_motor_std:>12.3g}{rc:>8.2f}",
+            f"{'ν [N·m·s/rad]':<22}{self.viscous_motor:>12.5g}{self.viscous_motor_std:>12.3g}{rv:>8.2f}",
+            f"residual σ̂ {self.residual_std:.3g} N·m; residual-error bound (ERRATA eq. 15) {bound} N·m",
+        ])
+
+    def _draw(self, ax) -> None:
+        """Observations and the fitted law C_m0 sgn(v) + νv."""
+        v, c = self.points[:, 0], self.points[:, 1]
+        ax.plot(v, c, ".", ms=3, alpha=0.5, label="plateau bins")
+        vv = np.linspace(min(0.0, v.min()), v.max(), 200)
+        vv = vv[vv != 0]
+        ax.plot(vv, self.predict(vv), "-", label=f"fit C_m0={self.coulomb_motor:.4g}, ν={self.viscous_motor:.3g}")
+        ax.set_xlabel(f"motor {self.transmission} speed [rad/s]")
+        ax.set_ylabel("friction torque at the motor [N·m]")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+
+
+def _pct(s, x) -> float:
+    return float(100.0 * s / abs(x)) if x != 0 else math.inf
+
+
+def least_squares(W, y, weights=None):
+    """x̂, Cov, σ̂, cond(W) with σ̂² = ‖y − Wx̂‖²/(r − b) and Cov = σ̂²(WᵀW)⁻¹ (S2 eqs. 4–6, corrected:
+    ERRATA — the square).
+
+    ``weights`` (r,) > 0 make it weighted: every row of W and y is scaled by √w first (w ∝ 1/variance of
+    the observation, e.g. the number of samples a bin averages), so the formulas above hold for the scaled
+    rows; σ̂ is then the standard deviation of an observation of unit weight."""
+    W = np.asarray(W, float)
+    y = np.asarray(y, float)
+    r, b = W.shape
+    if r <= b:
+        raise IdentificationError(f"{r} observations for {b} parameters")
+    if weights is not None:
+        sw = np.sqrt(np.asarray(weights, float))
+        W, y = W * sw[:, None], y * sw
+    x, *_ = np.linalg.lstsq(W, y, rcond=None)
+    res = y - W @ x
+    s2 = float(res @ res) / (r - b)
+    cov = s2 * np.linalg.inv(W.T @ W)
+    return x, cov, math.sqrt(s2), float(np.linalg.cond(W))
+
+
+# ---- reading logs -----------------------------------------------------------------------------------
+
+def _as_log(log):
+    from tendyn.io import Log, read_log
+
+    return log if isinstance(log, Log) else read_log(log)
+
+
+def log_transmission(log) -> int:
+    """The transmission a constant-velocity log moves: ``options.transmission`` when the log says so,
+    else the motor whose encoder travels fastest (S1 and S2 move the other motors less or not at all)."""
+    opt = log.meta.get("options", {}) or {}
+    t = opt.get("transmission")
+    if isinstance(t, int) and not isinstance(t, bool):
+        return t
+    q = log.stack("q_motor_")
+    speed = np.abs(np.diff(q, axis=0)).sum(axis=0)
+    return int(np.argmax(speed)) + 1
+
+
+def log_strategy(log) -> str | None:
+    """"S1"/"S2" from ``options.strategy`` or the experiment name, else None."""
+    opt = log.meta.get("options", {}) or {}
+    s = opt.get("strategy")
+    if s in STRATEGIES:
+        return s
+    for s in STRATEGIES:
+        if str(log.meta.get("experiment", "")).endswith(s):
+            return s
+    return None
+
+
+def gravity_motor_torque(device, q_motor) -> np.ndarray:
+    """Motor torques [N·m] that hold the device against gravity, lossless (S0 eq. 5, corrected: ERRATA):
+    q = K⁻¹ R_m q_m from the encoders (S0 eqs. 1–2), g(q) from the rigid body, C_g = R_m K⁻ᵀ g.
+
+    q_motor : (n_samples, n) motor positions [rad]. Returns (n_samples, n)."""
+    import pinocchio as pin
+
+    from tendyn.device.rigid_body import pinocchio_model
+    from tendyn.transmission import Transmission
+
+    tr = Transmission.from_device(device)
+    mats = tr.matrices()
+    J_from_M = mats["joint_from_motor_position"]
+    M_from_tau = mats["motor_from_joint_torque"]
+    pm = pinocchio_model(device)
+    pd = pm.createData()
+    q = np.asarray(q_motor, float) @ J_from_M.T
+    out = np.empty_like(q)
+    for k in range(q.shape[0]):
+        out[k] = M_from_tau @ pin.computeGeneralizedGravity(pm, pd, q[k])
+    return out
+
+
+# ---- the estimator --------------------------------------------------------------------------------
+
+@dataclass
+class _Stroke:
+    plateau: Plateau
+    q: np.ndarray        # motor position of the transmission [rad]
+    c: np.ndarray        # torque (gravity model removed when asked) [N·m]
+    log_index: int
+
+
+class TransmissionFriction:
+    """Estimator of C_m = C_m0 sgn(q̇_m) + ν q̇_m for one transmission (S0 eq. 13, corrected: ERRATA).
+
+    Parameters (hyper-parameters, stored as given)
+    ----------
+    transmission : int
+        1-based transmission number (its motor's columns are read).
+    gravity : {"pairs", "model", "both"}
+        How gravity is removed (module docstring). "model" and "both" need ``device``.
+    device : tendyn.device.Device or None
+        For the gravity model only (its rigid body and routing; never its friction values).
+    min_speeds : int
+        Fewest distinct speeds per direction accepted (issue 8: 5).
+    bins : int
+        Position bins per plateau (pair); each bin is one observation.
+    window_s, tol, min_speed, min_duration_s, trim_s :
+        Plateau detection, see :func:`tendyn.ident.plateaus.find_plateaus`.
+    speed_match : float
+        Relative speed difference allowed between the two passes of a pair [-].
+    bound_tau0, bound_nu : (n, n) arrays or None
+        Per-branch Coulomb [N] and viscous [N·s/m] values of the device's transmissions (nominal, or
+        decomposed from identified global values: :func:`tendyn.ident.decompose`); with ``device`` they give
+        ``residual_bound_`` (ERRATA eq. 15, :func:`residual_error_bound`) for the logs' strategy.
+
+    Learned attributes
+    ------------------
+    params_ : (2,) [C_m0 N·m, ν N·m·s/rad];  stderr_ : (2,) their σ;  rel_stderr_ : (2,) %σ;
+    cond_ : cond(W);  coulomb_motor_, viscous_motor_ ;  residual_std_ : σ̂ [N·m];
+    speeds_ : distinct speed magnitudes used [rad/s];  plateaus_ : per log, the plateaus found;
+    strategy_ : "S1", "S2" or None (from the logs' meta);  residual_bound_ : [N·m] or None;
+    result_ : :class:`FrictionFit`.
+    """
+
+    def __init__(self, transmission: int, gravity: str = "pairs", device=None, min_speeds: int = 5,
+                 bins: int = 16, window_s: float = 0.04, tol: float = 0.02, min_speed: float = 0.2,
+                 min_duration_s: float = 0.15, trim_s: float = 0.05, speed_match: float = 0.05,
+                 bound_tau0=None, bound_nu=None):
+        self.transmission = transmission
+        self.gravity = gravity
+        self.device = device
+        self.min_speeds = min_speeds
+        self.bins = bins
+        self.window_s = window_s
+        self.tol = tol
+        self.min_speed = min_speed
+        self.min_duration_s = min_duration_s
+        self.trim_s = trim_s
+        self.speed_match = speed_match
+        self.bound_tau0 = bound_tau0
+        self.bound_nu = bound_nu
+
+    def get_params(self, deep: bool = True) -> dict:
+        return {k: getattr(self, k) for k in ("transmission", "gravity", "device", "min_speeds", "bins",
+                                              "window_s", "tol", "min_speed", "min_duration_s", "trim_s",
+                                              "speed_match", "bound_tau0", "bound_nu")}
+
+    # ---- fit ----
+    def fit(self, logs) -> "TransmissionFriction":
+        """Fit to one log or a list of logs (:class:`tendyn.io.Log` or paths). Returns self."""
+        if self.gravity not in GRAVITY_MODES:
+            raise ValueError(f"gravity must be one of {GRAVITY_MODES} (got {self.gravity!r})")
+        if self.gravity != "pairs" and self.device is None:
+            raise ValueError(f"gravity={self.gravity!r} needs the device (its gravity model)")
+        if not isinstance(logs, (list, tuple)):
+            logs = [logs]
+        logs = [_as_log(lg) for lg in logs]
+        i = self.transmission
+        strokes: list[_Stroke] = []
+        self.plateaus_ = []
+        strategies = set()
+        for n, log in enumerate(logs):
+            qname, cname = f"q_motor_{i}", f"torque_motor_{i}"
+            for name in (qname, cname):
+                if name not in log:
+                    raise IdentificationError(f"log {n + 1}: no column {name} (transmission {i})")
+            t, q, c = log.time, log[qname], log[cname]
+            if self.gravity != "pairs":
+                c = c - gravity_motor_torque(self.device, log.stack("q_motor_"))[:, i - 1]
+            ps = find_plateaus(t, q, window_s=self.window_s, tol=self.tol, min_speed=self.min_speed,
+                               min_duration_s=self.min_duration_s, trim_s=self.trim_s)
+            self.plateaus_.append(ps)
+            strokes += [_Stroke(p, q[p.slice], c[p.slice], n) for p in ps]
+            strategies.add(log_strategy(log))
+        if not strokes:
+            raise IdentificationError(f"transmission {i}: no constant-speed plateau in the logs")
+        if self.gravity == "model":
+            points = self._bins_model(strokes)
+        else:
+            points = self._bins_pairs(strokes)
+        speeds = _distinct(np.abs(points[:, 0]), self.speed_match)
+        need = self.min_speeds
+        if self.gravity == "model":
+            pos = _distinct(points[points[:, 0] > 0, 0], self.speed_match)
+            neg = _distinct(-points[points[:, 0] < 0, 0], self.speed_match)
+            if min(len(pos), len(neg)) < need:
+                raise IdentificationError(f"transmission {i}: {len(pos)} positive and {len(neg)} negative "
+                                          f"speeds found, need at least {need} per direction")
+        elif len(speeds) < need:
+            raise IdentificationError(f"transmission {i}: forward/backward pairs at {len(speeds)} speeds, "
+                                      f"need at least {need} per direction")
+        v, y, w = points[:, 0], points[:, 1], points[:, 2]
+        W = np.column_stack([np.sign(v), v])
+        x, cov, s, cond = least_squares(W, y, w / w.mean())
+        self.params_ = x
+        self.stderr_ = np.sqrt(np.diag(cov))
+        self.rel_stderr_ = np.array([_pct(self.stderr_[k], x[k]) for k in range(2)])
+        self.cond_ = cond
+        self.coulomb_motor_, self.viscous_motor_ = float(x[0]), float(x[1])
+        self.residual_std_ = s
+        self.speeds_ = speeds
+        self.points_ = points
+        strategies.discard(None)
+        self.strategy_ = strategies.pop() if len(strategies) == 1 else None
+        self.result_ = FrictionFit(i, float(x[0]), float(x[1]), float(self.stderr_[0]), float(self.stderr_[1]),
+                                   s, cond, self.strategy_, self.gravity, [float(u) for u in speeds],
+                                   int(points.shape[0]), points)
+        self.residual_bound_ = None
+        if self.device is not None and self.bound_tau0 is not None and self.strategy_ in STRATEGIES:
+            arr = self.device.routing_arrays()
+            self.residual_bound_ = residual_error_bound(arr["K"], arr["motor_radius"], i - 1, self.strategy_,
+                                                        self.bound_tau0, self.bound_nu, max(speeds))
+        self.result_.residual_bound = self.residual_bound_
+        return self
+
+    def predict(self, qdot_motor) -> np.ndarray:
+        return self.result_.predict(qdot_motor)
+
+    def _bins_model(self, strokes):
+        rows = []
+        for s in strokes:
+            edges = np.linspace(s.q.min(), s.q.max(), self.bins + 1)
+            idx = np.clip(np.searchsorted(edges, s.q, side="right") - 1, 0, self.bins - 1)
+            for b in range(self.bins):
+                sel = idx == b
+                if sel.sum() >= 3:
+                    rows.append((s.plateau.speed, float(s.c[sel].mean()), float(sel.sum())))
+        return np.array(rows, float).reshape(-1, 3)
+
+    def _bins_pairs(self, strokes):
+        """Half-differences of forward and backward passes, bin by bin over their common path."""
+        rows = []
+        neg = [s for s in strokes if s.plateau.speed < 0]
+        for s in (s for s in strokes if s.plateau.speed > 0):
+            v = s.plateau.speed
+            best, overlap = None, 0.0
+            for o in neg:
+                if o.log_index != s.log_index or abs(-o.plateau.speed - v) > self.speed_match * v:
+                    continue
+                lo, hi = max(s.q.min(), o.q.min()), min(s.q.max(), o.q.max())
+                if hi - lo > overlap:
+                    best, overlap = o, hi - lo
+            if best is None:
+                continue
+            lo, hi = max(s.q.min(), best.q.min()), min(s.q.max(), best.q.max())
+            edges = np.linspace(lo, hi, self.bins + 1)
+            vbar = 0.5 * (v - best.plateau.speed)
+            for b in range(self.bins):
+                a_sel = (s.q >= edges[b]) & (s.q < edges[b + 1])
+                b_sel = (best.q >= edges[b]) & (best.q < edges[b + 1])
+                na, nb = a_sel.sum(), b_sel.sum()
+                if na >= 3 and nb >= 3:
+                    # weight ∝ 1 / variance of the half-difference of two means: 1 / (1/na + 1/nb)
+                    rows.append((vbar, 0.5 * float(s.c[a_sel].mean() - best.c[b_sel].mean()),
+                                 1.0 / (1.0 / na + 1.0 / nb)))
+        return np.array(rows, float).reshape(-1, 3)
+
+
+def _distinct(values, rel: float) -> list[float]:
+    """Cluster speed magnitudes within ``rel`` of each other; their means, sorted."""
+    vals = np.sort(np.asarray(values, float))
+    out: list[list[float]] = []
+    for x in vals:
+        if out and x - out[-1][-1] <= rel * x:
+            out[-1].append(x)
+        else:
+            out.append([x])
+    return [float(np.mean(c)) for c in out]
+
+
+# ---- residual-error bound (ERRATA eq. 15) -------------------------------------------------------------
+
+def isolated_move_joint_speeds(K, motor_radius, j: int, strategy: str, qdot_motor: float = 1.0) -> np.ndarray:
+    """Joint speeds [rad/s] while transmission j (0-based) moves at motor speed ``qdot_motor``.
+
+    S2: only joint j moves, q̇_j = r_m^j q̇_m^j / r_j^j. S1 (the other motors held): S0 eq. 14, corrected:
+    ERRATA — q̇_i = 0 for i < j, q̇_j = r_m^j q̇_m^j / r_j^j, q̇_i = −(1/r_i^i) Σ_{k=j}^{i−1} r_k^i q̇_k."""
+    K = np.asarray(K, float)
+    n = K.shape[0]
+    qd = np.zeros(n)
+    qd[j] = motor_radius[j] * qdot_motor / K[j, j]
+    if strategy == "S1":
+        for i in range(j + 1, n):
+            qd[i] = -sum(K[i, k] * qd[k] for k in range(j, i)) / K[i, i]
+    return qd
+
+
+def branch_speeds(K, qdot) -> np.ndarray:
+    """Ṡ[i, b] = Σ_{l ≥ b} K[i, l] q̇_l [m/s] (branch b of transmission i, relative to its link)."""
+    K = np.asarray(K, float)
+    n = K.shape[0]
+    S = np.zeros_like(K)
+    for i in range(n):
+        for b in range(i + 1):
+            S[i, b] = float(np.dot(K[i, b:i + 1], qdot[b:i + 1]))
+    return S
+
+
+def residual_error_bound(K, motor_radius, j: int, strategy: str, tau0, nu=None, speed: float = 0.0) -> float:
+    """Bound [N·m] on the error of motor j's measured friction torque (0-based j) — ERRATA eq. 15.
+
+    S2 (S0 eq. 15, corrected: ERRATA): the residual static tension of each transmission k > j that
+    crosses joint j reaches motor j through joint j:
+        |C_err^j| ≤ (r_m^j / r_j^j) Σ_{k>j} |r_j^k| Σ_{l=j+1}^{k} τ_{0,l}^k      (0-based branches l > j:
+    the branches beyond joint j, still under S2).
+    S1: the branches of the distal transmissions beyond joint j slide (S0 eq. 14); the power they
+    dissipate is supplied by motor j: C_err^j = Σ_{k>j} Σ_l (τ_{0,l}^k |k'_l^k| + ν_l^k (k'_l^k)² |q̇_m|), with
+    k'_l^k = Ṡ_l^k / q̇_m^j; inertial (Coriolis/centrifugal) torques are even in the speed and cancel in the
+    forward/backward half-difference, so they are not added.
+
+    tau0, nu : (n, n) per-branch Coulomb [N] and viscous [N·s/m] values (identified or nominal);
+    speed : the motor speed magnitude [rad/s] at which the S1 viscous part is evaluated.
+    """
+    K = np.asarray(K, float)
+    r_m = np.asarray(motor_radius, float)
+    tau0 = np.asarray(tau0, float)
+    n = K.shape[0]
+    if strategy == "S2":
+        return float(r_m[j] / K[j, j] * sum(abs(K[k, j]) * tau0[k, j + 1:k + 1].sum() for k in range(j + 1, n)))
+    if strategy != "S1":
+        raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
+    nu = np.zeros_like(tau0) if nu is None else np.asarray(nu, float)
+    kp = branch_speeds(K, isolated_move_joint_speeds(K, r_m, j, "S1", 1.0))
+    err = 0.0
+    for k in range(j + 1, n):
+        for b in range(k + 1):
+            err += tau0[k, b] * abs(kp[k, b]) + nu[k, b] * kp[k, b] ** 2 * abs(speed)
+    return float(err)

@@ -1,0 +1,101 @@
+"""`tendyn pipeline s0`: the S0 workflow on a twin in one call — identification (S1 vs S2, items 3–4 of issue
+8), loss decomposition, and the compensation of Fig. 7 with passivity (item 7).
+
+:func:`run_s0` returns one JSON-able document with the keys ``transmissions``, ``decomposition`` and
+``compensation``; with ``report`` it also writes the figures and the document into that folder (all files or
+none).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from tendyn.device import compile_device
+
+from .s0_compensation import compensation_summary, fig7_experiment
+
+__all__ = ["identification_parts", "run_s0"]
+
+
+def identification_parts(device) -> dict:
+    """The identification parts of the S0 document: ``transmissions``, ``decomposition`` and ``friction``.
+
+    ``transmissions`` is a list with, per transmission, ``transmission`` (1-based), ``coulomb_motor_true``,
+    ``viscous_motor_true``, ``s1_error_pct`` and ``s2_error_pct``; ``decomposition`` the per-branch τ0, ν;
+    ``friction`` the identified per-branch losses the compensator then uses (``{"tau0": (n, n), "nu": (n, n)}``,
+    0-based ``[transmission, branch]``; see :func:`tendyn.control.transmission_with_friction`), or None for the
+    twin's own losses.
+    """
+    from tendyn.ident.decomposition import decompose
+
+    from .s0_friction import compare_strategies
+
+    device = compile_device(device).device
+    cmp = compare_strategies(device)                # S1 and S2 on every transmission (C7, C8)
+    v = np.asarray(cmp.speeds_motor, float)
+    rows = []
+    for t in cmp.transmissions:
+        c0, nu = cmp.truth[t]
+        rms_true = float(np.sqrt(np.mean((c0 + nu * v) ** 2)))
+        row = {"transmission": t, "coulomb_motor_true": c0, "viscous_motor_true": nu}
+        for s in ("S1", "S2"):
+            f = cmp.fits[(t, s)]
+            row[f"{s.lower()}_error_pct"] = 100.0 * cmp.torque_error(t, s) / rms_true
+            row[f"{s.lower()}_coulomb_motor"], row[f"{s.lower()}_viscous_motor"] = f.coulomb_motor, f.viscous_motor
+            row[f"{s.lower()}_coulomb_error_pct"], row[f"{s.lower()}_viscous_error_pct"] = cmp.errors_pct(t, s)
+        rows.append(row)
+    fits = [cmp.fits[(t, "S2")] for t in cmp.transmissions]
+    dec = decompose(device, [f.coulomb_motor for f in fits], [f.viscous_motor for f in fits])   # C9
+    branches = [{"transmission": i + 1, "branch": b, "tau0_N": float(dec.tau0_branch[i, b]),
+                 "nu_Ns_m": float(dec.nu_branch[i, b]), "p": float(dec.p[i, b]), "p_prime": float(dec.p_prime[i, b])}
+                for i, nb in enumerate(dec.branches) for b in range(nb)]
+    return {"transmissions": rows, "decomposition": branches,
+            "friction": {"tau0": dec.tau0_branch, "nu": dec.nu_branch},
+            "identification": {"strategy_for_compensation": "S2", "error_pct": "RMS over the test speeds of the "
+                               "fitted minus true motor friction torque, relative to the true RMS",
+                               "decomposition_max_relative_mismatch": dec.max_mismatch()}}
+
+
+def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> dict:
+    """Run the S0 pipeline on ``device`` (a Device, CompiledDevice or bundled name).
+
+    Parameters
+    ----------
+    report : folder for ``fig7_compensation.png``, ``fig7_compensation.json`` and ``s0.json`` (None: none)
+    quick : fewer runs (no wall, no over-compensation) — for tests
+
+    Returns
+    -------
+    dict
+        ``device``, ``transmissions``, ``decomposition``, ``compensation`` (``reduction_joint1`` (0–1),
+        ``rms_joint1_gravity_only``, ``rms_joint1_compensated`` [N·m], ``energy_to_hand_per_cycle`` [J], …).
+    """
+    from .s0_compensation import _device
+
+    compiled = compile_device(_device(device))
+    print(f"[pipeline s0] identification on the {compiled.name} twin …", file=sys.stderr)
+    ident = identification_parts(compiled)
+    print("[pipeline s0] Fig. 7: free motion with gravity only / with friction compensation …", file=sys.stderr)
+    fig7 = fig7_experiment(compiled, friction=ident.get("friction"),
+                           over=() if quick else (1.2, 1.5), walls=not quick)
+    doc = {"device": compiled.name,
+           "transmissions": ident["transmissions"],
+           "decomposition": ident["decomposition"],
+           "compensation": compensation_summary(fig7)}
+    if "identification" in ident:
+        doc["identification"] = ident["identification"]
+    if report is not None:
+        from tendyn.io import all_or_none, atomic_write_text, save_png, to_jsonable
+
+        out = Path(report)
+        with all_or_none(out) as stage:
+            save_png(fig7.plot(), stage / "fig7_compensation.png")
+            atomic_write_text(stage / "fig7_compensation.json", json.dumps(to_jsonable(fig7.to_dict()), indent=2))
+            atomic_write_text(stage / "s0.json", json.dumps(to_jsonable(doc), indent=2))
+        doc["report"] = {"figure": str(out / "fig7_compensation.png"), "data": str(out / "s0.json")}
+    doc["_table"] = fig7.table()
+    return doc

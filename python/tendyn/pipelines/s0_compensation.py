@@ -1,0 +1,327 @@
+"""S0 Fig. 7 on the twin (C11), passivity and a stiff virtual wall, with the real-time compensator (C10, C46).
+
+A simulated hand — a spring–damper pulling the handle along a horizontal circle — moves the end effector of
+the L-EXOS twin in free space, first with gravity compensation only (k = 0: the motors give the lossless static
+torques of g(q), as in S0 §IV-C), then with friction compensation added (k = ``underestimation``). The twin
+runs in torque mode at ``rate_hz`` with the compensator (``tendyn._core.compensator_cycle``) computing the motor
+torques every control period from the simulated, quantised encoder readings; the hand enters as the external
+joint torque Jᵀ F_hand (Pinocchio frame Jacobian of the handle, an independent route from the core chain).
+
+Reported: the RMS joint-1 torque the hand needs in both cases and its reduction (C11 claims > 50 %), the work
+the device does on the hand per closed cycle (≤ 0: no net energy injected), and for a stiff virtual wall
+(:class:`tendyn.control.Renderer`, K_st) whether the contact settles or keeps a limit cycle; the same for an
+over-compensating k > 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from tendyn import _core
+from tendyn.control import Compensator, Renderer
+from tendyn.control.compensator import DEFAULT_UNDERESTIMATION
+from tendyn.device import compile_device, load_device
+from tendyn.devices import bundled
+from tendyn.results import Result, format_table, new_figure
+from tendyn.sim.model import sim_model
+
+__all__ = ["Fig7Result", "HandRun", "WallRun", "fig7_experiment", "hand_run", "wall_run", "compensation_summary"]
+
+Q0_LEXOS = (0.3, 1.6, 0.0, 0.5)
+"""Start pose [rad] of the L-EXOS runs: upper arm raised, elbow slightly bent, the handle 0.36 m from the
+joint-1 axis (inside every joint limit)."""
+
+
+def _device(device):
+    if isinstance(device, str):
+        return compile_device(load_device(bundled(device) if "/" not in device and not device.endswith(".toml")
+                                          else device))
+    return compile_device(device)
+
+
+class _Handle:
+    """Position and linear Jacobian of the end effector from Pinocchio (a frame added to a copy of the model)."""
+
+    def __init__(self, compiled):
+        import pinocchio as pin
+
+        from tendyn.control.compensator import end_effector_point
+
+        self.pin = pin
+        joint, point = end_effector_point(compiled)
+        self.model = pin.Model(compiled.pinocchio_model)
+        self.frame = self.model.addFrame(pin.Frame("handle", joint + 1, 0, pin.SE3(np.eye(3), point),
+                                                   pin.FrameType.OP_FRAME))
+        self.data = self.model.createData()
+
+    def __call__(self, q):
+        pin = self.pin
+        pin.computeJointJacobians(self.model, self.data, q)
+        pin.updateFramePlacements(self.model, self.data)
+        x = np.array(self.data.oMf[self.frame].translation)
+        J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
+        return x, np.array(J)
+
+
+def _reset(sim, data, q0, seed) -> None:
+    """Reset the twin at rest at q0 with the (slaved) motor positions set, so the first encoder reading is
+    already the pose's (``SimData.reset`` leaves them at zero until the first step)."""
+    data.reset(q0, seed)
+    data.set_motor_position(np.asarray(sim.tendon.motor_from_joint_position) @ q0)
+
+
+def _encoders(sim, data) -> np.ndarray:
+    """Quantised motor encoder readings [rad] (the simulator's own rule, S0: position sensors only)."""
+    qm = np.array(data.qm)
+    counts = np.array(sim.encoder_counts)
+    step = np.where(counts > 0, 2 * np.pi / np.where(counts > 0, counts, 1), 0.0)
+    return np.where(step > 0, step * np.floor(qm / np.where(step > 0, step, 1) + 0.5), qm)
+
+
+class _Block:
+    """One control period of the twin in one core call (tendyn._core.run), inputs held over the period."""
+
+    def __init__(self, sim):
+        dec, na = sim.control_decimation, sim.na
+        self.sim, self.dec = sim, dec
+        self.zeros = np.zeros((dec, na))
+        self.ff = np.zeros((dec, na))
+        self.ext = np.zeros((dec, na))
+        self.time = np.empty(1)
+        self.log = [np.empty((1, na)) for _ in range(7)]
+
+    def run(self, data, torque_motor, torque_ext) -> None:
+        self.ff[:] = torque_motor
+        self.ext[:] = torque_ext
+        _core.run(self.sim, data, self.zeros, self.zeros, self.ff, self.ext, self.dec, self.time, *self.log)
+
+
+@dataclass(eq=False)
+class HandRun:
+    """One free-motion run: the hand's torques and the energy it exchanges with the device.
+
+    Attributes
+    ----------
+    underestimation : k [-] of the compensator (0 = gravity compensation only)
+    time : (steps,) [s]
+    torque_hand : (steps, n) joint torques the hand applies, Jᵀ F_hand [N·m]
+    force_hand : (steps, 3) [N]
+    rms_joint1 : RMS of torque_hand[:, 0] over the whole cycles measured [N·m]
+    energy_to_hand_per_cycle : work the device does on the hand per closed cycle [J] (< 0: the hand works)
+    cycles : number of closed cycles measured
+    compute_time_mean : mean compensator cycle time inside the loop [s]
+    """
+
+    underestimation: float
+    time: np.ndarray
+    torque_hand: np.ndarray
+    force_hand: np.ndarray
+    rms_joint1: float
+    energy_to_hand_per_cycle: float
+    cycles: int
+    compute_time_mean: float
+
+
+def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float = 0.04,
+             period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
+             hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
+             q0=Q0_LEXOS, seed: int = 7) -> HandRun:
+    """The hand pulls the handle around a horizontal circle (radius [m], period [s]) for ``settle`` seconds
+    of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
+
+    The circle starts at the handle's start position; its radius grows smoothly over ``settle`` so the hand
+    does not jerk. RMS and energy are taken over the ``cycles`` closed cycles after ``settle``.
+    """
+    compiled = _device(device)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    data = _core.SimData(sim)
+    q0 = np.asarray(q0, float)
+    _reset(sim, data, q0, seed)
+    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz)
+    handle = _Handle(compiled)
+    x0, _ = handle(q0)
+    omega = 2 * np.pi / period
+    periods = int(round((settle + cycles * period) * control_hz))
+    block = _Block(sim)
+    time = np.arange(periods) / control_hz
+    torque_hand = np.empty((periods, sim.na))
+    force_hand = np.empty((periods, 3))
+    ctime = np.empty(periods)
+    work_at_settle = 0.0
+    for s, t in enumerate(time):
+        if abs(t - settle) < 0.5 / control_hz:
+            work_at_settle = data.work_external
+        torque_motor = comp.cycle(_encoders(sim, data))
+        ctime[s] = comp.data.compute_time
+        # blended circle: the radius grows with a smooth step over `settle`
+        u = min(1.0, t / settle) if settle > 0 else 1.0
+        a = 3 * u * u - 2 * u ** 3
+        da = (6 * u - 6 * u * u) / settle if settle > 0 and u < 1 else 0.0
+        c, sn = np.cos(omega * t), np.sin(omega * t)
+        path = x0 + radius * a * np.array([c - 1.0, sn, 0.0])
+        path_v = radius * a * omega * np.array([-sn, c, 0.0]) + radius * da * np.array([c - 1.0, sn, 0.0])
+        x, J = handle(np.array(data.qa))
+        f = hand_stiffness * (path - x) + hand_damping * (path_v - J @ np.array(data.va))
+        tau = J.T @ f
+        block.run(data, torque_motor, tau)      # one control period, the hand held (1 kHz) like the motors
+        torque_hand[s] = tau
+        force_hand[s] = f
+    measured = time >= settle - 0.5 / control_hz
+    rms = float(np.sqrt(np.mean(torque_hand[measured, 0] ** 2)))
+    energy = -(data.work_external - work_at_settle) / cycles   # work done on the hand [J per cycle]
+    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, float(energy), int(cycles),
+                   float(np.mean(ctime)))
+
+
+@dataclass(eq=False)
+class WallRun:
+    """The hand presses the handle into a stiff virtual floor rendered through the compensator.
+
+    Attributes
+    ----------
+    underestimation : k [-]
+    stiffness : K_st [N/m]
+    time : (steps,) [s]; height : (steps,) handle height relative to the wall [m] (< 0 inside)
+    force : (control periods, 3) rendered F_d [N]
+    oscillation : peak-to-peak height over the last ``window`` seconds [m]
+    limit_cycle : True when the oscillation stays above ``tolerance``
+    """
+
+    underestimation: float
+    stiffness: float
+    time: np.ndarray
+    height: np.ndarray
+    force: np.ndarray
+    oscillation: float
+    limit_cycle: bool
+
+
+def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *, stiffness: float = 3000.0,
+             damping: float = 0.0, push: float = 0.02, duration: float = 1.5, window: float = 0.5,
+             tolerance: float = 2e-4, hand_stiffness: float = 400.0, hand_damping: float = 2.0,
+             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=Q0_LEXOS, seed: int = 7) -> WallRun:
+    """A floor 5 mm below the handle; the hand's target is ``push`` [m] below the floor (it presses with about
+    ``hand_stiffness · push`` newtons). Peak-to-peak height over the last ``window`` seconds tells whether the
+    contact settled (passive) or keeps a limit cycle."""
+    compiled = _device(device)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    data = _core.SimData(sim)
+    q0 = np.asarray(q0, float)
+    _reset(sim, data, q0, seed)
+    comp = Compensator.from_device(compiled, underestimation=underestimation, rate_hz=control_hz)
+    handle = _Handle(compiled)
+    x0, _ = handle(q0)
+    floor = x0[2] - 0.005
+    rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane([0.0, 0.0, 1.0], floor)
+    periods = int(round(duration * control_hz))
+    target = x0 - np.array([0.0, 0.0, 0.005 + push])
+    time, height, forces = np.arange(periods) / control_hz, np.empty(periods), np.empty((periods, 3))
+    block = _Block(sim)
+    for s, t in enumerate(time):
+        torque_motor = rend.cycle(_encoders(sim, data))
+        forces[s] = np.array(rend.data.force)
+        x, J = handle(np.array(data.qa))
+        u = min(1.0, t / 0.3)  # the hand presses in over 0.3 s
+        goal = x0 + u * (target - x0)
+        f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.va))
+        block.run(data, torque_motor, J.T @ f)
+        height[s] = x[2] - floor
+    last = time >= duration - window
+    osc = float(np.ptp(height[last]))
+    return WallRun(float(underestimation), float(stiffness), time, height, forces, osc, bool(osc > tolerance))
+
+
+@dataclass(eq=False)
+class Fig7Result(Result):
+    """S0 Fig. 7 on the twin: hand torque at joint 1 with gravity compensation only and with friction
+    compensation, passivity per cycle, the wall, and over-compensation.
+
+    Attributes
+    ----------
+    gravity_only, compensated : HandRun (k = 0 and k = ``underestimation``)
+    over : list of HandRun with k > 1
+    walls : list of WallRun (k = ``underestimation`` and the over-compensating ones)
+    device : name
+    """
+
+    gravity_only: HandRun
+    compensated: HandRun
+    over: list = field(default_factory=list)
+    walls: list = field(default_factory=list)
+    device: str = "L-EXOS"
+    _figsize = (7.0, 4.2)
+
+    @property
+    def reduction_joint1(self) -> float:
+        """1 − RMS(compensated) / RMS(gravity only) [-] (C11: > 0.5)."""
+        return 1.0 - self.compensated.rms_joint1 / self.gravity_only.rms_joint1
+
+    def _draw(self, ax) -> None:
+        for run, color, label in ((self.gravity_only, "tab:red", "gravity compensation only"),
+                                  (self.compensated, "tab:blue",
+                                   f"gravity + friction compensation (k = {self.compensated.underestimation:g})")):
+            ax.plot(run.time, run.torque_hand[:, 0], color=color, lw=1.0, label=label)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("joint-1 torque applied by the hand [N·m]")
+        ax.set_title(f"{self.device}: torque to move the end effector in free motion "
+                     f"(reduction {100 * self.reduction_joint1:.0f} %)")
+        ax.axhline(0.0, color="0.6", lw=0.5)
+        ax.legend(loc="upper right", fontsize=8)
+
+    def to_dict(self) -> dict:
+        comp = self.compensated
+        out = {
+            "device": self.device,
+            "underestimation": comp.underestimation,
+            "reduction_joint1": float(self.reduction_joint1),
+            "rms_joint1_gravity_only": self.gravity_only.rms_joint1,
+            "rms_joint1_compensated": comp.rms_joint1,
+            "energy_to_hand_per_cycle": comp.energy_to_hand_per_cycle,
+            "energy_to_hand_per_cycle_gravity_only": self.gravity_only.energy_to_hand_per_cycle,
+            "cycles": comp.cycles,
+            "compute_time_mean_s": comp.compute_time_mean,
+            "over_compensation": [
+                {"underestimation": r.underestimation, "rms_joint1": r.rms_joint1,
+                 "reduction_joint1": float(1.0 - r.rms_joint1 / self.gravity_only.rms_joint1),
+                 "energy_to_hand_per_cycle": r.energy_to_hand_per_cycle} for r in self.over],
+            "wall": [{"underestimation": w.underestimation, "stiffness": w.stiffness,
+                      "oscillation_m": w.oscillation, "limit_cycle": w.limit_cycle} for w in self.walls],
+        }
+        return out
+
+    def table(self) -> str:
+        rows = [("gravity only", 0.0, self.gravity_only.rms_joint1, 0.0, self.gravity_only.energy_to_hand_per_cycle)]
+        for r in [self.compensated] + list(self.over):
+            rows.append(("gravity + friction", r.underestimation, r.rms_joint1,
+                         100 * (1 - r.rms_joint1 / self.gravity_only.rms_joint1), r.energy_to_hand_per_cycle))
+        text = format_table(("compensation", "k", "RMS joint-1 [N·m]", "reduction [%]", "energy to hand [J/cycle]"),
+                            rows, title=f"S0 Fig. 7 on the {self.device} twin (C11: reduction > 50 %)")
+        if self.walls:
+            text += "\n\n" + format_table(
+                ("k", "K_st [N/m]", "peak-to-peak [mm]", "limit cycle"),
+                [(w.underestimation, w.stiffness, 1e3 * w.oscillation, "yes" if w.limit_cycle else "no")
+                 for w in self.walls], title="stiff virtual wall, hand pressing in")
+        return text
+
+
+def fig7_experiment(device="lexos", *, underestimation: float = DEFAULT_UNDERESTIMATION, friction=None,
+                    over=(1.2, 1.5), walls: bool = True, cycles: int = 1, seed: int = 7, **hand) -> Fig7Result:
+    """Run S0 Fig. 7 on the twin (gravity only, then k = ``underestimation``), the over-compensating k in
+    ``over``, and (``walls``) the stiff wall at k = ``underestimation`` and at each over-compensating k.
+
+    ``friction`` (None, mapping or FRICTION.json path) are the identified losses the compensator uses; the twin
+    always keeps its own (true) losses. ``hand`` passes the path and hand options to :func:`hand_run`.
+    """
+    compiled = _device(device)
+    g = hand_run(compiled, 0.0, cycles=cycles, seed=seed, **hand)
+    c = hand_run(compiled, underestimation, friction=friction, cycles=cycles, seed=seed, **hand)
+    o = [hand_run(compiled, k, friction=friction, cycles=cycles, seed=seed, **hand) for k in over]
+    w = [wall_run(compiled, k, seed=seed) for k in ((underestimation,) + tuple(over))] if walls else []
+    return Fig7Result(g, c, o, w, device=compiled.name)
+
+
+def compensation_summary(result: Fig7Result) -> dict:
+    """The ``compensation`` part of ``tendyn pipeline s0 --json``."""
+    return result.to_dict()

@@ -1,0 +1,335 @@
+"""S1 end to end on the McGill twin (issue 11, items 2–7): sensitivities, gain and lead loops, in-loop
+friction measured (stepped sines with an H1 estimator at several amplitudes, input/output loops, a Wiener
+model beside it), Ĝ_L identified at large amplitude, loop shaping C = L/P̂ run on the nonlinear twin,
+robust performance and noise amplification. :func:`run_s1` returns one :class:`S1Report`.
+
+Every closed loop runs inside the C++ bench step (:func:`tendyn.sim.tendon_bench.loop_stepped_sine`), fed
+by the sensed tendon force. Closed-loop responses are reported normalised by T(0) = 0.5 (S1 eq. 10,
+corrected: ERRATA).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from tendyn.analysis.s1_plant import (PlantParams, TendonDrivePlant, ratio_tradeoff, sensitivity,
+                                      sensitivity_study, sensitivity_symbolic)
+from tendyn.control.loop_shaping import (closed_loop, discretise, fit_plant_frf, freqresp, lead_compensator,
+                                         loop_shaping_controller, robust_performance, sensitivity_gain, target_loop)
+from tendyn.device import compile_device
+from tendyn.results import FrequencyResponse, Result, format_table, new_figure
+from tendyn.sim.tendon_bench import Controller, loop_io, loop_stepped_sine, simulate_closed_loop
+
+__all__ = ["S1Report", "run_s1", "loop_area", "spread_db", "wiener_response", "fit_dead_band"]
+
+OPEN_LOOP_AMPLITUDES = (0.31, 0.34, 0.38, 0.6, 2.0)
+"""Input amplitudes [N] of the stepped sines (very stiff load): the dead-band (≈ 0.25 N) to linear."""
+LARGE_AMPLITUDE_N = 2.0
+"""Amplitude [N] at which Ĝ_L is identified (nonlinear distortion smallest, S1 §4.4)."""
+INVERSE_ZETA = 0.5
+"""Damping ratio of the inverted P̂ in C = L/P̂ (identified ω_n and gain kept; see run_s1)."""
+INTEGRAL_HZ = 10.0
+"""Corner [Hz] of the integral action of the augmented design reported beside S1's."""
+CONTROL_HZ = 10000.0
+"""Control rate [Hz] of the discretised controllers (bench steps at 20 kHz)."""
+
+
+def loop_area(x: np.ndarray, y: np.ndarray) -> float:
+    """Normalised area of the input/output loop y(x): |∮ y dx| / (π · half-range(x) · half-range(y)) [-]
+    (1 for a circle, sin φ for an ellipse of phase lag φ, 0 for a single-valued curve)."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    ax = 0.5 * (x.max() - x.min())
+    ay = 0.5 * (y.max() - y.min())
+    return float(area / (math.pi * ax * ay)) if ax > 0 and ay > 0 else 0.0
+
+
+def spread_db(responses, band_hz: float) -> float:
+    """max − min over the responses of 20 log10 |H| at each grid frequency ≤ band_hz, maximised over the grid."""
+    mags = np.array([20 * np.log10(np.maximum(r.magnitude, 1e-12)) for r in responses])
+    f = responses[0].freq_hz
+    sel = f <= band_hz
+    return float(np.max(mags[:, sel].max(axis=0) - mags[:, sel].min(axis=0)))
+
+
+def _dead_band_gain(a, delta):
+    """Describing function of a dead-band of half-width delta for a sine of amplitude a."""
+    a = np.asarray(a, float)
+    q = np.clip(delta / np.maximum(a, 1e-300), 0.0, 1.0)
+    return 1.0 - (2.0 / math.pi) * (np.arcsin(q) + q * np.sqrt(1.0 - q * q))
+
+
+def wiener_response(P_hat_response: np.ndarray, amplitude_N: float, delta_N: float) -> np.ndarray:
+    """First-harmonic response of the Wiener model (linear P̂, then a dead-band of half-width δ on F_m)."""
+    return P_hat_response * _dead_band_gain(np.abs(P_hat_response) * amplitude_N, delta_N)
+
+
+def fit_dead_band(P_hat_response: np.ndarray, measured: dict) -> float:
+    """Half-width δ [N] minimising the squared log-magnitude error of the Wiener model over all amplitudes."""
+    grid = np.linspace(0.0, 0.5, 501)
+    cost = [sum(np.sum((np.log(np.abs(wiener_response(P_hat_response, a, d)) + 1e-9) - np.log(r.magnitude)) ** 2)
+                for a, r in measured.items()) for d in grid]
+    return float(grid[int(np.argmin(cost))])
+
+
+@dataclass(eq=False)
+class S1Report(Result):
+    """Everything :func:`run_s1` computed; ``summary`` is the JSON contract of ``tendyn pipeline s1``."""
+
+    device: str
+    summary: dict
+    open_loop: dict = field(default_factory=dict)      # amplitude → FrequencyResponse
+    closed_loop: dict = field(default_factory=dict)    # amplitude → FrequencyResponse (normalised by T(0))
+    proportional: dict = field(default_factory=dict)   # amplitude → FrequencyResponse
+    wiener: dict = field(default_factory=dict)         # amplitude → FrequencyResponse (model)
+    figures: dict = field(default_factory=dict)        # name → Result with plot()
+
+    _panels = 3
+    _figsize = (5.0, 3.8)
+
+    def _draw(self, ax) -> None:
+        a = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
+        for amp, r in self.open_loop.items():
+            a[0].semilogy(r.freq_hz, r.magnitude, "o-", ms=2, label=f"{amp:g} N")
+        a[0].set_title(f"open loop (spread {self.summary['open_loop_spread_db']:.1f} dB < 30 Hz)")
+        if len(a) > 1:
+            for amp, r in self.closed_loop.items():
+                a[1].semilogy(r.freq_hz, r.magnitude, "o-", ms=2, label=f"{amp:g} N")
+            a[1].set_title(f"C = L/P̂, F_m/(T(0) r) (spread {self.summary['closed_loop_spread_db']:.2f} dB)")
+        if len(a) > 2:
+            for amp, r in self.wiener.items():
+                a[2].semilogy(r.freq_hz, r.magnitude, "--", label=f"Wiener {amp:g} N")
+            a[2].set_title("Wiener model: the peak does not move")
+        for x in a:
+            x.set_xlabel("frequency [Hz]")
+            x.grid(alpha=0.3, which="both")
+            x.legend(fontsize=6)
+
+    def to_dict(self) -> dict:
+        return self.summary
+
+    def table(self) -> str:
+        s = self.summary
+        rows = [(o["amplitude_N"], o["peak_hz"], c["peak_hz"]) for o, c in zip(s["open_loop_peaks"], s["closed_loop_peaks"])]
+        t = format_table(("input [N]", "open-loop peak [Hz]", "closed-loop peak [Hz]"), rows, f"{self.device}: S1")
+        t += (f"\nspread below 30 Hz: open loop {s['open_loop_spread_db']:.2f} dB, closed loop "
+              f"{s['closed_loop_spread_db']:.2f} dB (normalised by T(0))"
+              f"\nrobust performance || |W1 S| + |W2 T| ||_inf = {s['robust_performance']:.3f}"
+              f" (omega_n = 2pi 80: {s['robust_performance_80hz']:.3f})"
+              f"\nloop area (closed loop, 0.2 Hz / 0.31 N): {s['loop_area']:.3f} (open loop {s['open_loop_area']:.3f})"
+              f"\nnoise above 40 Hz, omega_n 80 vs 40 Hz: {s['noise_amplification_db']:.1f} dB")
+        return t
+
+
+def _peaks(frs: dict) -> list:
+    return [{"amplitude_N": float(a), "peak_hz": float(r.peak_hz())} for a, r in frs.items()]
+
+
+def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: bool = False, progress=None) -> S1Report:
+    """Items 2–7 of issue 11 on ``device`` (a TendonBench, its compiled form or a loaded device).
+
+    ``omega`` [rad/s] is the stepped-sine grid (default 6…45 Hz every 1 Hz; ``quick`` halves the cycles and
+    uses every 2 Hz, for tests).
+    """
+    say = progress or (lambda msg: None)
+    compiled = compile_device(device)
+    bench = compiled.device
+    if omega is None:
+        omega = 2 * math.pi * np.arange(6.0, 46.0, 2.0 if quick else 1.0)
+    omega = np.asarray(omega, float)
+    cyc = dict(cycles=4, settle_cycles=6, settle_s=0.4) if quick else dict(cycles=8, settle_cycles=10, settle_s=0.6)
+    params = PlantParams.from_bench(bench)
+    plant = TendonDrivePlant(params)
+    G = plant.tf()
+    summary: dict = {"device": bench.name}
+    figures: dict = {}
+
+    # 2. sensitivities (C15–C18)
+    say("sensitivities")
+    w = 2 * math.pi * np.logspace(-2, 3, 400)
+    num = sensitivity(params, omega=w)
+    sym = sensitivity_symbolic(params, omega=w)
+    summary["sensitivity_route_max_rel_diff"] = float(max(np.max(np.abs(num[k] - sym[k]) / np.maximum(np.abs(sym[k]), 1e-300))
+                                                          for k in num))
+    figures["sensitivity_k1"] = sensitivity_study("k1", [1e3, 2.566e4, 4.56e6], params, omega=w)
+    figures["sensitivity_k_z"] = sensitivity_study("k_z", [0.01, 1e9], params, omega=w)
+    figures["sensitivity_B"] = sensitivity_study("B", [params.B, 10 * params.B], params, omega=w)
+    figures["ratio_tradeoff"] = ratio_tradeoff(params)
+    summary["sensitivity_k1"] = figures["sensitivity_k1"].to_dict() | {"abs_G": None, "abs_S": None, "freq_hz": None}
+    summary["sensitivity_k_z"] = figures["sensitivity_k_z"].to_dict() | {"abs_G": None, "abs_S": None, "freq_hz": None}
+
+    # 3. gain and lead loops (C19, C20)
+    import control as ct
+
+    gains = {}
+    for K in (1.0, 10.0, 100.0):
+        S = sensitivity_gain(G, K)
+        gm, pm, _, _ = ct.margin(K * G)
+        gains[str(K)] = {"S0": float(abs(freqresp(S, omega=[0.0])[0])), "max_abs_S": float(np.max(np.abs(freqresp(S, omega=w)))),
+                         "phase_margin_deg": float(pm), "gain_margin": None if not np.isfinite(gm) else float(gm)}
+    summary["gain_loops"] = gains
+    lead = lead_compensator(10.0, 2 * math.pi * 20, 2 * math.pi * 60)
+    _, S_lead = closed_loop(G, lead)
+    _, S_gain = closed_loop(G, ct.tf([10.0 * 20 / 60], [1]))
+    summary["lead_vs_gain"] = {"lead_S0": float(abs(freqresp(S_lead, omega=[0.0])[0])),
+                               "gain_S0": float(abs(freqresp(S_gain, omega=[0.0])[0])),
+                               "lead_max_abs_S": float(np.max(np.abs(freqresp(S_lead, omega=w)))),
+                               "gain_max_abs_S": float(np.max(np.abs(freqresp(S_gain, omega=w))))}
+
+    # 5. in-loop friction measured: open-loop stepped sines (H1) at several amplitudes
+    say("open-loop stepped sines")
+    open_loop = {float(a): loop_stepped_sine(compiled, None, omega=omega, amplitude_N=a, **cyc) for a in amplitudes}
+    summary["open_loop_peaks"] = _peaks(open_loop)
+    summary["open_loop_spread_db"] = spread_db(list(open_loop.values()), 30.0)
+
+    # 6. Ĝ_L at large amplitude
+    big = open_loop[max(open_loop)]
+    fit = fit_plant_frf(big.omega, big.ratio, amplitude_N=big.amplitude)
+    figures["plant_fit"] = fit
+    summary["plant_fit"] = fit.to_dict()
+    P_hat = fit.tf()
+
+    # Wiener model beside it (its peak does not move)
+    p_resp = fit.response(omega=omega)
+    delta = fit_dead_band(p_resp, open_loop)
+    wiener = {a: FrequencyResponse.analytic(omega, wiener_response(p_resp, a, delta), output="F_m", input="F_tau",
+                                            label=f"Wiener, {a:g} N") for a in open_loop}
+    summary["wiener"] = {"dead_band_N": delta, "peaks": _peaks(wiener)}
+
+    # loop-area criterion (Fig. 10): plant output against model output for the same input; the identified
+    # model minimises the summed area over several frequencies (0.2 Hz alone is quasi-static: every model
+    # gives the same loop there, which is the dead-band's own hysteresis-like loop)
+    say("low-speed loops")
+    slow = loop_io(compiled, None, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
+    probes = [loop_io(compiled, None, freq_hz=f, amplitude_N=LARGE_AMPLITUDE_N, cycles=2, settle_cycles=4, decimate=1)
+              for f in (5.0, 10.0, 20.0)]
+    areas = {}
+    for scale in (0.85, 0.95, 1.0, 1.05, 1.15):
+        model = ct.tf([fit.gain], [fit.a / scale**2, fit.b / scale, 1.0])
+        total = 0.0
+        for pr in probes:
+            out = ct.forced_response(model, T=pr.time - pr.time[0], U=pr.u).outputs
+            half = pr.time.size // 2                      # second cycle: the model's transient has decayed
+            total += loop_area(np.asarray(out).ravel()[half:], pr.force[half:])
+        areas[scale] = total
+    summary["model_loop_area"] = {f"{k:g}": v for k, v in areas.items()}
+    summary["model_loop_area_note"] = "sum over 5, 10, 20 Hz at 2 N of the area of F_m against the model output, " \
+                                      "model natural frequency scaled by the key"
+
+    # 3 (twin). proportional control on the nonlinear twin (C23)
+    say("proportional loop on the twin")
+    prop = Controller.gain(1.0, CONTROL_HZ, label="K = 1")
+    proportional = {float(a): loop_stepped_sine(compiled, prop, omega=omega, amplitude_N=a, **cyc)
+                    for a in (min(amplitudes), LARGE_AMPLITUDE_N)}
+    summary["proportional_peaks"] = _peaks(proportional)
+    slow_p = loop_io(compiled, prop, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
+    summary["dead_band_open_N"] = slow.dead_band_N()
+    summary["dead_band_proportional_N"] = slow_p.dead_band_N()
+    summary["proportional_gain_0p2hz"] = slow_p.gain() / 0.5
+
+    # 7. loop shaping C = L/P̂ (C25–C28). The inverse keeps P̂'s identified gain and natural frequency but
+    # a damping ratio of INVERSE_ZETA: cancelling the lightly damped identified poles exactly is the
+    # non-robust pole-zero cancellation S1 §4.4 warns about — on the twin the resonance moves with amplitude
+    # and an exact notch leaves the small-amplitude loop stuck in the dead-band around 30 Hz.
+    say("loop shaping on the twin")
+    P_inv = ct.tf([fit.gain], [fit.a, 2 * INVERSE_ZETA * math.sqrt(fit.a), 1.0])
+    C40 = loop_shaping_controller(P_inv, target_loop())
+    ctrl = Controller.from_realisation(discretise(C40, 1.0 / CONTROL_HZ), label="C = L/P̂, 40 Hz")
+    T0 = 0.5
+    closed = _closed_loop_frfs(compiled, ctrl, omega, amplitudes, T0, cyc)
+    summary["closed_loop_peaks"] = _peaks(closed)
+    summary["closed_loop_spread_db"] = spread_db(list(closed.values()), 30.0)
+    summary["normalisation"] = "closed-loop responses divided by T(0) = 0.5 (S1 eq. 10, corrected: ERRATA)"
+    summary["inverse_zeta"] = INVERSE_ZETA
+    # beside it: the same design with integral action below INTEGRAL_HZ (L(0) = inf, T(0) = 1), not S1's
+    CI = loop_shaping_controller(P_inv, target_loop() * ct.tf([1.0, 2 * math.pi * INTEGRAL_HZ], [1.0, 0.0]))
+    ctrl_i = Controller.from_realisation(discretise(CI, 1.0 / CONTROL_HZ), label=f"C = L(1 + ω_i/s)/P̂")
+    closed_i = _closed_loop_frfs(compiled, ctrl_i, omega, amplitudes, 1.0, cyc)
+    summary["closed_loop_integral"] = {"integral_hz": INTEGRAL_HZ, "peaks": _peaks(closed_i),
+                                       "spread_db": spread_db(list(closed_i.values()), 30.0)}
+    rp = robust_performance(C40 * P_hat, label="omega_n = 2pi 40")
+    C80 = loop_shaping_controller(P_inv, target_loop(2 * math.pi * 80))
+    rp80 = robust_performance(C80 * P_hat, label="omega_n = 2pi 80")
+    rp_exact = robust_performance(loop_shaping_controller(P_hat, target_loop()) * P_hat, label="exact inverse, 40 Hz")
+    rp80_exact = robust_performance(loop_shaping_controller(P_hat, target_loop(2 * math.pi * 80)) * P_hat,
+                                    label="exact inverse, 80 Hz")
+    summary["robust_performance_exact_inverse"] = rp_exact.value
+    summary["robust_performance_exact_inverse_80hz"] = rp80_exact.value
+    figures["robust_performance"] = rp
+    figures["robust_performance_exact"] = rp_exact
+    figures["robust_performance_80"] = rp80
+    summary["robust_performance"] = rp.value
+    summary["robust_performance_80hz"] = rp80.value
+    summary["robust_performance_weights"] = "W1 = 0.6/(s/(2pi 30) + 1); W2 = 0.15 (s/(2pi 12) + 1)/(s/(2pi 600) + 1)"
+
+    # loop area in closed loop: 0.2 Hz / 0.31 N and 1 Hz / large amplitude (C28)
+    cl_slow = loop_io(compiled, ctrl, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
+    cl_fast = loop_io(compiled, ctrl, freq_hz=1.0, amplitude_N=LARGE_AMPLITUDE_N, cycles=2, settle_cycles=1)
+    ol_fast = loop_io(compiled, None, freq_hz=1.0, amplitude_N=LARGE_AMPLITUDE_N, cycles=2, settle_cycles=1)
+    summary["loop_area"] = loop_area(cl_slow.u, cl_slow.force / T0)
+    summary["open_loop_area"] = loop_area(slow.u, slow.force)
+    summary["loop_area_1hz"] = {"closed": loop_area(cl_fast.u, cl_fast.force / T0), "open": loop_area(ol_fast.u, ol_fast.force)}
+    summary["closed_loop_gain_0p2hz"] = cl_slow.gain() / T0
+    summary["open_loop_gain_0p2hz"] = slow.gain()
+    figures["io_loops"] = _IOLoops({"open 0.2 Hz/0.31 N": slow, "closed 0.2 Hz/0.31 N": cl_slow,
+                                    "open 1 Hz": ol_fast, "closed 1 Hz": cl_fast}, T0)
+
+    # C27: ω_n = 2π·80 with sensor noise: command and force above 40 Hz (dithering)
+    say("noise amplification")
+    ctrl80 = Controller.from_realisation(discretise(C80, 1.0 / CONTROL_HZ), label="C = L/P̂, 80 Hz")
+    noise = {}
+    n = int(1.0 * 20000) if quick else int(2.0 * 20000)
+    r = 0.5 * np.sin(2 * math.pi * 2.0 * (np.arange(n) + 0.5) / 20000.0)
+    for name, c in (("40", ctrl), ("80", ctrl80)):
+        run = simulate_closed_loop(compiled, c, r, seed=3, noise_force=0.02)
+        noise[name] = {"u": _band_rms(run.u[n // 4:], 20000.0, 40.0, 400.0),
+                       "force": _band_rms(run.force_true[n // 4:], 20000.0, 40.0, 400.0)}
+    summary["noise_rms_above_40hz_N"] = noise
+    summary["noise_amplification_db"] = 20 * math.log10(noise["80"]["u"] / noise["40"]["u"])
+    summary["noise_amplification_force_db"] = 20 * math.log10(noise["80"]["force"] / noise["40"]["force"])
+
+    return S1Report(bench.name, summary, open_loop, closed, proportional, wiener, figures)
+
+
+def _closed_loop_frfs(compiled, ctrl, omega, amplitudes, T0, cyc) -> dict:
+    out = {}
+    for a in amplitudes:
+        fr = loop_stepped_sine(compiled, ctrl, omega=omega, amplitude_N=a, **cyc)
+        out[float(a)] = FrequencyResponse(fr.omega, fr.ratio / T0, output="F_m", input="T(0) r", method=fr.method,
+                                          amplitude=fr.amplitude, label=fr.label + " / T(0)", meta=fr.meta)
+    return out
+
+
+def _band_rms(x: np.ndarray, rate_hz: float, f_lo: float, f_hi: float) -> float:
+    X = np.fft.rfft(x - x.mean())
+    f = np.fft.rfftfreq(x.size, 1.0 / rate_hz)
+    sel = (f > f_lo) & (f < f_hi)
+    return float(np.sqrt(2.0 * np.sum(np.abs(X[sel]) ** 2)) / x.size)
+
+
+@dataclass(eq=False)
+class _IOLoops(Result):
+    """Input/output loops r → F_m (closed loops divided by T(0)), S1 Figs. 10b and 13."""
+
+    loops: dict
+    T0: float
+
+    def _draw(self, ax) -> None:
+        for name, lp in self.loops.items():
+            y = lp.force / self.T0 if name.startswith("closed") else lp.force
+            ax.plot(lp.u, y, lw=1.0, label=f"{name} (area {loop_area(lp.u, y):.2f})")
+        ax.set_xlabel("input [N]")
+        ax.set_ylabel("F_m [N] (closed loop ÷ T(0))")
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+
+    def to_dict(self) -> dict:
+        return {name: loop_area(lp.u, lp.force) for name, lp in self.loops.items()}
+
+    def table(self) -> str:
+        return format_table(("loop", "area"), list(self.to_dict().items()), "input/output loops")
