@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-import resource
 import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -62,7 +61,30 @@ def _write_file(path: str, seconds: float) -> int:
 
 
 def _rss_gb() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1e6
+    """The current resident set size [GB] (/proc/self/statm), not the process's lifetime peak."""
+    with open("/proc/self/statm") as fh:
+        return int(fh.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 1e9
+
+
+class _PeakRSS:
+    """Samples the current RSS every 20 ms in a thread: the peak growth during a block."""
+
+    def __enter__(self):
+        import threading
+
+        self.start, self.peak, self._stop = _rss_gb(), 0.0, threading.Event()
+
+        def run():
+            while not self._stop.wait(0.02):
+                self.peak = max(self.peak, _rss_gb())
+        self._t = threading.Thread(target=run, daemon=True)
+        self._t.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._t.join()
+        self.growth = max(self.peak, _rss_gb()) - self.start
 
 
 def bench_stream(results: list) -> None:
@@ -82,11 +104,11 @@ def bench_stream(results: list) -> None:
             n = pool.submit(_write_file, str(path), seconds).result()                             # memory is not ours
         print(f"[bench] stream: wrote {n} samples ({path.stat().st_size / 1e9:.2f} GB) in "
               f"{time.perf_counter() - t0:.1f} s")
-        rss0 = _rss_gb()
-        t0 = time.perf_counter()
-        est = StreamingIDIM(dev, chunk_rows=200_000).fit(path)
-        wall = time.perf_counter() - t0
-        grow = max(_rss_gb() - rss0, 1e-3)
+        with _PeakRSS() as mem:
+            t0 = time.perf_counter()
+            est = StreamingIDIM(dev, chunk_rows=200_000).fit(path)
+            wall = time.perf_counter() - t0
+        grow = max(mem.growth, 1e-3)
     w_gb = n * 6 * len(model.standard_names) * 8 / 1e9
     print(f"[bench] stream_identify: {n} samples in {wall:.1f} s, peak memory growth of the fit {grow:.2f} GB "
           f"(full-rate W would be {w_gb:.1f} GB); residual {est.result_.residual_rel:.3f}")

@@ -140,7 +140,11 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
     f = pq.ParquetFile(str(path))
     names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + [f"torque_motor_{i + 1}" for i in range(nm)]
     Ginv = np.linalg.inv(model.G)
-    for batch in f.iter_batches(batch_size=rows, columns=names):
+    # row group by row group: a reader over the whole file pre-buffers ahead and holds memory in proportion
+    # to the file (measured: all of a 3 M-sample log); one group at a time holds at most one group
+    batches = (b for g in range(f.num_row_groups)
+               for b in f.iter_batches(batch_size=rows, row_groups=[g], columns=names, use_threads=False))
+    for batch in batches:
         cols = [batch.column(k).to_numpy() for k in range(len(names))]
         t = cols[0]
         qm = np.column_stack(cols[1:1 + nm])
