@@ -7,7 +7,7 @@ STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-python test-cpp demo bench clean
+.PHONY: install test test-python test-cpp demo bench mutants clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -35,6 +35,11 @@ test-cpp: install
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	ctest --test-dir build/cpp --output-on-failure
+
+# Plant each bug of tests/mutants/mutants.toml in a scratch copy (/tmp), rebuild, run its tests, print the
+# kill rate (~20 min on 2 cores). MUTANTS_ARGS="--tests-from main" measures another ref's tests.
+mutants: install
+	$(VPY) tests/mutants/run.py $(MUTANTS_ARGS)
 
 demo: install
 	$(VENV)/bin/tendyn routing show lexos

@@ -382,6 +382,10 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
   }
 }
 
+/// Branch speed [m/s] at or below which a branch counts as at rest in the simulator (the velocity a
+/// stuck site keeps is the solver's rounding residue, ~1e-18 m/s).
+constexpr double kRestSpeed = 1e-12;
+
 /// Friction force boxes [lo, hi] of every site from the current tension estimate [N or N·m].
 inline void friction_bounds(const SimModel& m, SimData& d) {
   for (int k = 0; k < m.n_sites; ++k) {
@@ -391,6 +395,9 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
       case SiteKind::Branch: {
         double sdot = 0.0;
         for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
+        // A stuck site keeps a PGS residue of ~1e-18 m/s: it is at rest (static threshold α p, S0 eq. 7),
+        // not sliding at that speed (β p + h0).
+        if (std::abs(sdot) <= kRestSpeed) sdot = 0.0;
         const BranchFriction f = branch_friction(m.tendon, i, b, sdot);
         const double up = b == 0 ? d.tension_motor(i) : d.tension(i, b - 1);
         const double drive = std::max(std::abs(up), std::abs(d.tension(i, b)));

@@ -1,4 +1,7 @@
 // The real-time calls allocate nothing: 10^5 calls of each with malloc counted (DESIGN.md).
+// Physics first (so that this executable can fail on wrong statics by itself): the branch law with bearings
+// (S0 eqs. 7-8, 11-12, ERRATA) and stuck branches on a two-joint chain, against values computed by hand.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -6,8 +9,68 @@
 #include "counting_malloc.hpp"
 #include "tendyn/losses.hpp"
 
+static int physics_failures = 0;
+static void expect_near(const char* what, double got, double want, double rel = 1e-12) {
+  if (!(std::abs(got - want) <= rel * std::abs(want) + 1e-15)) {
+    std::printf("PHYSICS FAIL %s: got %.17g, want %.17g\n", what, got, want);
+    ++physics_failures;
+  }
+}
+
+// One joint (r_m = 10 mm, R = 50 mm), two bearings r = 10 mm, wrap pi (load 2 per unit tension),
+// alpha = 2e-4, beta = 1.5e-4, h0 = 1e-4, h1 = 1e-4, n0 = 5 rad/s, pretension 20 N.
+//   at rest:  a = 2 (alpha 2 T_pre)/r = 1.6 N, b = 2 alpha 2 / r = 0.08 (h does not enter)
+//   moving at Sdot = 0.3 m/s: pulley n = 30 rad/s > n0, h = 1e-4 30^(2/3), a = 2 (beta 2 T_pre + h)/r, b = 0.06
+static void bearing_statics() {
+  Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(1, 1);
+  tendyn::TransmissionModel m(Eigen::VectorXd::Constant(1, 0.01), idle, Eigen::VectorXd::Constant(1, 0.05),
+                              Eigen::VectorXd::Constant(1, 1.0));
+  m.pretension(0) = 20.0;
+  m.bearing_count(0, 0) = 2; m.bearing_radius(0, 0) = 0.01; m.bearing_wrap(0, 0) = 3.141592653589793;
+  m.bearing_static_coefficient(0, 0) = 2e-4; m.bearing_dynamic_coefficient(0, 0) = 1.5e-4; m.bearing_h0(0, 0) = 1e-4;
+  m.bearing_h1(0, 0) = 1e-4; m.bearing_n0(0, 0) = 5.0;
+  tendyn::TransmissionData d(m);
+  Eigen::VectorXd x(1), v(1);
+  // forward at rest, drive +-10 N: break-away 1.6 + 0.08*10 = 2.4 N, passes +-7.6 N, tau_J = +-0.38 N m
+  for (double t : {10.0, -10.0}) {
+    x(0) = 0.01 * t; v(0) = 0.0;
+    tendyn::joint_torque_forward(m, d, x, v);
+    expect_near("bearing break-away at alpha p", d.torque_joint(0), t > 0 ? 0.38 : -0.38);
+  }
+  // forward at rest, 1.5 N < 1.6 + 0.12: stuck, nothing passes (with beta: 1.29 N, it would pass 0.21 N)
+  x(0) = 0.015; v(0) = 0.0;
+  tendyn::joint_torque_forward(m, d, x, v);
+  expect_near("bearing holds below alpha p", d.torque_joint(0), 0.0);
+  // feedforward moving, driving, 30 N at the joint: y = (30 + a)/(1 - b)
+  const double a = 2.0 * (1.5e-4 * 2.0 * 20.0 + 1e-4 * std::cbrt(900.0)) / 0.01;
+  x(0) = 30.0 * 0.05; v(0) = 6.0;
+  tendyn::motor_torque_feedforward(m, d, x, v);
+  expect_near("bearing loss at pulley speed", d.tension_motor(0), (30.0 + a) / 0.94);
+}
+
+// Two joints K = [[0.05, 0], [0.02, 0.04]], tau0 = [[1], [0.5, 0.8]] N, beta = [[0.1], [0.05, 0]]; all at rest,
+// motor tensions (5, -6) N. Cable 1: 5 - (1 + 0.5) = 3.5 N. Cable 2: -6 + (0.5 + 0.3) = -5.2, then -5.2 + 0.8
+// = -4.4 N. tau_J = (0.05*3.5 + 0.02*(-5.2), 0.04*(-4.4)) = (0.071, -0.176) N m.
+static void stuck_chain() {
+  Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(2, 2);
+  idle(1, 0) = 0.02;
+  tendyn::TransmissionModel m(Eigen::VectorXd::Constant(2, 0.01), idle,
+                              (Eigen::VectorXd(2) << 0.05, 0.04).finished(), Eigen::VectorXd::Constant(2, 1.0));
+  m.tau0(0, 0) = 1.0; m.tau0(1, 0) = 0.5; m.tau0(1, 1) = 0.8;
+  m.beta(0, 0) = 0.1; m.beta(1, 0) = 0.05;
+  tendyn::TransmissionData d(m);
+  Eigen::VectorXd cm(2), v = Eigen::VectorXd::Zero(2);
+  cm << 0.05, -0.06;
+  tendyn::joint_torque_forward(m, d, cm, v);
+  expect_near("stuck chain tau_1", d.torque_joint(0), 0.071);
+  expect_near("stuck chain tau_2", d.torque_joint(1), -0.176);
+}
+
 int main(int argc, char** argv) {
   const long calls = argc > 1 ? std::atol(argv[1]) : 100000;
+  bearing_statics();
+  stuck_chain();
+  if (physics_failures) return 1;
   const int n = 4;
   Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(n, n);
   idle(1, 0) = 0.015; idle(2, 0) = 0.015; idle(2, 1) = -0.015;

@@ -1,4 +1,6 @@
-// The simulator step allocates nothing (tendon and elastic drives, friction on, sensors on).
+// The simulator step allocates nothing (tendon and elastic drives, friction on, sensors on); and physics
+// checks against values computed by hand, so that this executable can fail on wrong simulator physics.
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 
@@ -42,7 +44,99 @@ static tendyn::SimModel chain(tendyn::DriveKind kind) {
   return m;
 }
 
+// One joint about the vertical axis (gravity gives no torque): 1 kg at 0.1 m, 0.001 kg m^2 about the COM.
+static tendyn::SimModel one_joint(double r_m, double pulley, double ratio, double eta) {
+  tendyn::SimModel m;
+  m.body.add_joint(0, Eigen::Matrix4d::Identity(), Eigen::Vector3d::UnitZ(), false, 1.0,
+                   Eigen::Vector3d(0.1, 0.0, 0.0), Eigen::Matrix3d::Identity() * 0.001, "j1");
+  m.body.set_gravity(Eigen::Vector3d(0, 0, -9.81));
+  m.L = Eigen::MatrixXd::Identity(1, 1);
+  m.c = Eigen::VectorXd::Zero(1);
+  m.drive = tendyn::DriveKind::Tendon;
+  m.tendon = tendyn::TransmissionModel(Eigen::VectorXd::Constant(1, r_m), Eigen::MatrixXd::Zero(1, 1),
+                                       Eigen::VectorXd::Constant(1, pulley), Eigen::VectorXd::Constant(1, ratio));
+  m.tendon.reducer_efficiency.setConstant(eta);
+  m.rotor_inertia = Eigen::VectorXd::Constant(1, 1e-5);
+  m.dt = 1e-4;
+  m.control_decimation = 10;
+  return m;
+}
+
+static int physics_failures = 0;
+static void expect(bool ok, const char* what, double got, double want) {
+  if (!ok) {
+    std::printf("PHYSICS FAIL %s: got %.12g, want %.12g\n", what, got, want);
+    ++physics_failures;
+  }
+}
+
+// Reducer n = 8, eta_d = 0.9, r_m = 8 mm, pulley 40 mm, C_m = 0.05 N m: n M_p = 0.32 * 0.05/0.008 = 2 N m.
+// At constant speed the joint balances tau_ext with eta_d n M_p = 1.8 N m driving (qd = +1) and
+// n M_p / eta_i = 2 * 0.9/0.8 = 2.25 N m back-driven (qd = -1), S0 eqs. 9-10: the speed must not drift.
+static void reducer_constant_speed() {
+  for (double qd : {1.0, -1.0}) {
+    tendyn::SimModel m = one_joint(0.008, 0.04, 8.0, 0.9);
+    if (tendyn::is_error(m.finalize())) { ++physics_failures; return; }
+    tendyn::SimData d(m);
+    d.reset(Eigen::VectorXd::Zero(1), 0);
+    d.qd(0) = qd;
+    d.qd_motor = m.Gm * d.qd;
+    d.qd_motor_prev = d.qd_motor;
+    Eigen::VectorXd z = Eigen::VectorXd::Zero(1), ff = Eigen::VectorXd::Constant(1, 0.05);
+    Eigen::VectorXd ext = Eigen::VectorXd::Constant(1, qd > 0 ? -1.8 : -2.25);
+    for (int k = 0; k < 3000; ++k) tendyn::step(m, d, z, z, ff, ext);
+    expect(std::abs(d.qd(0) - qd) < 3e-3, qd > 0 ? "reducer driving, speed" : "reducer back-driven, speed",
+           d.qd(0), qd);
+  }
+}
+
+// Velocity estimate: first-order filter, alpha = 1 - exp(-2 pi f_c T_c); at a constant speed v0 the k-th
+// control sample (k = 0 has no difference yet) reads v0 (1 - (1 - alpha)^k). f_c = 20 Hz, T_c = 1 ms.
+static void velocity_estimator() {
+  tendyn::SimModel m = one_joint(0.01, 0.05, 1.0, 1.0);
+  m.mode = tendyn::ControlMode::JointPID;
+  m.velocity_cutoff_hz = 20.0;
+  m.peak_torque = Eigen::VectorXd::Constant(1, 1e-12);
+  if (tendyn::is_error(m.finalize())) { ++physics_failures; return; }
+  tendyn::SimData d(m);
+  d.reset(Eigen::VectorXd::Zero(1), 0);
+  d.qd(0) = 0.8;
+  d.qd_motor = m.Gm * d.qd;
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(1);
+  for (int k = 0; k < 101; ++k) tendyn::step(m, d, z, z, z, z);  // 11 control samples, k = 0..10
+  const double alpha = 1.0 - std::exp(-2.0 * 3.141592653589793 * 20.0 * 1e-3);
+  const double want = 0.8 * (1.0 - std::pow(1.0 - alpha, 10));
+  expect(std::abs(d.v_est(0) - want) < 1e-6 * want, "velocity estimate after 10 samples", d.v_est(0), want);
+}
+
+// Encoder of 4096 counts: rounds to the nearest count, the error is within +-step/2 and centred.
+static void encoder_rounding() {
+  tendyn::SimModel m = one_joint(0.01, 0.05, 1.0, 1.0);
+  m.encoder_counts = Eigen::VectorXd::Constant(1, 4096);
+  if (tendyn::is_error(m.finalize())) { ++physics_failures; return; }
+  tendyn::SimData d(m);
+  d.reset(Eigen::VectorXd::Zero(1), 0);
+  const double step = 2.0 * 3.141592653589793 / 4096;
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(1);
+  double worst = 0.0, sum = 0.0;
+  const int n = 10007;
+  for (int k = 0; k < n; ++k) {
+    d.q(0) = 1e-4 * k;                      // sweeps 1.0 rad of joint, 5 rad of motor
+    tendyn::motor_state(m, d);
+    tendyn::control(m, d, z, z, z);
+    const double e = d.q_motor_meas(0) - d.q_motor(0);
+    worst = std::max(worst, std::abs(e));
+    sum += e;
+  }
+  expect(worst <= 0.5 * step + 1e-12, "encoder error within half a count", worst, 0.5 * step);
+  expect(std::abs(sum / n) < 0.05 * step, "encoder error centred", sum / n, 0.0);
+}
+
 int main(int argc, char** argv) {
+  reducer_constant_speed();
+  velocity_estimator();
+  encoder_rounding();
+  if (physics_failures) return 1;
   const long steps = argc > 1 ? std::atol(argv[1]) : 20000;
   int failures = 0;
   for (auto kind : {tendyn::DriveKind::Tendon, tendyn::DriveKind::Elastic}) {

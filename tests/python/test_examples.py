@@ -18,10 +18,35 @@ def _numbers(text: str) -> np.ndarray:
 
 
 def test_example_01_python_runs_and_matches_the_core():
+    """The example's numbers, checked against the statics of the bundled L-EXOS by hand where they are
+    simple: the example asks τ = (2, 0, 0, 1) N·m at q̇ = (0.5, 0, 0, 0.2) rad/s.
+
+    Lossless part (C3): C_m = R_m t with t from τ_J = Kᵀ t, solved here with numpy from the routing.
+    With losses every moving transmission needs MORE motor torque than lossless (power flows from the
+    motors and friction only takes), and transmissions 2 and 3, whose joints and motors are at rest or
+    carry no load of their own, still pass the coupling torques. Finally the example equals a direct call
+    of the core with the same inputs (bit for bit)."""
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+    from tendyn.transmission import Transmission
+
     out = subprocess.run([sys.executable, str(REPO / "examples/01_feedforward/feedforward.py")],
                          capture_output=True, text=True, check=True).stdout
     c = _numbers(out)
-    assert c.shape == (4,) and np.all(np.isfinite(c)) and c[0] > 0
+    assert c.shape == (4,)
+    dev = load_device(bundled("lexos"))
+    arr = dev.routing_arrays()
+    K, r_m = arr["K"], arr["motor_radius"]
+    tau, qd = np.array([2.0, 0.0, 0.0, 1.0]), np.array([0.5, 0.0, 0.0, 0.2])
+    lossless = r_m * np.linalg.solve(K.T, tau)
+    qd_m = np.linalg.solve(np.diag(r_m), K @ qd)
+    # power in ≥ power out (the loss is positive), and the example is not the lossless answer
+    assert qd_m @ c > qd @ tau
+    assert not np.allclose(c, lossless, rtol=1e-3)
+    # each loaded, driving transmission asks more than lossless: 1 and 4 carry τ and move with it
+    assert c[0] > lossless[0] > 0 and c[3] > lossless[3] > 0
+    core = Transmission.from_device(dev).feedforward(tau, qd).torque_motor
+    np.testing.assert_array_equal(c, core)
 
 
 def test_example_01_same_numbers_in_c_cpp_python():

@@ -55,8 +55,17 @@ def test_S2_other_joints_still(lexos, runs):
     arr = lexos.routing_arrays()
     qd2 = 6.0 * arr["motor_radius"][1] / arr["K"][1, 1]
     expected = arr["K"][:, 1] * qd2 / arr["motor_radius"]
-    # (30 % tolerance: the held joints creep by ~1 mrad/s under the PID, ×30 at motor 4)
-    np.testing.assert_allclose(np.median(qd_m[cruise], axis=0)[2:], expected[2:], rtol=0.3)
+    # Inextensible cables (S0's hypothesis): the motors follow q̇_m = R_m⁻¹ K q̇ exactly, held joints included
+    Gm = arr["K"] / arr["motor_radius"][:, None]
+    mean_m, mean_j = qd_m[cruise].mean(axis=0), qd[cruise].mean(axis=0)
+    np.testing.assert_allclose(mean_m, Gm @ mean_j, rtol=1e-9, atol=1e-12)
+    # and what separates them from "joint 2 alone" is only the creep of the held joints (a few mrad/s under
+    # the PID), amplified by |Gm| (×30 at motor 4): an error budget instead of a blanket 30 %
+    creep = mean_j.copy()
+    creep[1] = 0.0
+    budget = np.abs(Gm) @ np.abs(creep)
+    assert np.all(np.abs(mean_m[2:] - expected[2:]) <= budget[2:] + 1e-3), (mean_m, expected, budget)
+    assert abs(mean_m[1] - 6.0) < 0.03 and np.abs(creep).max() < 0.005
 
 
 def test_logs_hold_only_bench_signals(runs):

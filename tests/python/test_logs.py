@@ -278,6 +278,16 @@ def parquet_file(tmp_path, arrays: dict, meta=GOOD_META):
     return p
 
 
+def parquet_with_units(tmp_path, units: dict, meta=GOOD_META):
+    """A Parquet log whose columns carry the given unit strings in their Arrow field metadata."""
+    fields = [pa.field(name, pa.float64(), metadata={b"unit": unit.encode()}) for name, unit in units.items()]
+    table = pa.table({name: [0.0, 1.0] for name in units}, schema=pa.schema(fields))
+    table = table.replace_schema_metadata({b"tendyn": json.dumps(meta).encode()})
+    p = tmp_path / "bad.parquet"
+    pq.write_table(table, p)
+    return p
+
+
 def rows_with(i, row):
     rows = list(GOOD_ROWS)
     rows[i] = row
@@ -331,6 +341,14 @@ MALFORMED = [
     ("parquet-string-column",
      lambda d: parquet_file(d, {"time": [0.0, 1.0], "q_motor_1": ["a", "b"]}),
      ["bad.parquet", "column q_motor_1", "Arrow type string is not floating or integer"]),
+    ("parquet-unit-disagrees", lambda d: parquet_with_units(d, {"time": "s", "q_motor_1": "deg"}),
+     ["bad.parquet", "column q_motor_1: unit 'deg' in the file, expected 'rad'"]),
+    ("parquet-time-unit", lambda d: parquet_with_units(d, {"time": "ms", "q_motor_1": "rad"}),
+     ["bad.parquet", "column time: unit 'ms' in the file, expected 's'"]),
+    ("memory-options-tuple", lambda d: Log({"time": np.arange(2.0)}, meta_with(options={"a": (1, 2)})),
+     ["<memory>", "meta.options", "does not survive a JSON round trip"]),
+    ("memory-options-int-key", lambda d: Log({"time": np.arange(2.0)}, meta_with(options={1: "x"})),
+     ["<memory>", "meta.options", "does not survive a JSON round trip"]),
     ("parquet-no-meta", lambda d: parquet_file(d, {"time": [0.0, 1.0]}, meta=None),
      ["bad.parquet", "no 'tendyn' meta"]),
     ("parquet-inf", lambda d: parquet_file(d, {"time": [0.0, 0.5, 1.0], "q_motor_1": [0.0, 1.0, np.inf]}),

@@ -93,15 +93,20 @@ def test_C4_tau0_form_and_direction_of_power_flow():
 
 
 def test_C4_beta_form_is_a_capstan():
-    """C4: with β = 1 − e^{−μθ} a branch is a capstan wrap τ_out = τ_in e^{−μθ}, in both directions."""
+    """C4: with β = 1 − e^{−μθ} a branch is a capstan wrap τ_out = τ_in e^{−μθ}, in both directions
+    (Euler–Eytelwein; reference values from numpy, not from the core's capstan helpers)."""
     mu, wrap = 0.15, 2 * np.pi
-    beta = _core.capstan_beta(mu, wrap)
+    beta = 1.0 - np.exp(-mu * wrap)
+    assert _core.capstan_beta(mu, wrap) == pytest.approx(beta, rel=1e-15)
+    assert _core.capstan_tension_out(30.0, mu, wrap) == pytest.approx(30.0 * np.exp(-mu * wrap), rel=1e-15)
     tr = _one_joint(beta=[[beta]])
     t_joint = 30.0
     drive = tr.feedforward([t_joint * 0.05], [1.0])      # motor drives: τ_joint = τ_motor e^{−μθ}
-    assert t_joint == pytest.approx(_core.capstan_tension_out(drive.tension_motor[0], mu, wrap), rel=1e-12)
+    assert drive.tension_motor[0] == pytest.approx(t_joint * np.exp(mu * wrap), rel=1e-12)
     back = tr.feedforward([t_joint * 0.05], [-1.0])      # joint drives: τ_motor = τ_joint e^{−μθ}
-    assert back.tension_motor[0] == pytest.approx(_core.capstan_tension_out(t_joint, mu, wrap), rel=1e-12)
+    assert back.tension_motor[0] == pytest.approx(t_joint * np.exp(-mu * wrap), rel=1e-12)
+    fwd = tr.forward([0.01 * 40.0], [1.0])               # forward: 40 N in, 40 e^{−μθ} N out
+    assert fwd.tension[0, 0] == pytest.approx(40.0 * np.exp(-mu * wrap), rel=1e-12)
 
 
 def test_C4_stuck_below_breakaway():
@@ -117,10 +122,14 @@ def test_C4_stuck_below_breakaway():
 
 
 def test_C5_bearing_law_every_branch():
-    """C5, S0 eqs. 7–8: static below α p; β p + h(n) moving, h = h0 below n0, h1 n^{2/3} above."""
+    """C5, S0 eqs. 7–8: static below α p; β p + h(n) moving, h = h0 below n0, h1 n^{2/3} above.
+    (The scalar law; the branch law the statics and the simulator use is tested in test_branch_law.py
+    and test_sim_physics.py.)"""
     alpha, beta, h0, h1, n0, p = 2e-3, 1.5e-3, 1e-3, 2e-4, 5.0, 100.0
     t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, 0.1)
     assert stuck and t == 0.1                                   # holds: 0.1 < α p = 0.2
+    t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, 0.17)
+    assert stuck and t == 0.17                                  # β p = 0.15 < 0.17 < α p: only α holds it
     t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, -0.3)
     assert not stuck and t == pytest.approx(-(beta * p + h0))   # breaks away
     t, _ = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 2.0, 0.0)

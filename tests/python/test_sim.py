@@ -153,7 +153,10 @@ def test_determinism_same_seed_bit_identical(lexos):
 
 
 def test_friction_in_the_loop_matches_the_statics(lexos):
-    """Independent routes: the simulator's friction sites vs the S0 feedforward recursion.
+    """Consistency of two routes that share the branch law: the simulator's friction sites vs the S0
+    feedforward recursion (both call losses.hpp ``branch_friction``, so a wrong branch law passes here;
+    it is pinned by the hand-computed tests in test_branch_law.py and test_sim_physics.py). What this
+    checks is the rest: the site layout, the branch velocities, the reducers and the tension bookkeeping.
 
     Joint 1 (vertical axis) is driven at constant speed by a constant motor torque set from the
     statics; the other joints are held by their own feedforward. After the transient, the speed

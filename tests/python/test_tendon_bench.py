@@ -189,8 +189,13 @@ def test_tension_only(bench):
     assert np.all(run.tension_a >= 0.0) and np.all(run.tension_b >= 0.0)
     assert np.any(run.tension_a == 0.0), run.tension_a.min()
     assert run.tension_b.max() > 2 * b.pretension
-    # while both tendons are taut, F_m = T_a − T_b
-    np.testing.assert_array_equal(run.force, run.tension_a - run.tension_b)
+    # the tension law from the positions, by hand: T = max(0, T_pre + (k_e/2)·stretch), stretch x_a − x_load
+    # for A and x_load − x_b for B (a slack tendon carries nothing, it never pushes)
+    k_t = 0.5 * b.k1 * b.k2 / (b.k1 + b.k2)
+    np.testing.assert_allclose(run.tension_a, np.maximum(0.0, b.pretension + k_t * (run.x_a - run.x_load)),
+                               rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(run.tension_b, np.maximum(0.0, b.pretension + k_t * (run.x_load - run.x_b)),
+                               rtol=1e-12, atol=1e-9)
 
 
 def test_small_signal_common_mode_decoupled(bench):
@@ -232,11 +237,87 @@ def test_invalid_model_raises(bench):
         tb.simulate(bench, np.array([0.0, np.inf]))
 
 
-def test_low_speed_loop_shape(bench):
+def test_low_speed_loop_dead_band_c24(bench):
+    """C21/C24: the 0.2 Hz, 0.31 N loop on the stiff load, against the quasi-static dead-band by hand.
+
+    Class-B split, Coulomb friction F_c = F_c0 + μ T at each node (F_c,rest = F_c0 + μ T_pre), stiff load.
+    A node that slid forward on its half-wave and is then released (u⁺ = 0) slides back until its extra
+    tension D' balances friction: D' = F_c0 + μ (T_pre + D') ⇒ D' = F_c,rest/(1 − μ). On its next half-wave
+    it slides forward with extra tension D = u − F_c0 − μ(T_pre + D) ⇒ D = (u − F_c,rest)/(1 + μ), up to the
+    peak u = A. Meanwhile the other node rests at D'. So the steady loop swings F_m between ±(D − D'):
+      F_peak = (A − F_c,rest)/(1 + μ) − F_c,rest/(1 − μ)
+    The forward slide is quasi-static to ~1e-5 (damping: the node creeps at < 1e-4 m/s), so the extra tension
+    of the driven tendon peaks at D within 2e-4 (with friction from the other tendon it would be μ D' higher,
+    1.6e-3). The release is not: when u⁺ reaches 0 the drive stops abruptly and the sliding node overshoots
+    by up to v √(k m) ≈ 7e-5 m/s · √(1.02e4 N/m · 0.29 kg) ≈ 4e-3 N, hence the looser bound on the loop.
+    A frictionless channel returns the whole 0.31 N (G(0) = 1)."""
     loop = tb.low_speed_loop(bench, freq_hz=0.2, amplitude_N=0.31, cycles=1)
     assert loop.u.shape == loop.force.shape and loop.u.size > 100
-    assert np.max(np.abs(loop.force)) < 0.31  # the dead-band eats part of the input
     assert set(loop.to_dict()) >= {"u", "force", "time"}
+    fc, mu, A = bench.friction_c0 + bench.friction_mu_tension * bench.pretension, bench.friction_mu_tension, 0.31
+    D, D_rel = (A - fc) / (1 + mu), fc / (1 - mu)
+    assert loop.force.max() == pytest.approx(D - D_rel, abs=4e-3)
+    assert loop.force.min() == pytest.approx(-(D - D_rel), abs=4e-3)
+    n = int(round(2 / 0.2 * RATE))
+    run = tb.simulate(bench, A * np.sin(2 * math.pi * 0.2 * (np.arange(n) + 0.5) / RATE), rate_hz=RATE)
+    assert run.tension_a.max() - bench.pretension == pytest.approx(D, rel=2e-4)
+    assert run.tension_b.max() - bench.pretension == pytest.approx(D, rel=2e-4)
+    free = tb.low_speed_loop(frictionless(bench), freq_hz=0.2, amplitude_N=0.31, cycles=1)
+    assert free.force.max() == pytest.approx(0.31, rel=1e-3)
+
+
+def _settle_then_hold(b, u_settle, f_net, node, steps_hold=4000):
+    """Drive one node with u_settle until it sticks, then command the u that leaves a net applied force
+    f_net on that node (F_pre + |u| − T_own, along the node's pull); return (stuck throughout, own and
+    other tension at the hold, position change of the node)."""
+    model = tb.bench_model(b, RATE)
+    data = _core.TendonBenchData(model, 0)
+    for _ in range(int(1.5 * RATE)):
+        _core.step(model, data, u_settle)
+    own = data.tension_a if node == "a" else data.tension_b
+    other = data.tension_b if node == "a" else data.tension_a
+    x0 = data.x_a if node == "a" else data.x_b
+    assert (data.stuck_a if node == "a" else data.stuck_b)
+    mag = own - b.pretension + f_net                       # |u| that pulls with F_pre + |u| = T_own + f_net
+    u_hold = mag if node == "a" else -mag
+    stuck = True
+    for _ in range(steps_hold):
+        _core.step(model, data, u_hold)
+        stuck &= bool(data.stuck_a if node == "a" else data.stuck_b)
+    x1 = data.x_a if node == "a" else data.x_b
+    return stuck, own, other, x1 - x0
+
+
+@pytest.mark.parametrize("node", ["a", "b"])
+def test_friction_grows_with_the_nodes_own_tendon(bench, node):
+    """DEVICES.md §2: F_c = F_c0 + μ_T T with T the tension of THAT node's tendon. After pulling one node to
+    T_own ≈ 25 N (the other tendon stays at T_pre = 5 N), a net force of ±0.97 (F_c0 + μ T_own) on it must
+    leave it stuck, bit for bit; 1.03 (F_c0 + μ T_own) must break it away. With friction from the other
+    tendon (F_c0 + μ T_pre = 0.45 N) or from the pretension, 0.97·1.45 N would already slide."""
+    b = bench.replace(friction_c0=0.2, friction_mu_tension=0.05, k_z=1e9)
+    u = 20.0 if node == "a" else -20.0
+    probe = _settle_then_hold(b, u, 0.0, node, steps_hold=1)
+    own, other = probe[1], probe[2]
+    fc_own = 0.2 + 0.05 * own
+    assert own > 20.0 and other == pytest.approx(b.pretension, abs=1e-12)
+    assert fc_own > 2 * (0.2 + 0.05 * other)
+    for f in (0.97 * fc_own, -0.97 * fc_own):
+        stuck, _, _, dx = _settle_then_hold(b, u, f, node)
+        assert stuck and dx == 0.0, (node, f, dx)
+    stuck, _, _, dx = _settle_then_hold(b, u, -1.03 * fc_own, node)
+    assert not stuck and dx != 0.0
+
+
+@pytest.mark.parametrize("u", [3.0, -3.0])
+def test_sensed_displacement_static_value(bench, u):
+    """X_t at a static equilibrium, by hand (friction off, clamped load x_load = 0, constant command u).
+    The driven tendon stretches by |u|/(k_e/2), the other not at all; each sensing point sits at
+    s = (k1 x_motor + k2 x_load)/(k1 + k2); X_t = (s_a + s_b)/2 = (k1/(k1 + k2)) u/k_e = u/k2
+    (the k2 section of the channel carries u): 3 N / 1e5 N/m = 30 µm. (k1 and k2 exchanged: u/k1 = 117 µm.)"""
+    b = frictionless(bench, k_z=1e9)
+    run = tb.simulate(b, np.full(int(3.0 * RATE), u), rate_hz=RATE)
+    assert run.position[-1] == pytest.approx(u / b.k2, rel=1e-6)
+    assert run.force[-1] == pytest.approx(u, rel=1e-6)
 
 
 # ---------------------------------------------------------------------------------------------------------

@@ -73,9 +73,9 @@ class FrictionFit(Result):
         """%σ of (C_m0, ν) (S2 eq. 7)."""
         return (_pct(self.coulomb_motor_std, self.coulomb_motor), _pct(self.viscous_motor_std, self.viscous_motor))
 
-    def predict(self, qdot_motor) -> np.ndarray:
+    def predict(self, qd_motor) -> np.ndarray:
         """C_m [N·m] at motor speeds [rad/s] (zero at zero speed)."""
-        v = np.asarray(qdot_motor, float)
+        v = np.asarray(qd_motor, float)
         return self.coulomb_motor * np.sign(v) + self.viscous_motor * v
 
     def to_dict(self) -> dict:
@@ -329,8 +329,8 @@ class TransmissionFriction:
         self.result_.residual_bound = self.residual_bound_
         return self
 
-    def predict(self, qdot_motor) -> np.ndarray:
-        return self.result_.predict(qdot_motor)
+    def predict(self, qd_motor) -> np.ndarray:
+        return self.result_.predict(qd_motor)
 
     def _bins_model(self, strokes):
         rows = []
@@ -386,29 +386,29 @@ def _distinct(values, rel: float) -> list[float]:
 
 # ---- residual-error bound (ERRATA eq. 15) -------------------------------------------------------------
 
-def isolated_move_joint_speeds(K, motor_radius, j: int, strategy: str, qdot_motor: float = 1.0) -> np.ndarray:
-    """Joint speeds [rad/s] while transmission j (0-based) moves at motor speed ``qdot_motor``.
+def isolated_move_joint_speeds(K, motor_radius, j: int, strategy: str, qd_motor: float = 1.0) -> np.ndarray:
+    """Joint speeds [rad/s] while transmission j (0-based) moves at motor speed ``qd_motor``.
 
     S2: only joint j moves, q̇_j = r_m^j q̇_m^j / r_j^j. S1 (the other motors held): S0 eq. 14, corrected:
     ERRATA — q̇_i = 0 for i < j, q̇_j = r_m^j q̇_m^j / r_j^j, q̇_i = −(1/r_i^i) Σ_{k=j}^{i−1} r_k^i q̇_k."""
     K = np.asarray(K, float)
     n = K.shape[0]
     qd = np.zeros(n)
-    qd[j] = motor_radius[j] * qdot_motor / K[j, j]
+    qd[j] = motor_radius[j] * qd_motor / K[j, j]
     if strategy == "S1":
         for i in range(j + 1, n):
             qd[i] = -sum(K[i, k] * qd[k] for k in range(j, i)) / K[i, i]
     return qd
 
 
-def branch_speeds(K, qdot) -> np.ndarray:
+def branch_speeds(K, qd) -> np.ndarray:
     """Ṡ[i, b] = Σ_{l ≥ b} K[i, l] q̇_l [m/s] (branch b of transmission i, relative to its link)."""
     K = np.asarray(K, float)
     n = K.shape[0]
     S = np.zeros_like(K)
     for i in range(n):
         for b in range(i + 1):
-            S[i, b] = float(np.dot(K[i, b:i + 1], qdot[b:i + 1]))
+            S[i, b] = float(np.dot(K[i, b:i + 1], qd[b:i + 1]))
     return S
 
 

@@ -74,7 +74,7 @@ def _reset(sim, data, q0, seed) -> None:
 
 def _encoders(sim, data) -> np.ndarray:
     """Quantised motor encoder readings [rad] (the simulator's own rule, S0: position sensors only)."""
-    qm = np.array(data.qm)
+    qm = np.array(data.q_motor)
     counts = np.array(sim.encoder_counts)
     step = np.where(counts > 0, 2 * np.pi / np.where(counts > 0, counts, 1), 0.0)
     return np.where(step > 0, step * np.floor(qm / np.where(step > 0, step, 1) + 0.5), qm)
@@ -162,8 +162,8 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
         c, sn = np.cos(omega * t), np.sin(omega * t)
         path = x0 + radius * a * np.array([c - 1.0, sn, 0.0])
         path_v = radius * a * omega * np.array([-sn, c, 0.0]) + radius * da * np.array([c - 1.0, sn, 0.0])
-        x, J = handle(np.array(data.qa))
-        f = hand_stiffness * (path - x) + hand_damping * (path_v - J @ np.array(data.va))
+        x, J = handle(np.array(data.q))
+        f = hand_stiffness * (path - x) + hand_damping * (path_v - J @ np.array(data.qd))
         tau = J.T @ f
         block.run(data, torque_motor, tau)      # one control period, the hand held (1 kHz) like the motors
         torque_hand[s] = tau
@@ -222,10 +222,10 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     for s, t in enumerate(time):
         torque_motor = rend.cycle(_encoders(sim, data))
         forces[s] = np.array(rend.data.force)
-        x, J = handle(np.array(data.qa))
+        x, J = handle(np.array(data.q))
         u = min(1.0, t / 0.3)  # the hand presses in over 0.3 s
         goal = x0 + u * (target - x0)
-        f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.va))
+        f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.qd))
         block.run(data, torque_motor, J.T @ f)
         height[s] = x[2] - floor
     last = time >= duration - window

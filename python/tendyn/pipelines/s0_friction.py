@@ -57,11 +57,11 @@ def _branch_law(arr, i, b, sdot):
     return a, bb
 
 
-def true_motor_friction(arr, i: int, qdot_motor: float) -> float:
+def true_motor_friction(arr, i: int, qd_motor: float) -> float:
     """True motor torque [N·m] that moves transmission i (0-based) alone at motor speed q̇_m > 0 with no
     joint torque, from the twin's routing/friction arrays (module docstring)."""
     r_m = float(arr["motor_radius"][i])
-    sdot = r_m * qdot_motor          # k'_b = r_m on every branch (ERRATA eq. 16)
+    sdot = r_m * qd_motor          # k'_b = r_m on every branch (ERRATA eq. 16)
     y = 0.0
     for b in range(i, -1, -1):
         a, bb = _branch_law(arr, i, b, sdot)
@@ -110,7 +110,7 @@ def _upstream(x, sdot, a, b, nu):
     return c / (1.0 - sb)
 
 
-def motor_torques_with_losses(arr, torque_joint, qdot) -> np.ndarray:
+def motor_torques_with_losses(arr, torque_joint, qd) -> np.ndarray:
     """Motor torques [N·m] for joint torques τ_J [N·m] at joint speeds q̇ [rad/s] with every loss of the
     twin: joint equilibrium (S0 eq. 4), reducer efficiency (eqs. 9–10: ÷ η_d n driving, × η_i / n
     back-driven), the tension climbing each sliding branch (eq. 11 with τ_0, β, bearings, ν); a still
@@ -122,7 +122,7 @@ def motor_torques_with_losses(arr, torque_joint, qdot) -> np.ndarray:
     for i in range(n - 1, -1, -1):
         own = torque_joint[i] - sum(K[k, i] * T[k, i] for k in range(i + 1, n))
         ratio, eta = float(arr["reducer_ratio"][i]), float(arr["reducer_efficiency"][i])
-        power = own * qdot[i]
+        power = own * qd[i]
         pulley = own / ratio
         if power > 0:
             pulley = own / (eta * ratio)
@@ -131,7 +131,7 @@ def motor_torques_with_losses(arr, torque_joint, qdot) -> np.ndarray:
         t = pulley / (K[i, i] / ratio)
         T[i, i] = t
         for b in range(i, -1, -1):
-            sdot = float(np.dot(K[i, b:i + 1], qdot[b:i + 1]))
+            sdot = float(np.dot(K[i, b:i + 1], qd[b:i + 1]))
             if sdot != 0.0:
                 a, bb = _branch_law(arr, i, b, sdot)
                 t = _upstream(t, sdot, a, bb, float(arr["nu"][i, b]))
