@@ -174,6 +174,13 @@ def main() -> int:
 
     bench_sensitivity_sweep(results)
     bench_dask_sweep(results)
+    from tx40_identify import bench_tx40_identify
+
+    bench_tx40_identify(results)
+    from ident_scale import bench_dask, bench_stream
+
+    bench_dask(results)
+    bench_stream(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)

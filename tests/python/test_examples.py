@@ -113,3 +113,14 @@ def test_example_02_model_file_is_exported_from_lexos_toml(tmp_path):
     fresh = tmp_path / "lexos.comp"
     Compensator.from_device(load_device(bundled("lexos"))).export(fresh)
     assert (EX02 / "lexos.comp").read_text() == fresh.read_text(), "lexos.comp is stale: re-export it"
+
+
+def test_example_03_tx40_identification_runs():
+    """Example 03 identifies the real TX40 from the shared measured data (skipped only if they are absent)."""
+    data = REPO.parent / "shared" / "external-data" / "staubli_tx40"
+    if not data.is_dir():
+        pytest.skip(f"the shared measured data are absent: {data}")
+    out = subprocess.run([sys.executable, str(REPO / "examples/03_tx40_identification/identify_tx40.py")],
+                         capture_output=True, text=True, check=True).stdout
+    assert "base parameters (OLS)" in out and "base parameters (WLS)" in out
+    assert "ZZ1R" in out and "cross-validation (first half -> second half)" in out

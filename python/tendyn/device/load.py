@@ -18,6 +18,8 @@ from typing import Any
 import numpy as np
 
 from .schema import (
+    ACTUATOR_FIELDS,
+    Actuator,
     BEARING_FIELDS,
     CONSTRAINT_FIELDS,
     DEVICE_FIELDS,
@@ -260,7 +262,14 @@ class _Parser:
         if top["transmissions"] is not None and top["drives"] is not None:
             raise self.err("drives", "not allowed together with [[transmissions]]: a device has cable "
                                      "transmissions or elastic capstan drives, not both")
-        if top["drives"] is not None:
+        actuators: tuple = ()
+        if top["actuators"] is not None:
+            other = "transmissions" if top["transmissions"] is not None else "drives" if top["drives"] is not None else None
+            if other:
+                raise self.err("actuators", f"not allowed together with [[{other}]]: a device has one kind of "
+                                            "actuation ([[transmissions]], [[drives]] or [[actuators]])")
+            actuators = self.actuators(top["actuators"], kin)
+        elif top["drives"] is not None:
             drives = self.drives(top["drives"], kin)
         elif top["transmissions"] is not None:
             trans = self.transmissions(top["transmissions"], kin)
@@ -268,7 +277,73 @@ class _Parser:
             raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
                                             "joint (or [[drives]] for elastic capstan drives)")
         return SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
-                            kinematics=kin, transmissions=trans, drives=drives)
+                            kinematics=kin, transmissions=trans, drives=drives, actuators=actuators,
+                            bandwidth_hz=dev["bandwidth_hz"])
+
+    def actuators(self, raw: Any, kin: Kinematics) -> tuple[Actuator, ...]:
+        """[[actuators]]: one geared motor per actuated joint; the coupling matrix must be invertible."""
+        if not raw:
+            raise self.err("actuators", "must list at least one actuator ([[actuators]])")
+        driven_by: dict[int, int] = {}
+        names: dict[str, int] = {}
+        out = []
+        n = kin.n_joints
+        for i, item in enumerate(raw):
+            path = f"actuators[{i + 1}]"
+            f = self.table(item, path, ACTUATOR_FIELDS)
+            joint = f["joint"]
+            if joint > n:
+                raise self.no_joint(f"{path}.joint", joint, n)
+            js = kin.joints[joint - 1]
+            if not js.actuated:
+                raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
+            if joint in driven_by:
+                raise self.err(f"{path}.joint", f"joint {joint} is driven twice (also actuators[{driven_by[joint]}]); "
+                                                "each joint must be driven exactly once")
+            driven_by[joint] = i + 1
+            name = f["name"] if f["name"] is not None else f"motor{joint}"
+            if name in names:
+                raise self.err(f"{path}.name", f"duplicate actuator name {name!r} (also actuators[{names[name]}])")
+            names[name] = i + 1
+            coupling = []
+            if f["coupling"] is not None:
+                if not isinstance(f["coupling"], dict):
+                    raise self.err(f"{path}.coupling", f"must be a table (got {_typename(f['coupling'])})")
+                for key, coef in f["coupling"].items():
+                    kp = f"{path}.coupling.{key}"
+                    if not key.isdigit():
+                        raise self.err(kp, "key must be a joint number (e.g. \"5\")")
+                    k = int(key)
+                    if k < 1 or k > n:
+                        raise self.no_joint(kp, k, n)
+                    if k == joint:
+                        raise self.err(kp, f"the motor's own joint {joint} is set by ratio, not by coupling")
+                    if not kin.joints[k - 1].actuated:
+                        raise self.err(kp, f"joint {k} is not actuated (mu = 0): couple to actuated joints only")
+                    if isinstance(coef, bool) or not isinstance(coef, (int, float)) or not math.isfinite(coef) \
+                            or abs(coef) > 1e3:
+                        raise self.err(kp, f"must be a finite number with |x| <= 1000 (got {_fmt(coef)})")
+                    coupling.append((k, float(coef)))
+            out.append(Actuator(name=name, joint=joint, ratio=f["ratio"], coupling=tuple(sorted(coupling)),
+                                encoder_offset=f["encoder_offset"], rotor_inertia=f["rotor_inertia"],
+                                viscous_motor=f["viscous_motor"], coulomb_motor=f["coulomb_motor"],
+                                torque_constant=f["torque_constant"]))
+        for num, js in enumerate(kin.joints, start=1):
+            if js.actuated and js.sigma != 2 and num not in driven_by:
+                raise self.err("actuators", f"joint {num} ({js.name}) is not driven by any actuator; each "
+                                            "actuated joint must be driven exactly once")
+        out = sorted(out, key=lambda a: a.joint)
+        active = [num for num, js in enumerate(kin.joints, start=1) if js.actuated and js.sigma != 2]
+        col = {num: k for k, num in enumerate(active)}
+        G = np.zeros((len(out), len(active)))
+        for r, a in enumerate(out):
+            G[r, col[a.joint]] = a.ratio
+            for k, coef in a.coupling:
+                G[r, col[k]] += a.ratio * coef
+        if np.linalg.cond(G) > 1e12:
+            raise self.err("actuators", "the motor-to-joint matrix (ratios and couplings) is singular: the joint "
+                                        "angles cannot be recovered from the motor angles")
+        return tuple(out)
 
     def kinematics(self, raw: Any) -> Kinematics:
         k = self.table(raw, "kinematics", KINEMATICS_FIELDS)

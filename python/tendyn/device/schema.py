@@ -154,6 +154,8 @@ TOP_FIELDS = (
       "or [[drives]], not both)", required=False),
     _spec("drives", "table_list", "", "elastic capstan drives, one per actuated joint (alternative to "
       "[[transmissions]])", required=False),
+    _spec("actuators", "table_list", "", "geared motors, one per actuated joint, with an optional motor-to-joint "
+      "coupling (alternative to [[transmissions]] and [[drives]])", required=False),
 )
 
 DEVICE_KINDS = ("serial", "tendon_bench_2n")
@@ -164,6 +166,8 @@ DEVICE_FIELDS = (
     _spec("description", "str", "", "free text", required=False, default=""),
     _spec("kind", "str", "", "device kind; \"tendon_bench_2n\" files are read by "
       "tendyn.device.tendon_bench.load_tendon_bench", required=False, default="serial", choices=DEVICE_KINDS),
+    _spec("bandwidth_hz", "float", "Hz", "dynamic bandwidth of the joint motions (position loops); sets the "
+      "default filters of identification (absent: 10 Hz)", required=False, lo=0.0, lo_open=True, hi=1e4),
 )
 
 KINEMATICS_FIELDS = (
@@ -305,6 +309,27 @@ DRIVE_FIELDS = (
     _spec("sensors", "table", "", "sensor data, as [transmissions.sensors]"),
 )
 
+ACTUATOR_FIELDS = (
+    _spec("name", "str", "", "actuator (motor) name, unique (default \"motor<joint>\")", required=False),
+    _spec("joint", "int", "-", "the joint this motor drives (1-based, actuated); every actuated joint is "
+      "driven exactly once", lo=1),
+    _spec("ratio", "float", "-", "gear ratio N (signed): motor angle = N * (q_joint + sum(coupling * q_k))",
+      abs_max=1e5, nonzero=True),
+    _spec("coupling", "table", "", "coupling on other actuated joints, keys = joint numbers as strings, "
+      "values [-]: q_motor = N * (q_joint + sum(coef * q_k)), e.g. { \"5\" = 1.0 } for the TX40 wrist",
+      required=False, default=None),
+    _spec("encoder_offset", "float", "rad", "joint-side zero offset: q_joint = (G^-1 q_motor)_joint + "
+      "encoder_offset", required=False, default=0.0, abs_max=100.0),
+    _spec("rotor_inertia", "float", "kg m^2", "rotor inertia (motor side), a prior", required=False,
+      default=0.0, lo=0.0, hi=1e3),
+    _spec("viscous_motor", "float", "N m s/rad", "viscous friction at the motor, a prior", required=False,
+      default=0.0, lo=0.0, hi=1e6),
+    _spec("coulomb_motor", "float", "N m", "Coulomb friction at the motor, a prior", required=False,
+      default=0.0, lo=0.0, hi=1e6),
+    _spec("torque_constant", "float", "N m/A", "motor torque constant k_t (to import currents)",
+      required=False, default=1.0, lo=0.0, lo_open=True, hi=1e3),
+)
+
 ALL_FIELD_TABLES = {
     "": TOP_FIELDS,
     "device": DEVICE_FIELDS,
@@ -320,6 +345,7 @@ ALL_FIELD_TABLES = {
     "drives": DRIVE_FIELDS,
     "drives.motor": MOTOR_FIELDS,
     "drives.sensors": SENSOR_FIELDS,
+    "actuators": ACTUATOR_FIELDS,
 }
 """Every field table, keyed by the section it describes (used by docs checks)."""
 
@@ -568,6 +594,31 @@ class Drive:
         return self.ratio ** 2 * self.motor.rotor_inertia
 
 
+@dataclass(frozen=True)
+class Actuator:
+    """A geared motor driving one actuated joint, possibly coupled to others (``[[actuators]]``).
+
+    joint [-] 1-based driven joint; ratio N [-] (signed); coupling: tuple of (joint, coefficient [-]) pairs,
+    sorted, so that q_motor = N (q_joint + sum(coef q_k)); encoder_offset [rad] joint side; rotor_inertia
+    [kg m^2], viscous_motor [N m s/rad], coulomb_motor [N m] motor side (priors); torque_constant [N m/A].
+    """
+
+    name: str
+    joint: int
+    ratio: float
+    coupling: tuple[tuple[int, float], ...] = ()
+    encoder_offset: float = 0.0
+    rotor_inertia: float = 0.0
+    viscous_motor: float = 0.0
+    coulomb_motor: float = 0.0
+    torque_constant: float = 1.0
+
+    @property
+    def coupled(self) -> bool:
+        """True when the motor angle depends on more than its own joint."""
+        return any(c != 0.0 for _, c in self.coupling)
+
+
 BEARING_PREFIX = "bearing_"
 """A bearing field ``x`` of the device file is the routing array / core field ``bearing_x``."""
 
@@ -658,6 +709,8 @@ class SerialDevice(Device):
     kinematics: Kinematics
     transmissions: tuple[TransmissionSpec, ...] = field(default_factory=tuple)
     drives: tuple[Drive, ...] = field(default_factory=tuple)
+    actuators: tuple[Actuator, ...] = field(default_factory=tuple)
+    bandwidth_hz: float | None = None
     kind: ClassVar[str] = "serial"
     experiments: ClassVar[tuple[str, ...]] = ("constant-velocity", "exciting", "blocked-link", "stepped-sine",
                                               "swept-sine")
@@ -675,6 +728,38 @@ class SerialDevice(Device):
     @property
     def n_transmissions(self) -> int:
         return len(self.transmissions)
+
+    def motor_joint_matrix(self) -> np.ndarray:
+        """G (n_motors, n_active) [rad/rad] with q_motor = G q_active (active joints in tree order).
+
+        The one matrix the three actuation kinds build, so identification and a later generalisation
+        (rectangular couplings, differentials) share it: ``[[actuators]]`` give G = diag(N) (I + coupling);
+        ``[[drives]]`` G = diag(N); ``[[transmissions]]`` G = R_m^-1 K restricted to the active joints
+        (cable routing). The motor torques y map to joint torques as tau = G^T y (virtual work).
+        """
+        active = [num for num, js in enumerate(self.kinematics.joints, start=1) if js.actuated and js.sigma != 2]
+        col = {num: k for k, num in enumerate(active)}
+        if self.actuators:
+            G = np.zeros((len(self.actuators), len(active)))
+            for i, a in enumerate(self.actuators):
+                G[i, col[a.joint]] = a.ratio
+                for jn, coef in a.coupling:
+                    G[i, col[jn]] += a.ratio * coef
+            return G
+        if self.drives:
+            G = np.zeros((len(self.drives), len(active)))
+            for i, d in enumerate(self.drives):
+                G[i, col[d.joint]] = d.ratio
+            return G
+        arr = self.routing_arrays()
+        K = arr["K"][:, [num - 1 for num in active]]
+        return K / arr["motor_radius"][:, None]
+
+    def joint_offsets(self) -> np.ndarray:
+        """Encoder zero offsets [rad] per active joint (0 unless ``[[actuators]]`` give them)."""
+        active = [num for num, js in enumerate(self.kinematics.joints, start=1) if js.actuated and js.sigma != 2]
+        off = {a.joint: a.encoder_offset for a in self.actuators}
+        return np.array([off.get(num, 0.0) for num in active])
 
     @property
     def joint_names(self) -> tuple[str, ...]:

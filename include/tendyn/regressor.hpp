@@ -1,0 +1,150 @@
+// tendyn — dynamic-identification regressor over whole sample arrays (inverse dynamic model, IDIM).
+//
+// The joint-torque regressor of Pinocchio (computeJointTorqueRegressor: 10 standard parameters per link,
+// Pinocchio's order M MX MY MZ XX XY YY XZ YZ ZZ, about the link frame origin) evaluated at every sample of
+// a trajectory in C++, projected on the active coordinates of a closed-loop tree (S2 eq. 12:
+// Γ_m = [I Lᵀ] Γ_ar = Lᵀ Γ_tree with q_tree = L q_a + c), completed by the drive columns, and — optionally —
+// low-pass filtered and decimated in the same pass ("parallel filtering", Gautier 1997) so that the full-rate
+// observation matrix is never held in memory.
+//
+// Columns of one row block (active joint j, one sample):
+//   [0, 10 n_tree)                    inertial, link by link in Pinocchio's order
+//   10 n_tree + 4 j + {0,1,2,3}        joint-side IA_j, FV_j, FS_j, OFFSET_j:  q̈_j, q̇_j, sign(q̇_j), 1 on row j
+//   10 n_tree + 4 n_a + 3 i + {0,1,2}  motor-side IA, FV, FS of motor i:  Gᵀ e_i · (G_i q̈, G_i q̇, sign(G_i q̇))
+// with G (n_m × n_a) the motor-from-joint position matrix q_m = G q_a (gear ratios and coupling; cable
+// routing gives G = R_m⁻¹ K). The Python side keeps the identifiable subset and names it (Khalil's order).
+//
+// Rows are joint-major: row j · n_out + k is active joint j at output sample k (S2 eq. 3 stacks Y the same way).
+//
+// The parallel filter is a symmetric (zero-phase) FIR of odd length 2h + 1; output sample k is centred on
+// input sample h + k · K (K the decimation factor), so every output uses a full window — no edge transient.
+// This is setup-time work (allocates); it is not a real-time call.
+#pragma once
+
+#include <cmath>
+
+#include <Eigen/Core>
+#include <pinocchio/algorithm/regressor.hpp>
+
+#include "tendyn/rigid_body.hpp"
+#include "tendyn/status.hpp"
+
+namespace tendyn {
+
+using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+/// Number of output samples of a centred FIR of length n_taps decimated by K over n input samples.
+inline Eigen::Index decimated_length(Eigen::Index n, Eigen::Index n_taps, Eigen::Index K) {
+  const Eigen::Index h = (n_taps - 1) / 2;
+  if (K < 1 || n_taps < 1 || n < n_taps) return 0;
+  return (n - 1 - 2 * h) / K + 1;
+}
+
+/// Number of columns of the identification regressor.
+inline Eigen::Index regressor_columns(const RigidBodyModel& m, Eigen::Index n_active, Eigen::Index n_motors) {
+  return 10 * (m.pin.njoints - 1) + 4 * n_active + 3 * n_motors;
+}
+
+inline double sign0(double x) { return (x > 0.0) - (x < 0.0); }
+
+/// Parallel filter + decimation of every column of X (n × k, one row per sample) by the same FIR:
+/// out(k_out, :) = Σ_t taps[t] X(h + k_out K + t − h, :).
+/// @param taps  symmetric FIR, odd length 2h + 1 ([1] and K = 1: a copy)
+/// @param K     decimation factor ≥ 1
+/// @param X     (n, k) samples × signals
+/// @param out   (decimated_length(n, taps, K), k), written
+inline Status fir_decimate(const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen::Index K,
+                           const Eigen::Ref<const RowMatrixXd>& X, Eigen::Ref<RowMatrixXd> out) {
+  const Eigen::Index nt = taps.size();
+  if (K < 1 || nt % 2 == 0) return Status::InvalidModel;
+  const Eigen::Index no = decimated_length(X.rows(), nt, K);
+  if (out.rows() != no || out.cols() != X.cols()) return Status::SizeMismatch;
+  if (!all_finite(taps)) return Status::NonFiniteInput;
+  out.setZero();
+  for (Eigen::Index k = 0; k < no; ++k)
+    for (Eigen::Index t = 0; t < nt; ++t) out.row(k) += taps[t] * X.row(k * K + t);
+  return Status::Ok;
+}
+
+/// Identification regressor over all samples, optionally filtered and decimated in the same pass.
+/// @param m, d   rigid-body tree and its data (d is used as workspace)
+/// @param L      (n_tree, n_a) ∂q_tree/∂q_a (identity for a serial chain)
+/// @param c      (n_tree,) constant offsets of the constraints [rad or m]
+/// @param G      (n_m, n_a) motor-from-joint position matrix q_m = G q_a [rad/rad]
+/// @param Q, V, A  (n, n_a) active positions [rad], velocities [rad/s], accelerations [rad/s²], one row per sample
+/// @param taps   symmetric FIR of odd length (the parallel filter); [1] for none
+/// @param K      decimation factor ≥ 1
+/// @param out    (n_a · n_out, regressor_columns), joint-major rows, written
+inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d, const Eigen::MatrixXd& L,
+                                       const Eigen::VectorXd& c, const Eigen::MatrixXd& G,
+                                       const Eigen::Ref<const RowMatrixXd>& Q, const Eigen::Ref<const RowMatrixXd>& V,
+                                       const Eigen::Ref<const RowMatrixXd>& A,
+                                       const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen::Index K,
+                                       Eigen::Ref<RowMatrixXd> out) {
+  const Eigen::Index nt = m.pin.nv, na = L.cols(), nm = G.rows(), n = Q.rows();
+  const Eigen::Index ntaps = taps.size();
+  if (L.rows() != nt || c.size() != nt || G.cols() != na) return Status::SizeMismatch;
+  if (Q.cols() != na || V.cols() != na || A.cols() != na || V.rows() != n || A.rows() != n)
+    return Status::SizeMismatch;
+  if (K < 1 || ntaps % 2 == 0) return Status::InvalidModel;
+  const Eigen::Index no = decimated_length(n, ntaps, K);
+  const Eigen::Index p = regressor_columns(m, na, nm), p_in = 10 * (m.pin.njoints - 1);
+  if (out.rows() != na * no || out.cols() != p) return Status::SizeMismatch;
+  if (!all_finite(Q) || !all_finite(V) || !all_finite(A) || !all_finite(taps)) return Status::NonFiniteInput;
+  out.setZero();
+  if (no == 0) return Status::Ok;
+  const Eigen::MatrixXd Gt = G.transpose();
+  // Row j of Lᵀ Y_tree can only be nonzero from the first link supported by a tree joint r with
+  // L(r, j) ≠ 0 (Pinocchio numbers descendants after their ancestors): accumulate from there on.
+  Eigen::VectorXi first(na);
+  for (Eigen::Index j = 0; j < na; ++j) {
+    Eigen::Index r = 0;
+    while (r < nt && L(r, j) == 0.0) ++r;
+    first[j] = static_cast<int>(10 * r);
+  }
+  Eigen::VectorXd q(nt), v(nt), a(nt), qm_d(nm), qm_dd(nm);
+  RowMatrixXd Ya(na, p);  // row-major: each row is added whole into the outputs
+  const Eigen::Index last = (no - 1) * K + ntaps;  // input samples that reach an output
+  for (Eigen::Index s = 0; s < last; ++s) {
+    const auto qa = Q.row(s).transpose();
+    const auto va = V.row(s).transpose();
+    const auto aa = A.row(s).transpose();
+    q.noalias() = L * qa + c;
+    v.noalias() = L * va;
+    a.noalias() = L * aa;
+    pinocchio::computeJointTorqueRegressor(m.pin, d.pin, q, v, a);
+    Ya.leftCols(p_in).noalias() = L.transpose() * d.pin.jointTorqueRegressor;
+    Ya.rightCols(p - p_in).setZero();
+    for (Eigen::Index j = 0; j < na; ++j) {
+      Ya(j, p_in + 4 * j + 0) = aa[j];
+      Ya(j, p_in + 4 * j + 1) = va[j];
+      Ya(j, p_in + 4 * j + 2) = sign0(va[j]);
+      Ya(j, p_in + 4 * j + 3) = 1.0;
+    }
+    qm_d.noalias() = G * va;
+    qm_dd.noalias() = G * aa;
+    for (Eigen::Index i = 0; i < nm; ++i) {
+      const Eigen::Index col = p_in + 4 * na + 3 * i;
+      Ya.col(col + 0) = Gt.col(i) * qm_dd[i];
+      Ya.col(col + 1) = Gt.col(i) * qm_d[i];
+      Ya.col(col + 2) = Gt.col(i) * sign0(qm_d[i]);
+    }
+    // outputs k whose window [k K, k K + ntaps) contains s
+    Eigen::Index k_lo = s >= ntaps ? (s - ntaps) / K + 1 : 0;
+    while (k_lo * K + ntaps <= s) ++k_lo;
+    for (Eigen::Index k = k_lo; k < no && k * K <= s; ++k) {
+      const double w = taps[s - k * K];
+      if (w == 0.0) continue;
+      for (Eigen::Index j = 0; j < na; ++j) {
+        auto o = out.row(j * no + k);
+        const Eigen::Index f = first[j];
+        o.segment(f, p_in - f).noalias() += w * Ya.row(j).segment(f, p_in - f);
+        o.segment(p_in + 4 * j, 4).noalias() += w * Ya.row(j).segment(p_in + 4 * j, 4);
+        o.tail(3 * nm).noalias() += w * Ya.row(j).tail(3 * nm);
+      }
+    }
+  }
+  return Status::Ok;
+}
+
+}  // namespace tendyn

@@ -1,0 +1,127 @@
+"""`tendyn identify DEVICE LOG... --out PARAMS.json`: base parameters of a device from measured logs (IDIM)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from tendyn.commands.args import existing_file, number
+from tendyn.errors import UsageError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("identify", help="identify the base dynamic parameters from logs (IDIM least squares)")
+    p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
+    p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
+    p.add_argument("--out", help="parameters file (.json)")
+    p.add_argument("--method", choices=("ols", "wls"), default="ols", help="ordinary or weighted least squares")
+    p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
+    p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
+                   help="-3 dB cut-off of the zero-phase Butterworth on positions [Hz] (default 5 x bandwidth)")
+    p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
+                   help="decimation factor of the parallel filter (default rate / (10 x bandwidth))")
+    p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=None,
+                   help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: 2 %% of "
+                        "each joint's peak speed)")
+    p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")
+    p.add_argument("--stream", action="store_true",
+                   help="identify a Parquet log too large for memory chunk by chunk (normal equations, no W held)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
+    p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
+    p.set_defaults(func=cmd_identify)
+
+
+def _device(arg: str):
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+
+    path = Path(arg)
+    if path.suffix.lower() == ".toml" or path.exists():
+        return load_device(path)
+    return load_device(bundled(arg))
+
+
+def _scheduler(arg, n_logs: int):
+    """None (in process) for one log or ``--scheduler none``; else "local" or the given address."""
+    if arg is not None and arg.lower() == "none":
+        return None
+    if arg is not None:
+        return arg
+    return "local" if n_logs > 1 else None
+
+
+def cmd_identify(args) -> int:
+    from tendyn.device import compile_device
+    from tendyn.ident import IDIM
+    from tendyn.io import atomic_write_text, read_log, save_png, to_jsonable
+
+    dev = _device(args.device)
+    if dev.kind != "serial":
+        raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
+    if args.out is not None and Path(args.out).suffix.lower() != ".json":
+        raise UsageError(f"must end in .json (got {args.out})", "out")
+    if args.stream:
+        return _identify_stream(dev, args)
+    from tendyn.ident.estimate import cached_model
+    from tendyn.io import LogError
+
+    logs = [read_log(p) for p in args.logs]     # read here: a bad log is exit 2 before any work
+    model = cached_model(dev)
+    for path, log in zip(args.logs, logs):      # the signals identification needs, named with their file
+        try:
+            model.joint_signals(log)
+        except LogError as exc:
+            raise LogError(exc.problem, file=path.name, column=exc.column) from None
+    rate = logs[0].meta["rate_hz"]
+    if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
+        raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
+    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
+               velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
+               scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet)
+    try:
+        est.fit(logs if len(logs) > 1 else logs[0])
+    except ValueError as exc:
+        if type(exc).__name__ in ("LogError",):
+            raise
+        raise UsageError(str(exc)) from None
+    res = est.result_
+    doc = to_jsonable(res.to_dict())
+    doc["logs"] = [str(p) for p in args.logs]
+    if args.out:
+        atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+    if args.report:
+        out = Path(args.report)
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / "table.txt", res.table() + "\n")
+        save_png(res.plot(), out / "torques.png")
+    if args.json:
+        print(json.dumps(doc, indent=2))
+    else:
+        print(res.table())
+    print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
+    return 0
+
+
+def _identify_stream(dev, args) -> int:
+    from tendyn.device import compile_device
+    from tendyn.ident.stream import StreamingIDIM
+    from tendyn.io import atomic_write_text, to_jsonable
+
+    if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
+        raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
+    for opt in ("consistent", "essential"):
+        if getattr(args, opt):
+            raise UsageError(f"--{opt} is not available with --stream", opt)
+    est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
+                        decimate=args.decimate).fit(args.logs[0])
+    res = est.result_
+    doc = to_jsonable(res.to_dict())
+    doc["logs"] = [str(p) for p in args.logs]
+    if args.out:
+        atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+    print(json.dumps(doc, indent=2) if args.json else res.table())
+    return 0

@@ -1,0 +1,36 @@
+"""`tendyn log import RAW... --map MAP.toml --out LOG`: a lab's CSV files turned into a log."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from tendyn.commands.args import existing_file
+
+
+def register(subparsers) -> None:
+    log = subparsers.add_parser("log", help="experiment logs: import measured data")
+    lsub = log.add_subparsers(dest="action", required=True)
+    imp = lsub.add_parser("import", help="turn CSV files into a log with an import map (docs/logs.md)")
+    imp.add_argument("raw", nargs="+", type=existing_file, metavar="RAW", help="CSV files of the lab")
+    imp.add_argument("--map", required=True, type=existing_file, help="import map (.toml)")
+    imp.add_argument("--out", required=True, help="log file (.parquet or .csv)")
+    imp.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    imp.set_defaults(func=cmd_log_import)
+
+
+def cmd_log_import(args) -> int:
+    from tendyn.io import check_log_path, write_log
+    from tendyn.io.importer import import_logs
+
+    out = check_log_path(args.out)
+    log = import_logs(args.raw, args.map)
+    write_log(log, out)
+    summary = {"out": str(out), "n_samples": log.n_samples, "rate_hz": log.meta["rate_hz"],
+               "columns": list(log.columns), "device": log.meta["device"]}
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    else:
+        print(f"{out}: {log.n_samples} samples at {log.meta['rate_hz']:g} Hz, columns {', '.join(log.columns)}",
+              file=sys.stderr)
+    return 0

@@ -1,0 +1,387 @@
+"""Least-squares estimation of the base parameters (IDIM, S2 section III), with statistics.
+
+OLS: X̂ = argmin ‖Y − W X‖, σ̂² = ‖Y − W X̂‖² / (r − b) (the square: ERRATA S2 eq. 5), C = σ̂² (WᵀW)⁻¹,
+%σ = 100 σ / |x̂|. WLS: each joint's rows are weighted by 1/σ̂_j from its own OLS residual (r_j − b_j … taken
+as r_j − b r_j / r), then OLS on the weighted system. Essential parameters: drop the base parameter with the
+worst %σ while the relative residual grows by less than ``essential_tol``. Physically consistent variant:
+standard parameters constrained by the pseudo-inertia LMIs (Wensing et al.), friction ≥ 0, solved with cvxpy
+and Clarabel; the same statistics are reported at its solution.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import sys
+
+import numpy as np
+
+from tendyn.results import Result, format_table, new_figure
+
+from .model import IdentModel, unit_of
+from .treatment import Block, default_treatment, stack_blocks, treat
+
+__all__ = ["IDIM", "IdentificationResult", "least_squares"]
+
+_MODELS: dict = {}
+
+DEFAULT_VELOCITY_FRACTION = 0.02
+"""Default velocity threshold: samples of a joint slower than this fraction of its peak |q̇| are dropped."""
+
+
+def cached_model(device) -> IdentModel:
+    """The IdentModel of a device, built once per process per device file (its base parameters cost a QR).
+
+    Keyed by the device file and the modification times of it and its URDF, so an edited file is rebuilt.
+    """
+    from tendyn.device.compiled import as_device
+
+    dev = as_device(device)
+    path = getattr(dev, "path", None)
+    urdf = getattr(getattr(dev, "kinematics", None), "urdf", None)
+    try:
+        key = (str(path), path.stat().st_mtime_ns, str(urdf), urdf.stat().st_mtime_ns if urdf else 0)
+    except (OSError, AttributeError):
+        return IdentModel(device)
+    if key not in _MODELS:
+        _MODELS[key] = IdentModel(device)
+    return _MODELS[key]
+
+
+def _treat_log(device, log, parts, settings):
+    """Treated joint blocks of one log (a Log or a path) on a Dask worker; one IdentModel per device per
+    worker process."""
+    return IDIM._treat_here(cached_model(device), log, parts, settings)
+
+
+def least_squares(W, Y):
+    """OLS with statistics: (x, stderr, sigma2, cov). σ̂² = ‖Y − W x‖² / (r − b)."""
+    r, b = W.shape
+    if r <= b:
+        raise ValueError(f"{r} rows for {b} parameters: not enough samples")
+    x, *_ = np.linalg.lstsq(W, Y, rcond=None)
+    res = Y - W @ x
+    sigma2 = float(res @ res) / (r - b)
+    cov = sigma2 * np.linalg.inv(W.T @ W)
+    return x, np.sqrt(np.diag(cov)), sigma2, cov
+
+
+class IdentificationResult(Result):
+    """Identified base parameters with their statistics (S2 Table 4), and measured vs estimated torques."""
+
+    _panels = 1
+    _figsize = (8.0, 6.0)
+
+    def __init__(self, device, method, names, expressions, values, stderr, cond, n_rows, residual_rel,
+                 per_joint_residual_rel, treatment, time, y, y_hat, rows, joint_numbers, crossval=None):
+        self.device, self.method, self.names, self.expressions = device, method, list(names), list(expressions)
+        self.values, self.stderr = np.asarray(values), np.asarray(stderr)
+        self.cond, self.n_rows, self.residual_rel = float(cond), int(n_rows), float(residual_rel)
+        self.per_joint_residual_rel = [float(v) for v in per_joint_residual_rel]
+        self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
+        self.joint_numbers = list(joint_numbers)
+        self.crossval = crossval
+
+    @property
+    def rel_stderr_pct(self) -> np.ndarray:
+        return 100.0 * self.stderr / np.maximum(np.abs(self.values), 1e-300)
+
+    def to_dict(self) -> dict:
+        params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": unit_of(n),
+                   "expression": e}
+                  for n, v, s, p, e in zip(self.names, self.values, self.stderr, self.rel_stderr_pct, self.expressions)]
+        return {"device": self.device, "method": self.method, "cond": self.cond,
+                "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
+                "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
+                "params": params, "crossval": self.crossval,
+                "treatment": None if self.treatment is None else self.treatment.to_dict()}
+
+    def table(self) -> str:
+        rows = [(n, f"{v:.5g}", unit_of(n), f"{p:.3g}") for n, v, p in zip(self.names, self.values, self.rel_stderr_pct)]
+        text = format_table(("Parameter", "Value", "Unit", "Relative deviation %"), rows,
+                            title=f"{self.device}: base parameters ({self.method.upper()}), cond(W) = {self.cond:.4g}"
+                                  + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
+                                  + ", "
+                                  f"W {self.n_rows} x {len(self.names)}")
+        tail = ["", "relative residual per joint: " + ", ".join(
+            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
+            f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
+        if self.crossval:
+            tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
+                        f"{100 * self.crossval['residual_rel']:.2f} %")
+        if self.treatment is not None:
+            tail.append(self.treatment.describe())
+        return text + "\n" + "\n".join(tail)
+
+    def _draw(self, ax):
+        n = len(self.joint_numbers)
+        if self.y is None or len(self.y) == 0:    # a streamed fit keeps no samples: draw the %σ instead
+            ax.bar(range(len(self.names)), self.rel_stderr_pct, color="C0")
+            ax.set_xticks(range(len(self.names)), self.names, rotation=90, fontsize=6)
+            ax.set_yscale("log")
+            ax.set_ylabel("relative deviation %σ [%]")
+            ax.set_title(f"{self.device}: base parameters ({self.method})")
+            return
+        for j, num in enumerate(self.joint_numbers):
+            sel = self.rows == j
+            t = self.time[sel]
+            ax.plot(t, self.y[sel], lw=0.8, label=f"measured, joint {num}", color=f"C{j}")
+            ax.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated" if j == 0 else None)
+        ax.set_xlabel("time [s] (decimated samples)")
+        ax.set_ylabel("joint torque [N·m]")
+        ax.set_title(f"{self.device}: measured vs estimated torque, {n} joints")
+        ax.legend(loc="best", fontsize=7)
+
+
+class IDIM:
+    """Inverse-dynamic-model identification by least squares (scikit-learn shape).
+
+    Parameters
+    ----------
+    device : Device or CompiledDevice
+        A serial device (geared ``[[actuators]]``, capstan ``[[drives]]`` or cable ``[[transmissions]]``).
+    method : "ols" or "wls"
+    cutoff_hz : float or None
+        −3 dB cut-off of the zero-phase Butterworth on positions [Hz] (None: 5 × the device bandwidth).
+    decimate : int or None
+        Decimation factor of the parallel filter (None: rate / (10 × bandwidth)).
+    order : int
+        Butterworth order.
+    velocity_threshold : float or None
+        Drop a joint's rows where its |q̇| is below this [rad/s] (the sign of the Coulomb term is undefined
+        there); 0 keeps all; None (default): 2 % of each joint's peak |q̇| in the log.
+    essential : bool
+        Keep only the essential parameters.
+    essential_tol : float
+        Allowed relative growth of the relative residual when dropping a parameter.
+    consistent : bool
+        Physically consistent estimate (pseudo-inertia LMIs, cvxpy + Clarabel).
+    scheduler : None, "local" or str
+        Where the logs of a campaign are treated: None in this process, ``"local"`` on a local Dask cluster,
+        otherwise the address of a Dask scheduler (``tcp://host:8786``).
+    progress : bool
+        Progress bar (stderr) over the logs.
+    """
+
+    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
+                 essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False):
+        self.device = device
+        self.method = method
+        self.cutoff_hz = cutoff_hz
+        self.decimate = decimate
+        self.order = order
+        self.velocity_threshold = velocity_threshold
+        self.essential = essential
+        self.essential_tol = essential_tol
+        self.consistent = consistent
+        self.scheduler = scheduler
+        self.progress = progress
+
+    # -- data ------------------------------------------------------------------------------------------
+    def _model(self) -> IdentModel:
+        if not hasattr(self, "model_"):
+            self.model_ = cached_model(self.device)
+        return self.model_
+
+    def observations(self, logs, parts=None):
+        """Treated (Y, W_standard, rows, times) of the logs; ``parts`` (a, b) keeps the fraction [a, b) of each."""
+        model = self._model()
+        logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold)
+        if self.scheduler is not None and len(logs) > 1:
+            out = self._distributed(logs, parts, settings)
+        else:
+            out = []
+            bar = None
+            if self.progress and len(logs) > 1:
+                from tqdm import tqdm
+                bar = tqdm(total=len(logs), desc="treating logs", unit="log", file=sys.stderr)
+            for log in logs:
+                out.append(self._treat_here(model, log, parts, settings))
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
+        allblocks = [b for b, _ in out]
+        self.treatment_ = out[-1][1]
+        na = model.n_active
+        Ys, Ws, Rs, Ts = [], [], [], []
+        for blocks in allblocks:
+            Y, W, rows = stack_blocks(blocks)
+            t = np.concatenate([b.time for b in blocks])
+            vel = np.concatenate([b.velocity for b in blocks])
+            thr = self._thresholds(blocks)
+            keep = np.abs(vel) >= np.repeat(thr, [b.y.size for b in blocks])
+            self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
+            Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
+        Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
+        order = np.argsort(rows, kind="stable")   # joint-major over all logs
+        return Y[order], W[order], rows[order], t[order], na
+
+    def _thresholds(self, blocks) -> np.ndarray:
+        """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
+        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
+        if self.velocity_threshold is None:
+            return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
+        return np.full(len(blocks), float(self.velocity_threshold))
+
+    @staticmethod
+    def _treat_here(model, log, parts, settings):
+        from tendyn.io import read_log
+
+        if not hasattr(log, "meta"):
+            log = read_log(log)
+        time, q, tau = model.joint_signals(log)
+        if parts is not None:
+            n = time.size
+            sl = slice(int(parts[0] * n), int(parts[1] * n))
+            time, q, tau = time[sl], q[sl], tau[sl]
+        tr = default_treatment(float(log.meta["rate_hz"]), getattr(model.device, "bandwidth_hz", None), *settings)
+        return treat(model, time, q, tau, tr), tr
+
+    def _distributed(self, logs, parts, settings):
+        """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
+        from dask.distributed import Client, LocalCluster, as_completed
+
+        dev = self._model().device
+        own = None
+        if self.scheduler == "local":
+            own = LocalCluster(n_workers=min(len(logs), os.cpu_count() or 1), threads_per_worker=1,
+                               processes=True, dashboard_address=None)
+            client = Client(own)
+        else:
+            client = Client(self.scheduler)
+        try:
+            futures = [client.submit(_treat_log, dev, log, parts, settings, pure=False) for log in logs]
+            index = {f.key: i for i, f in enumerate(futures)}
+            results = [None] * len(futures)
+            bar = None
+            if self.progress:
+                from tqdm import tqdm
+                bar = tqdm(total=len(futures), desc="treating logs (dask)", unit="log", file=sys.stderr)
+            for fut in as_completed(futures):
+                results[index[fut.key]] = fut.result()
+                if bar is not None:
+                    bar.update(1)
+            if bar is not None:
+                bar.close()
+            return results
+        finally:
+            client.close()
+            if own is not None:
+                own.close()
+
+    # -- fit -------------------------------------------------------------------------------------------
+    def _solve(self, Wb, Y, rows, na):
+        x, se, s2, cov = least_squares(Wb, Y)
+        weights = np.ones_like(Y)
+        if self.method == "wls":
+            r, b = Wb.shape
+            res = Y - Wb @ x
+            for j in range(na):
+                sel = rows == j
+                rj = int(sel.sum())
+                sj2 = float(res[sel] @ res[sel]) / max(rj - b * rj / r, 1.0)
+                weights[sel] = 1.0 / np.sqrt(sj2)
+            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
+        elif self.method != "ols":
+            raise ValueError(f"method must be 'ols' or 'wls' (got {self.method!r})")
+        return x, se, weights
+
+    def fit(self, logs, crossval=True):
+        """Identify the base parameters from one log or a list of logs; returns self (see :meth:`_fit`).
+
+        The linear algebra here is on small matrices (b ≈ 60 columns): BLAS runs on one thread, which on a
+        shared 2-core machine measured 3x faster than its default thread pool (0.78 s vs 2.4 s, TX40 log).
+        """
+        from threadpoolctl import threadpool_limits
+
+        with threadpool_limits(limits=1, user_api="blas"):
+            return self._fit(logs, crossval)
+
+    def _fit(self, logs, crossval=True):
+        """Identify the base parameters from one log or a list of logs; returns self.
+
+        Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
+        ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
+        """
+        model = self._model()
+        base = model.base
+        Y, Wstd, rows, t, na = self.observations(logs)
+        cols = list(range(len(base.names)))
+        Wb = Wstd[:, list(base.columns)]
+        x, se, weights = self._solve(Wb, Y, rows, na)
+        if self.essential:
+            cols, x, se, weights = self._essential(Wb, Y, rows, na)
+        Wsel = Wb[:, cols]
+        if self.consistent:
+            from .consistent import consistent_fit
+
+            xs = consistent_fit(model, Wstd * weights[:, None], Y * weights)
+            self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
+            x = (base.combination @ xs)[cols]
+            res = (Y - Wsel @ x) * weights
+            s2 = float(res @ res) / (Y.size - len(cols))
+            Ww = Wsel * weights[:, None]
+            se = np.sqrt(np.diag(s2 * np.linalg.inv(Ww.T @ Ww)))
+        y_hat = Wsel @ x
+        self.names_ = [base.names[i] for i in cols]
+        self.expressions_ = [base.expression(i, model.standard_names) for i in cols]
+        self.params_, self.stderr_ = x, se
+        self.rel_stderr_ = 100.0 * se / np.maximum(np.abs(x), 1e-300)
+        Ww = Wsel * weights[:, None]
+        self.cond_ = float(np.linalg.cond(Ww))
+        self.cond_scaled_ = float(np.linalg.cond(Ww / np.linalg.norm(Ww, axis=0)))
+        per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
+               for j in range(na)]
+        resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
+        cv = self._crossval(logs, cols) if crossval else None
+        method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
+        self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
+                                            self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
+                                            model.active_numbers, cv)
+        self.result_.cond_scaled = self.cond_scaled_
+        self._cols = cols
+        return self
+
+    def _essential(self, Wb, Y, rows, na):
+        cols = list(range(Wb.shape[1]))
+        x, se, w = self._solve(Wb, Y, rows, na)
+        r0 = np.linalg.norm(Y - Wb @ x) / np.linalg.norm(Y)
+        while len(cols) > 1:
+            rel = 100 * se / np.maximum(np.abs(x), 1e-300)
+            worst = int(np.argmax(rel))
+            trial = cols[:worst] + cols[worst + 1:]
+            xt, st, wt = self._solve(Wb[:, trial], Y, rows, na)
+            rt = np.linalg.norm(Y - Wb[:, trial] @ xt) / np.linalg.norm(Y)
+            if rt > (1 + self.essential_tol) * r0 or rel[worst] < 1.0:
+                break
+            cols, x, se, w = trial, xt, st, wt
+        return cols, x, se, w
+
+    def _crossval(self, logs, cols):
+        """Fit on the first half (or all logs but the last), predict the other part: relative residual."""
+        logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
+        base = self._model().base
+        if len(logs) >= 2:
+            fitp, valp, desc = (logs[:-1], None), (logs[-1:], None), ("all logs but the last", "the last log")
+        else:
+            fitp, valp, desc = (logs, (0.0, 0.5)), (logs, (0.5, 1.0)), ("first half", "second half")
+        Y, W, rows, _, na = self.observations(*fitp)
+        Wb = W[:, list(base.columns)][:, cols]
+        x, _, w = self._solve(Wb, Y, rows, na)
+        if self.consistent:        # the same estimator on the first part
+            from .consistent import consistent_fit
+
+            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w))[cols]
+        Yv, Wv, rv, _, _ = self.observations(*valp)
+        Wvb = Wv[:, list(base.columns)][:, cols]
+        res = Yv - Wvb @ x
+        per = [float(np.linalg.norm(res[rv == j]) / max(np.linalg.norm(Yv[rv == j]), 1e-300)) for j in range(na)]
+        return {"fit": desc[0], "validate": desc[1], "residual_rel": float(np.linalg.norm(res) / np.linalg.norm(Yv)),
+                "per_joint_residual_rel": per, "params": [float(v) for v in x]}
+
+    def predict(self, logs) -> np.ndarray:
+        """Estimated joint torques (joint-major stacked, treated samples) of logs with the fitted parameters."""
+        Y, W, rows, t, na = self.observations(logs)
+        return W[:, list(self._model().base.columns)][:, self._cols] @ self.params_

@@ -1,0 +1,266 @@
+"""The identification model of a rigid device: standard parameters in Khalil's order, the regressor of all
+samples (C++ core), and the base (minimum) parameters with their regroupings.
+
+Standard parameters, per link j of the tree (file joint number j), in Khalil's order and names
+``XXj XYj XZj YYj YZj ZZj MXj MYj MZj Mj`` (inertia about the origin of frame j [kg·m²], first moments
+[kg·m], mass [kg]), then for an actuated joint ``IAj FVj FSj OFFSETj`` (rotor inertia seen at the joint
+[kg·m²], viscous [N·m·s/rad] and Coulomb [N·m] friction at the joint, torque offset [N·m]); a motor whose
+angle depends on several joints (a coupling: the TX40's motor 6) adds its motor-side terms named after it,
+``IAm6 FVm6 FSm6`` (motor side [kg·m²], [N·m·s/rad], [N·m]), and has no joint-side IA.
+
+Pinocchio orders a link's parameters ``M MX MY MZ XX XY YY XZ YZ ZZ``: :func:`khalil_from_pinocchio` and
+:func:`pinocchio_from_khalil` convert.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.linalg
+
+from tendyn.device import compile_device
+from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
+
+__all__ = ["IdentModel", "KHALIL", "PINOCCHIO", "khalil_from_pinocchio", "pinocchio_from_khalil"]
+
+KHALIL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
+"""Khalil's order of the 10 inertial parameters of a link."""
+PINOCCHIO = ("M", "MX", "MY", "MZ", "XX", "XY", "YY", "XZ", "YZ", "ZZ")
+"""Pinocchio's order (``computeJointTorqueRegressor``, ``Inertia.toDynamicParameters``)."""
+_K_FROM_P = np.array([PINOCCHIO.index(n) for n in KHALIL])
+_P_FROM_K = np.array([KHALIL.index(n) for n in PINOCCHIO])
+
+UNITS = {"XX": "kg·m²", "XY": "kg·m²", "XZ": "kg·m²", "YY": "kg·m²", "YZ": "kg·m²", "ZZ": "kg·m²",
+         "MX": "kg·m", "MY": "kg·m", "MZ": "kg·m", "M": "kg", "IA": "kg·m²", "FV": "N·m·s/rad", "FS": "N·m",
+         "OFFSET": "N·m", "IAm": "kg·m² (motor side)", "FVm": "N·m·s/rad (motor side)",
+         "FSm": "N·m (motor side)"}
+
+
+def khalil_from_pinocchio(x) -> np.ndarray:
+    """Inertial parameters (…, 10 n) from Pinocchio's order to Khalil's, link by link (last axis)."""
+    x = np.asarray(x, float)
+    n = x.shape[-1] // 10
+    return x.reshape(x.shape[:-1] + (n, 10))[..., _K_FROM_P].reshape(x.shape)
+
+
+def pinocchio_from_khalil(x) -> np.ndarray:
+    """Inverse of :func:`khalil_from_pinocchio`."""
+    x = np.asarray(x, float)
+    n = x.shape[-1] // 10
+    return x.reshape(x.shape[:-1] + (n, 10))[..., _P_FROM_K].reshape(x.shape)
+
+
+def unit_of(name: str) -> str:
+    """The unit of a standard or base parameter name (``ZZ1R`` → kg·m²)."""
+    stem = name
+    while stem and (stem[-1].isdigit() or stem[-1] == "R"):
+        stem = stem[:-1]
+    return UNITS.get(stem, "")
+
+
+@dataclass(frozen=True)
+class BaseSet:
+    """Base parameters: ``names`` (``ZZ1R``), kept standard columns ``columns`` (index in the standard list),
+    ``combination`` (b, n_std) with x_base = combination @ x_std, ``rank``."""
+
+    names: tuple[str, ...]
+    columns: tuple[int, ...]
+    combination: np.ndarray
+    rank: int
+
+    def expression(self, i: int, standard_names, tol: float = 1e-9) -> str:
+        """``"ZZ1 + 1.0*IA1 + 1.0*YY2"``: the regrouping of base parameter i."""
+        row = self.combination[i]
+        k0 = self.columns[i]
+        parts = [standard_names[k0]]
+        for k in np.flatnonzero(np.abs(row) > tol):
+            if k == k0:
+                continue
+            c = float(row[k])
+            txt = f"{abs(c):.6g}"
+            txt = txt if any(ch in txt for ch in ".en") else txt + ".0"
+            parts.append(f"{'-' if c < 0 else '+'} {txt}*{standard_names[k]}")
+        return " ".join(parts)
+
+
+class IdentModel:
+    """The identification model of a serial device (``[[actuators]]``, ``[[drives]]`` or ``[[transmissions]]``).
+
+    Parameters
+    ----------
+    device : Device or CompiledDevice
+    """
+
+    def __init__(self, device):
+        from tendyn import _core
+
+        self.compiled = compile_device(device)
+        self.device = self.compiled.device
+        self.rigid_body = self.compiled.rigid_body
+        self._data = _core.RigidBodyData(self.rigid_body)
+        L, c = self.compiled.active_map
+        self.L = np.ascontiguousarray(L, float)
+        self.c = np.ascontiguousarray(c, float)
+        self.G = np.ascontiguousarray(self.device.motor_joint_matrix(), float)
+        self.joint_offsets = self.device.joint_offsets()
+        numbers = tree_joint_numbers(self.device)
+        self.tree_numbers = numbers
+        self.active_numbers = [numbers[k] for k in self.compiled.active_joints]
+        self.n_active = len(self.active_numbers)
+        self.n_motors = self.G.shape[0]
+        self.motor_joints = self._motor_joints()
+        self.raw_names, self.standard_columns, self.standard_names = self._columns()
+
+    # -- columns --------------------------------------------------------------------------------------
+    def _motor_joints(self) -> list[int]:
+        dev = self.device
+        if dev.actuators:
+            return [a.joint for a in dev.actuators]
+        if dev.drives:
+            return [d.joint for d in dev.drives]
+        return [t.joint for t in dev.transmissions]
+
+    def coupled_motors(self) -> list[int]:
+        """0-based motors whose angle depends on more than one joint (motor-side terms identifiable)."""
+        return [i for i in range(self.n_motors) if np.count_nonzero(np.abs(self.G[i]) > 1e-12) > 1]
+
+    def _columns(self):
+        nt = len(self.tree_numbers)
+        raw = []
+        for num in self.tree_numbers:
+            raw += [f"{p}{num}" for p in PINOCCHIO]
+        for num in self.active_numbers:
+            raw += [f"{p}{num}" for p in ("IA", "FV", "FS", "OFFSET")]
+        for j in self.motor_joints:
+            raw += [f"{p}{j}" for p in ("IAm", "FVm", "FSm")]
+        idx = {n: k for k, n in enumerate(raw)}
+        coupled = {self.motor_joints[i] for i in self.coupled_motors()}
+        std = []
+        for num in self.tree_numbers:
+            std += [f"{p}{num}" for p in KHALIL]
+            if num in self.active_numbers:
+                std += [f"{p}{num}" for p in (("FV", "FS", "OFFSET") if num in coupled else ("IA", "FV", "FS", "OFFSET"))]
+            if num in coupled:
+                std += [f"{p}{num}" for p in ("IAm", "FVm", "FSm")]
+        assert 10 * nt + 4 * self.n_active + 3 * self.n_motors == len(raw)
+        return raw, np.array([idx[n] for n in std]), tuple(std)
+
+    def prior(self) -> np.ndarray:
+        """Standard parameters of the device file (URDF inertias, motor priors) in :attr:`standard_names` order."""
+        names, values = standard_parameters(self.device)   # Pinocchio order, names "M1", "MX1", ...
+        val = dict(zip(names, values))
+        dev = self.device
+        for k, j in enumerate(self.motor_joints):
+            g = self.G[k]
+            if dev.actuators:
+                a = dev.actuators[k]
+                ir, fv, fs = a.rotor_inertia, a.viscous_motor, a.coulomb_motor
+            elif dev.drives:
+                d = dev.drives[k]
+                ir, fv, fs = d.motor.rotor_inertia, d.viscous_motor, d.coulomb_motor
+                val[f"OFFSET{j}"] = d.offset_joint
+            else:
+                ir, fv, fs = dev.transmissions[k].motor.rotor_inertia, 0.0, 0.0
+            if k in self.coupled_motors():
+                val.update({f"IAm{j}": ir, f"FVm{j}": fv, f"FSm{j}": fs})
+            else:
+                n = g[np.flatnonzero(np.abs(g) > 1e-12)[0]]
+                val.update({f"IA{j}": n * n * ir, f"FV{j}": n * n * fv, f"FS{j}": abs(n) * fs})
+        return np.array([val.get(n, 0.0) for n in self.standard_names])
+
+    # -- regressor ------------------------------------------------------------------------------------
+    def regressor(self, q, qd, qdd, taps=(1.0,), K: int = 1, columns=None) -> np.ndarray:
+        """Observation matrix of all samples, joint-major rows, filtered by ``taps`` and decimated by ``K``.
+
+        Parameters
+        ----------
+        q, qd, qdd : (n, n_active) active positions [rad], velocities [rad/s], accelerations [rad/s²].
+        taps : symmetric FIR of odd length (the parallel filter; (1,) = none); K : decimation factor.
+        columns : None for the standard parameters (:attr:`standard_names`), or indices into them.
+
+        Returns
+        -------
+        ndarray (n_active * n_out, n_columns)
+        """
+        from tendyn import _core
+
+        f = lambda x: np.ascontiguousarray(x, float)
+        W = _core.identification_regressor(self.rigid_body, self._data, self.L, self.c, self.G, f(q), f(qd),
+                                           f(qdd), np.asarray(taps, float), int(K))
+        cols = self.standard_columns if columns is None else self.standard_columns[np.asarray(columns)]
+        return W[:, cols]
+
+    # -- base parameters ------------------------------------------------------------------------------
+    def _preference(self) -> list[int]:
+        names = self.standard_names
+        idx = {n: k for k, n in enumerate(names)}
+        order = []
+        for group in (("XX", "XY", "XZ", "YZ", "ZZ", "MX", "MY"), ("MZ", "M", "YY"), ("IAm", "FVm", "FSm"),
+                      ("IA",), ("FV", "FS", "OFFSET")):
+            for num in self.tree_numbers:
+                order += [idx[f"{p}{num}"] for p in group if f"{p}{num}" in idx]
+        return order
+
+    @cached_property
+    def base(self) -> BaseSet:
+        """The base parameters, found numerically (random samples, QR in a preference order, Gautier 1991)."""
+        rng = np.random.default_rng(0)
+        n, na = 60, self.n_active
+        W = self.regressor(rng.uniform(-np.pi, np.pi, (n, na)), rng.normal(size=(n, na)),
+                           rng.normal(size=(n, na)))
+        tol = 1e-8
+        norms = np.linalg.norm(W, axis=0)
+        nonzero = norms > tol * norms.max()
+        Wn = np.where(nonzero, W / np.where(nonzero, norms, 1.0), 0.0)
+        _, Rp, _ = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
+        rank = int(np.sum(np.abs(np.diag(Rp)) > tol * abs(Rp[0, 0])))
+        order = self._preference()
+        _, R = np.linalg.qr(Wn[:, order])
+        base = [order[k] for k in range(len(order)) if nonzero[order[k]] and abs(R[k, k]) > tol]
+        if len(base) != rank:
+            raise RuntimeError(f"base-parameter selection found {len(base)} columns, rank {rank}")
+        base.sort()
+        other = [k for k in range(W.shape[1]) if k not in base]
+        beta, *_ = np.linalg.lstsq(W[:, base], W[:, other], rcond=None)
+        beta[np.abs(beta) < 1e-9] = 0.0
+        comb = np.zeros((len(base), W.shape[1]))
+        for i, k in enumerate(base):
+            comb[i, k] = 1.0
+            comb[i, other] = beta[i]
+        names = tuple(self.standard_names[k] + ("R" if np.count_nonzero(comb[i]) > 1 else "")
+                      for i, k in enumerate(base))
+        return BaseSet(names=names, columns=tuple(base), combination=comb, rank=rank)
+
+    # -- log signals ----------------------------------------------------------------------------------
+    def joint_signals(self, log):
+        """Active joint positions [rad] and joint torques [N·m] of a log's motor signals.
+
+        q = G⁻¹ q_motor + encoder offsets; τ = Gᵀ y with y the motor torques (``torque_motor_<i>``, or
+        ``current_<i>`` × torque constant). Returns (time [s], q (n, n_a), tau (n, n_a)).
+        """
+        from tendyn.io.logs import LogError
+
+        nm = self.n_motors
+        try:
+            qm = log.stack("q_motor_")
+        except (KeyError, ValueError) as exc:
+            raise LogError(f"identification needs the motor positions q_motor_1…q_motor_{nm}: {exc}") from None
+        if qm.shape[1] != nm:
+            raise LogError(f"the log has {qm.shape[1]} motor positions, the device {self.device.name} has {nm} motors",
+                           column="q_motor_")
+        if log.column_names("torque_motor_") and "torque_motor_1" in log:
+            y = log.stack("torque_motor_")
+        elif log.column_names("current_"):
+            kt = np.array([a.torque_constant for a in self.device.actuators]) if self.device.actuators else \
+                np.array([d.motor.torque_constant for d in (self.device.drives or self.device.transmissions)])
+            y = log.stack("current_") * kt
+        else:
+            raise LogError("identification needs the motor torques torque_motor_1… (or current_1…)",
+                           column="torque_motor_")
+        if y.shape[1] != nm:
+            raise LogError(f"the log has {y.shape[1]} motor torques, the device has {nm} motors", column="torque_motor_")
+        q = np.linalg.solve(self.G, qm.T).T + self.joint_offsets
+        tau = y @ self.G
+        return log.time, q, tau

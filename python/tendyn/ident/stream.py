@@ -1,0 +1,216 @@
+"""Identification of logs too large for memory: chunk by chunk, never holding W.
+
+Each chunk of samples is filtered with an overlap on both sides (the zero-phase Butterworth of the positions
+looks forward and backward; an overlap of many time constants makes the chunked result equal to the
+in-memory one to rounding), differentiated, turned into decimated regressor rows by the core on the global
+decimation grid (output k centred on input h + k K, the same samples as in memory), and reduced to the
+normal equations per joint block: Wⱼᵀ Wⱼ, Wⱼᵀ Yⱼ, Yⱼᵀ Yⱼ, rⱼ. OLS, WLS, σ̂², the covariance, cond(W) and the
+per-joint residuals all follow from these sums.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .model import IdentModel
+from .treatment import butter_zero_phase, central_differences, default_treatment, parallel_filter_taps
+
+__all__ = ["NormalEquations", "accumulate", "iter_parquet_chunks", "solve_normal"]
+
+
+class NormalEquations:
+    """Per-joint sums of the observation system: A[j] = Wⱼᵀ Wⱼ, B[j] = Wⱼᵀ Yⱼ, C[j] = Yⱼᵀ Yⱼ, r[j] rows."""
+
+    def __init__(self, n_joints: int, n_params: int):
+        self.A = np.zeros((n_joints, n_params, n_params))
+        self.B = np.zeros((n_joints, n_params))
+        self.C = np.zeros(n_joints)
+        self.r = np.zeros(n_joints, dtype=np.int64)
+
+    def add(self, j: int, W: np.ndarray, y: np.ndarray) -> None:
+        self.A[j] += W.T @ W
+        self.B[j] += W.T @ y
+        self.C[j] += y @ y
+        self.r[j] += y.size
+
+    def merge(self, other: "NormalEquations") -> "NormalEquations":
+        self.A += other.A; self.B += other.B; self.C += other.C; self.r += other.r
+        return self
+
+
+def solve_normal(ne: NormalEquations, method: str = "ols"):
+    """(x, stderr, cond, residual_rel, per_joint_residual_rel) from the accumulated sums."""
+    def ls(weights):
+        A = np.tensordot(weights ** 2, ne.A, 1)
+        B = np.tensordot(weights ** 2, ne.B, 1)
+        x = np.linalg.solve(A, B)
+        rss_j = ne.C - 2 * ne.B @ x + np.einsum("i,jik,k->j", x, ne.A, x)
+        return x, A, np.maximum(rss_j, 0.0)
+
+    nj, b = ne.B.shape
+    r = int(ne.r.sum())
+    w = np.ones(nj)
+    x, A, rss = ls(w)
+    if method == "wls":
+        s2j = rss / np.maximum(ne.r - b * ne.r / r, 1.0)
+        w = 1.0 / np.sqrt(s2j)
+        x, A, rss = ls(w)
+    sigma2 = float((w ** 2 * rss).sum()) / (r - b)
+    se = np.sqrt(np.diag(sigma2 * np.linalg.inv(A)))
+    ev = np.linalg.eigvalsh(A)
+    cond = float(np.sqrt(ev[-1] / ev[0]))
+    per = np.sqrt(rss / ne.C)
+    return x, se, cond, float(np.sqrt(rss.sum() / ne.C.sum())), per
+
+
+def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overlap: int | None = None,
+               columns=None, split_at: int | None = None):
+    """Normal equations of a log given as an iterator of (time, q, tau) chunks (joint signals, in order).
+
+    ``overlap`` input samples are kept on each side of a chunk for the Butterworth filter (default: 40 time
+    constants of its slowest pole, τ = 1 / (sin(π / 2n) 2π f_c), plus the FIR half-length: e^-40 of the
+    edge transient reaches the kept samples, so chunks reproduce the in-memory filter to rounding).
+    ``split_at`` (a decimated output index): return ((rows before, rows from there on), treatment) instead of
+    (all rows, treatment) — the two halves of a cross-validation in the same pass.
+    """
+    tr = treatment or default_treatment(rate_hz, getattr(model.device, "bandwidth_hz", None))
+    taps = parallel_filter_taps(tr.decimate)
+    K, h = tr.decimate, (taps.size - 1) // 2
+    if overlap is None:
+        tau = 1.0 / (np.sin(np.pi / (2 * tr.order)) * 2 * np.pi * tr.cutoff_hz)
+        overlap = int(40 * tau * tr.rate_hz) + h + 2
+    cols = model.base.columns if columns is None else columns
+    ne = NormalEquations(model.n_active, len(cols))
+    ne_b = NormalEquations(model.n_active, len(cols))
+    dt = 1.0 / tr.rate_hz
+    buf_t = buf_q = buf_tau = None
+    start = 0                   # global index of buf[0]
+    next_k = 0                  # next global output index to produce
+    done = False
+    it = iter(chunks)
+    while not done:
+        try:
+            t, q, tau = next(it)
+            if buf_t is None:
+                buf_t, buf_q, buf_tau = t, q, tau
+            else:
+                buf_t = np.concatenate([buf_t, t]); buf_q = np.vstack([buf_q, q]); buf_tau = np.vstack([buf_tau, tau])
+        except StopIteration:
+            done = True
+        if buf_t is None:
+            return ((ne, ne_b) if split_at is not None else ne), tr
+        n = buf_t.size
+        end_global = start + n            # exclusive
+        # centre samples c = h + kK we may produce now: full FIR window and the filter's overlap on the right
+        right_ok = end_global if done else end_global - overlap
+        k_hi = (right_ok - 1 - h - h) // K if right_ok - 1 - 2 * h >= 0 else -1     # window [c-h, c+h] < right_ok
+        if k_hi >= next_k:
+            qf = butter_zero_phase(buf_q, tr.cutoff_hz, tr.rate_hz, tr.order)
+            qd = central_differences(qf, dt)
+            qdd = central_differences(qd, dt)
+            lo = next_k * K - start               # local index of the first window start
+            hi = k_hi * K + 2 * h + 1 - start     # local exclusive end of the last window
+            W = model.regressor(qf[lo:hi], qd[lo:hi], qdd[lo:hi], taps, K)
+            from tendyn import _core
+            ydec = _core.fir_decimate(taps, K, np.ascontiguousarray(buf_tau[lo:hi]))
+            n_out = ydec.shape[0]
+            Wb = W[:, list(cols)]
+            cut = n_out if split_at is None else int(np.clip(split_at - next_k, 0, n_out))
+            for j in range(model.n_active):
+                Wj, yj = Wb[j * n_out:(j + 1) * n_out], ydec[:, j]
+                if cut > 0:
+                    ne.add(j, Wj[:cut], yj[:cut])
+                if cut < n_out:
+                    ne_b.add(j, Wj[cut:], yj[cut:])
+            next_k = k_hi + 1
+        # drop what no future output needs (keep the filter overlap before the next window)
+        keep_from = max(0, min(next_k * K - start - overlap, n))
+        if keep_from > 0:
+            buf_t, buf_q, buf_tau = buf_t[keep_from:], buf_q[keep_from:], buf_tau[keep_from:]
+            start += keep_from
+    return ((ne, ne_b) if split_at is not None else ne), tr
+
+
+def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
+    """(time, q, tau) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
+    :meth:`IdentModel.joint_signals`."""
+    import pyarrow.parquet as pq
+
+    nm = model.n_motors
+    f = pq.ParquetFile(str(path))
+    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + [f"torque_motor_{i + 1}" for i in range(nm)]
+    Ginv = np.linalg.inv(model.G)
+    # row group by row group: a reader over the whole file pre-buffers ahead and holds memory in proportion
+    # to the file (measured: all of a 3 M-sample log); one group at a time holds at most one group
+    batches = (b for g in range(f.num_row_groups)
+               for b in f.iter_batches(batch_size=rows, row_groups=[g], columns=names, use_threads=False))
+    for batch in batches:
+        cols = [batch.column(k).to_numpy() for k in range(len(names))]
+        t = cols[0]
+        qm = np.column_stack(cols[1:1 + nm])
+        y = np.column_stack(cols[1 + nm:])
+        yield t, qm @ Ginv.T + model.joint_offsets, y @ model.G
+
+
+class StreamingIDIM:
+    """OLS/WLS identification of a Parquet log too large for memory (scikit-learn shape).
+
+    Parameters
+    ----------
+    device : Device or CompiledDevice
+    method : "ols" or "wls"
+    cutoff_hz, decimate, order : as for :class:`tendyn.ident.IDIM` (defaults from the rate and bandwidth)
+    chunk_rows : int
+        Samples read per Parquet batch.
+
+    ``fit(path)`` reads the log batch by batch, accumulates the per-joint normal equations and solves them;
+    learned: ``params_``, ``stderr_``, ``rel_stderr_``, ``cond_``, ``names_``, ``result_``. The
+    cross-validation fits the first half of the samples and predicts the second (two accumulations).
+    """
+
+    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, chunk_rows=500_000):
+        self.device = device
+        self.method = method
+        self.cutoff_hz = cutoff_hz
+        self.decimate = decimate
+        self.order = order
+        self.chunk_rows = chunk_rows
+
+    def fit(self, path):
+        import json
+
+        import pyarrow.parquet as pq
+
+        from .estimate import IdentificationResult, cached_model
+
+        model = cached_model(self.device)
+        pf = pq.ParquetFile(str(path))
+        meta = json.loads(pf.schema_arrow.metadata[b"tendyn"].decode())
+        rate = float(meta["rate_hz"])
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
+                               self.order)
+        n = pf.metadata.num_rows
+        from tendyn import _core
+
+        n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
+        (ne_a, ne_b), _ = accumulate(model, iter_parquet_chunks(model, path, self.chunk_rows), rate, tr,
+                                     split_at=n_out // 2)
+        ne = NormalEquations(*ne_a.B.shape).merge(ne_a).merge(ne_b)   # the whole log, as in memory
+        x, se, cond, resid, per = solve_normal(ne, self.method)
+        xa, _, _, _, _ = solve_normal(ne_a, self.method)
+        rss_b = ne_b.C - 2 * ne_b.B @ xa + np.einsum("i,jik,k->j", xa, ne_b.A, xa)
+        cv = {"fit": "first half", "validate": "second half",
+              "residual_rel": float(np.sqrt(max(rss_b.sum(), 0.0) / ne_b.C.sum())),
+              "per_joint_residual_rel": [float(v) for v in np.sqrt(np.maximum(rss_b, 0) / ne_b.C)],
+              "params": [float(v) for v in xa]}
+        base = model.base
+        self.names_ = list(base.names)
+        self.params_, self.stderr_, self.cond_ = x, se, cond
+        self.rel_stderr_ = 100 * se / np.maximum(np.abs(x), 1e-300)
+        self.treatment_ = tr
+        empty = np.zeros(0)
+        self.result_ = IdentificationResult(
+            model.device.name, self.method + "+stream", self.names_,
+            [base.expression(i, model.standard_names) for i in range(len(base.names))], x, se, cond,
+            int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv)
+        return self

@@ -1,0 +1,174 @@
+"""Data treatment of the inverse-dynamic-model identification, as Gautier does it.
+
+1. Positions: zero-phase Butterworth low-pass (forward-backward); the cut-off is given in Hz and is the
+   −3 dB point of the *zero-phase* response (the design frequency is corrected for the squared magnitude).
+2. Velocities and accelerations: central differences of the filtered positions.
+3. Parallel filtering and decimation: the torques Y and every column of the observation matrix W go through
+   the same symmetric FIR low-pass and keep every K-th sample, windows centred on the same input samples
+   (the C++ core does it for W while it builds it, so the full-rate W is never held).
+4. Optionally, samples where a joint's velocity is near zero are removed from that joint's rows (the Coulomb
+   term sign(q̇) is ill-defined there).
+
+Defaults (Gautier): position cut-off 5 × the device's dynamic bandwidth (below a tenth of the rate);
+decimation K so that the decimated rate is ≈ 10 × the bandwidth, parallel-filter cut-off 0.8 × the decimated
+Nyquist frequency.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.signal
+
+__all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
+           "central_differences", "stack_blocks", "default_treatment"]
+
+DEFAULT_BANDWIDTH_HZ = 10.0
+
+
+class AlignmentError(ValueError):
+    """The row blocks of Y and W do not hold the same samples."""
+
+
+def butter_zero_phase(x, cutoff_hz: float, rate_hz: float, order: int = 4, axis: int = 0) -> np.ndarray:
+    """Zero-phase Butterworth low-pass whose forward-backward response is −3 dB at ``cutoff_hz``.
+
+    ``filtfilt`` squares the magnitude; the single-pass design frequency f_d is chosen so that
+    |H(f_c)|² = 1/√2, i.e. (with the bilinear transform's pre-warping)
+    tan(π f_d / f_s) = tan(π f_c / f_s) / (√2 − 1)^(1/(2 order)).
+    """
+    if not 0 < cutoff_hz < rate_hz / 2:
+        raise ValueError(f"cut-off {cutoff_hz} Hz must be in (0, {rate_hz / 2}) Hz (half the rate)")
+    warped = np.tan(np.pi * cutoff_hz / rate_hz) / (np.sqrt(2.0) - 1.0) ** (1.0 / (2 * order))
+    fd = np.arctan(warped) * rate_hz / np.pi
+    fd = min(fd, 0.499 * rate_hz)
+    sos = scipy.signal.butter(order, fd, fs=rate_hz, output="sos")
+    return scipy.signal.sosfiltfilt(sos, np.asarray(x, float), axis=axis)
+
+
+def central_differences(x, dt: float) -> np.ndarray:
+    """dx/dt by central differences (one-sided at the two ends), along axis 0."""
+    return np.gradient(np.asarray(x, float), dt, axis=0)
+
+
+def parallel_filter_taps(K: int) -> np.ndarray:
+    """The symmetric FIR of the parallel filter for decimation K: 10 K + 1 taps (Hamming), cut-off
+    0.8 × the decimated Nyquist frequency, unit DC gain. K = 1: no filter ([1])."""
+    if K <= 1:
+        return np.ones(1)
+    taps = scipy.signal.firwin(10 * K + 1, 0.8 / K)
+    return taps / taps.sum()
+
+
+@dataclass(frozen=True)
+class Treatment:
+    """The treatment settings: position cut-off [Hz], Butterworth order, decimation K, velocity threshold
+    [rad/s] below which a joint's rows are dropped (0: none), and where the defaults came from."""
+
+    cutoff_hz: float
+    order: int
+    decimate: int
+    velocity_threshold: float | tuple | None
+    rate_hz: float
+    bandwidth_hz: float
+
+    @property
+    def parallel_cutoff_hz(self) -> float:
+        return 0.8 * self.rate_hz / (2 * self.decimate) if self.decimate > 1 else self.rate_hz / 2
+
+    def _vt_text(self) -> str:
+        v = self.velocity_threshold
+        if v is None:
+            return "2 % of each joint's peak speed"
+        if isinstance(v, tuple):
+            return "(" + ", ".join(f"{x:.3g}" for x in v) + ") rad/s per joint"
+        return f"{v:g} rad/s"
+
+    def describe(self) -> str:
+        return (f"treatment: Butterworth order {self.order} zero-phase on positions, -3 dB at {self.cutoff_hz:g} Hz; "
+                f"central differences; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
+                f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
+                f"({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); velocity threshold "
+                f"{self._vt_text()} (log rate {self.rate_hz:g} Hz, device bandwidth "
+                f"{self.bandwidth_hz:g} Hz)")
+
+    def to_dict(self) -> dict:
+        v = self.velocity_threshold
+        return {"cutoff_hz": self.cutoff_hz, "order": self.order, "decimate": self.decimate,
+                "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
+                "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz}
+
+
+def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
+                      velocity_threshold: float | None = 0.0) -> Treatment:
+    """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win)."""
+    bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    if cutoff_hz is None:
+        cutoff_hz = min(5.0 * bw, rate_hz / 10.0)
+    if decimate is None:
+        decimate = max(1, int(rate_hz // (10.0 * bw)))
+    vt = None if velocity_threshold is None else float(velocity_threshold)
+    return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw)
+
+
+@dataclass
+class Block:
+    """The rows of one active joint: sample times [s], torques y [N·m] and regressor rows W."""
+
+    time: np.ndarray
+    y: np.ndarray
+    W: np.ndarray
+    velocity: np.ndarray | None = None
+
+
+def stack_blocks(blocks: list[Block], tol: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stack joint blocks into Y, W (joint-major) after checking they hold the same samples.
+
+    Every block must have the same sample times (to a tenth of the sampling interval): a Y block shifted by
+    one sample against W, or against the other joints, raises :class:`AlignmentError`.
+    Returns (Y, W, joint index of every row).
+    """
+    ref = blocks[0].time
+    dt = float(np.median(np.diff(ref))) if ref.size > 1 else 1.0
+    tol = 0.1 * dt if tol is None else tol
+    for j, b in enumerate(blocks):
+        if b.time.shape != ref.shape or b.y.shape[0] != b.time.size or b.W.shape[0] != b.time.size:
+            raise AlignmentError(f"joint block {j + 1}: {b.time.size} sample times, {b.y.shape[0]} torques, "
+                                 f"{b.W.shape[0]} regressor rows, joint 1 has {ref.size}")
+        off = np.max(np.abs(b.time - ref)) if ref.size else 0.0
+        if off > tol:
+            raise AlignmentError(f"joint block {j + 1} is shifted by {off / dt:.3g} samples against joint 1")
+    Y = np.concatenate([b.y for b in blocks])
+    W = np.vstack([b.W for b in blocks])
+    rows = np.concatenate([np.full(b.y.size, j) for j, b in enumerate(blocks)])
+    return Y, W, rows
+
+
+def treat(model, time, q, tau, treatment: Treatment, columns=None):
+    """Filter, differentiate, build W in the core with the parallel filter and decimation, decimate τ the
+    same way, and return the joint blocks (near-zero-velocity samples not yet removed)."""
+    from tendyn import _core
+
+    dt = 1.0 / treatment.rate_hz
+    qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
+    qd = central_differences(qf, dt)
+    qdd = central_differences(qd, dt)
+    taps = parallel_filter_taps(treatment.decimate)
+    K = treatment.decimate
+    W = model.regressor(qf, qd, qdd, taps, K, columns)
+    signals = np.column_stack([np.asarray(time, float), tau, qd])
+    dec = _core.fir_decimate(taps, K, np.ascontiguousarray(signals))
+    # sample times of W's rows: windows centred on input h + kK (independent route from the FIR of `time`)
+    h = (taps.size - 1) // 2
+    n_out = dec.shape[0]
+    t_w = np.asarray(time, float)[h + K * np.arange(n_out)]
+    na = q.shape[1]
+    blocks = []
+    for j in range(na):
+        blocks.append(Block(time=dec[:, 0], y=dec[:, 1 + j], W=W[j * n_out:(j + 1) * n_out],
+                            velocity=dec[:, 1 + na + j]))
+    # W's own times must match the decimated time column
+    if n_out and np.max(np.abs(dec[:, 0] - t_w)) > 0.1 * dt * max(1, 1):
+        raise AlignmentError("the decimated torques and the regressor rows are not centred on the same samples")
+    return blocks

@@ -1,0 +1,181 @@
+"""Turn a lab's CSV files into a log: an import map says which column is which signal.
+
+An import map is a small TOML file (``examples/tx40_import.toml`` is the one for the Stäubli TX40 files)::
+
+    schema = 1
+    [log]
+    device = "tx40"              # meta.device
+    experiment = "exciting"      # meta.experiment
+    rate_hz = 5000.0             # the sampling rate; required when no signal is "time"
+    delimiter = ","              # optional, default ","
+    header = true                # optional: the first row holds the column names (default true)
+
+    [[signals]]
+    file = "pos_read_data.csv"   # which RAW file (its name); optional when only one file is imported
+    column = "Joint_1"           # a header name, or a 1-based column number when header = false
+    signal = "q_motor_1"         # a log column name (docs/logs.md)
+    scale = 1.0                  # optional: value = scale * raw + offset, in the log column's SI unit
+    offset = 0.0                 # optional
+
+Every problem raises one :class:`~tendyn.io.logs.LogError` naming the map, the entry and the column,
+e.g. ``tx40_import.toml: signals[7].column: no column 'Joint_7' in pos_read_data.csv (columns: Joint_1, …)``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from tendyn.io.logs import LogError, Log, column_spec, make_log
+
+__all__ = ["import_logs", "read_import_map"]
+
+_LOG_KEYS = {"device": str, "experiment": str, "rate_hz": float, "delimiter": str, "header": bool}
+_SIGNAL_KEYS = {"file": str, "column": (str, int), "signal": str, "scale": float, "offset": float}
+
+
+def _err(mapfile, where, problem):
+    e = LogError(f"{where}: {problem}" if where else problem, file=Path(mapfile).name)
+    return e
+
+
+def read_import_map(path) -> dict:
+    """Read and check an import map; returns {"log": {...}, "signals": [...]} with defaults filled."""
+    p = Path(path)
+    if not p.is_file():
+        raise LogError("import map not found", file=str(p))
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise _err(p, "", f"TOML syntax error: {exc}") from None
+    for key in raw:
+        if key not in ("schema", "log", "signals"):
+            raise _err(p, key, "unknown key (expected schema, [log], [[signals]])")
+    if raw.get("schema") != 1:
+        raise _err(p, "schema", f"must be 1 (got {raw.get('schema')!r})")
+    log = dict(raw.get("log") or {})
+    for key, val in log.items():
+        if key not in _LOG_KEYS:
+            raise _err(p, f"log.{key}", f"unknown key (known: {', '.join(_LOG_KEYS)})")
+        want = _LOG_KEYS[key]
+        if want is float and isinstance(val, int) and not isinstance(val, bool):
+            val = log[key] = float(val)
+        if not isinstance(val, want) or (want is not bool and isinstance(val, bool)):
+            raise _err(p, f"log.{key}", f"must be a {want.__name__} (got {val!r})")
+    for key in ("device", "experiment"):
+        if not log.get(key):
+            raise _err(p, f"log.{key}", "missing required key")
+    if "rate_hz" in log and not (math.isfinite(log["rate_hz"]) and log["rate_hz"] > 0):
+        raise _err(p, "log.rate_hz", f"must be finite and > 0 (got {log['rate_hz']!r})")
+    log.setdefault("delimiter", ",")
+    log.setdefault("header", True)
+    sigs = raw.get("signals")
+    if not isinstance(sigs, list) or not sigs:
+        raise _err(p, "signals", "missing: one [[signals]] entry per log column")
+    out, seen = [], {}
+    for i, s in enumerate(sigs, start=1):
+        where = f"signals[{i}]"
+        if not isinstance(s, dict):
+            raise _err(p, where, "must be a table")
+        for key in s:
+            if key not in _SIGNAL_KEYS:
+                raise _err(p, f"{where}.{key}", f"unknown key (known: {', '.join(_SIGNAL_KEYS)})")
+        for key in ("column", "signal"):
+            if key not in s:
+                raise _err(p, f"{where}.{key}", "missing required key")
+        sig = s["signal"]
+        if not isinstance(sig, str) or column_spec(sig) is None:
+            raise _err(p, f"{where}.signal", f"{sig!r} is not a log column name (see docs/logs.md)")
+        if sig in seen:
+            raise _err(p, f"{where}.signal", f"{sig} is mapped twice (also signals[{seen[sig]}])")
+        seen[sig] = i
+        col = s["column"]
+        if isinstance(col, bool) or not isinstance(col, (str, int)):
+            raise _err(p, f"{where}.column", f"must be a header name or a 1-based column number (got {col!r})")
+        if isinstance(col, int) and col < 1:
+            raise _err(p, f"{where}.column", f"column numbers start at 1 (got {col})")
+        entry = {"file": s.get("file"), "column": col, "signal": sig, "scale": 1.0, "offset": 0.0, "where": where}
+        for key in ("scale", "offset"):
+            if key in s:
+                v = s[key]
+                if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                    raise _err(p, f"{where}.{key}", f"must be a finite number (got {v!r})")
+                entry[key] = float(v)
+        if entry["scale"] == 0.0:
+            raise _err(p, f"{where}.scale", "must be nonzero")
+        out.append(entry)
+    if "time" not in seen and "rate_hz" not in log:
+        raise _err(p, "log.rate_hz", "required: no signal is mapped to `time`, so the rate sets the time grid")
+    return {"log": log, "signals": out}
+
+
+def _read_csv(path: Path, delimiter: str, header: bool):
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except OSError as exc:
+        raise LogError(f"cannot read: {exc.strerror or exc}", file=str(path)) from None
+    rows = [r for r in csv.reader(text.splitlines(), delimiter=delimiter) if r and not r[0].startswith("#")]
+    names = [c.strip() for c in rows[0]] if header and rows else []
+    return names, rows[1:] if header else rows
+
+
+def import_logs(raw_files, map_path) -> Log:
+    """One log from the RAW CSV files and the import map (see the module docstring)."""
+    spec = read_import_map(map_path)
+    mp = Path(map_path)
+    files = {Path(f).name: Path(f) for f in raw_files}
+    if not files:
+        raise LogError("no RAW file given", file=mp.name)
+    cache: dict[str, tuple] = {}
+    columns: dict[str, np.ndarray] = {}
+    n_rows = None
+    for s in spec["signals"]:
+        where = s["where"]
+        fname = s["file"]
+        if fname is None:
+            if len(files) != 1:
+                raise _err(mp, f"{where}.file", f"needed: {len(files)} RAW files are imported ({', '.join(files)})")
+            fname = next(iter(files))
+        if fname not in files:
+            raise _err(mp, f"{where}.file", f"{fname!r} is not among the RAW files ({', '.join(files)})")
+        if fname not in cache:
+            cache[fname] = _read_csv(files[fname], spec["log"]["delimiter"], spec["log"]["header"])
+        names, rows = cache[fname]
+        col = s["column"]
+        if isinstance(col, str):
+            if not spec["log"]["header"]:
+                raise _err(mp, f"{where}.column", f"{col!r} is a name but log.header = false: give a column number")
+            if col not in names:
+                raise _err(mp, f"{where}.column", f"no column {col!r} in {fname} (columns: {', '.join(names)})")
+            k = names.index(col)
+        else:
+            k = col - 1
+            width = len(rows[0]) if rows else 0
+            if k >= width:
+                raise _err(mp, f"{where}.column", f"column {col} does not exist in {fname} ({width} columns)")
+        vals = np.empty(len(rows))
+        for r, row in enumerate(rows):
+            try:
+                vals[r] = float(row[k])
+            except (ValueError, IndexError):
+                cell = row[k] if k < len(row) else "<missing>"
+                raise LogError(f"value {cell!r} is not a number (mapped to {s['signal']} by {mp.name} {where})",
+                               file=fname, column=str(col), row=r, line=r + 2 if spec["log"]["header"] else r + 1) from None
+        if n_rows is None:
+            n_rows = vals.size
+        elif vals.size != n_rows:
+            raise _err(mp, f"{where}", f"{fname} has {vals.size} rows, the files before have {n_rows}: the signals "
+                                       "must be sampled on one grid")
+        columns[s["signal"]] = s["scale"] * vals + s["offset"]
+    rate = spec["log"].get("rate_hz")
+    if "time" not in columns:
+        columns["time"] = np.arange(n_rows) / rate
+    elif rate is None:
+        rate = float(1.0 / np.median(np.diff(columns["time"])))
+    options = {"import_map": mp.name, "raw_files": sorted(files)}
+    return make_log(columns, device=spec["log"]["device"], rate_hz=rate, seed=None,
+                    experiment=spec["log"]["experiment"], options=options)
