@@ -280,6 +280,44 @@ class _Parser:
                             kinematics=kin, transmissions=trans, drives=drives, actuators=actuators,
                             bandwidth_hz=dev["bandwidth_hz"])
 
+    def driven_joint(self, f: dict, section: str, what: str, default_prefix: str, i: int, kin: Kinematics,
+                     driven_by: dict[int, int], names: dict[str, int]) -> tuple[int, str]:
+        """Joint and name of entry ``i`` (0-based) of ``[[section]]``: an actuated joint of the device that no
+        earlier entry drives, and a name (default ``default_prefix<joint>``) no earlier entry has."""
+        path = f"{section}[{i + 1}]"
+        joint = f["joint"]
+        n = kin.n_joints
+        if joint > n:
+            raise self.no_joint(f"{path}.joint", joint, n)
+        js = kin.joints[joint - 1]
+        if not js.actuated:
+            raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
+        if joint in driven_by:
+            raise self.err(f"{path}.joint", f"joint {joint} is driven twice (also {section}[{driven_by[joint]}]); "
+                                            "each joint must be driven exactly once")
+        driven_by[joint] = i + 1
+        name = f["name"] if f["name"] is not None else f"{default_prefix}{joint}"
+        if name in names:
+            raise self.err(f"{path}.name", f"duplicate {what} name {name!r} (also {section}[{names[name]}])")
+        names[name] = i + 1
+        return joint, name
+
+    def motor(self, raw: Any, path: str) -> dict:
+        """A [motor] table, its peak torque at least its continuous torque."""
+        mot = self.table(raw, path, MOTOR_FIELDS)
+        if mot["peak_torque"] < mot["continuous_torque"]:
+            raise self.err(f"{path}.peak_torque", f"must be >= continuous_torque (got peak_torque = "
+                                                  f"{_fmt(mot['peak_torque'])}, continuous_torque = "
+                                                  f"{_fmt(mot['continuous_torque'])})")
+        return mot
+
+    def every_joint_driven(self, section: str, what: str, kin: Kinematics, driven_by: dict[int, int]) -> None:
+        """Every actuated joint (cut joints aside) is driven by one entry of ``[[section]]``."""
+        for num, js in enumerate(kin.joints, start=1):
+            if js.actuated and js.sigma != 2 and num not in driven_by:
+                raise self.err(section, f"joint {num} ({js.name}) is not driven by any {what}; each actuated "
+                                        "joint must be driven exactly once")
+
     def actuators(self, raw: Any, kin: Kinematics) -> tuple[Actuator, ...]:
         """[[actuators]]: one geared motor per actuated joint; the coupling matrix must be invertible."""
         if not raw:
@@ -291,20 +329,7 @@ class _Parser:
         for i, item in enumerate(raw):
             path = f"actuators[{i + 1}]"
             f = self.table(item, path, ACTUATOR_FIELDS)
-            joint = f["joint"]
-            if joint > n:
-                raise self.no_joint(f"{path}.joint", joint, n)
-            js = kin.joints[joint - 1]
-            if not js.actuated:
-                raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
-            if joint in driven_by:
-                raise self.err(f"{path}.joint", f"joint {joint} is driven twice (also actuators[{driven_by[joint]}]); "
-                                                "each joint must be driven exactly once")
-            driven_by[joint] = i + 1
-            name = f["name"] if f["name"] is not None else f"motor{joint}"
-            if name in names:
-                raise self.err(f"{path}.name", f"duplicate actuator name {name!r} (also actuators[{names[name]}])")
-            names[name] = i + 1
+            joint, name = self.driven_joint(f, "actuators", "actuator", "motor", i, kin, driven_by, names)
             coupling = []
             if f["coupling"] is not None:
                 if not isinstance(f["coupling"], dict):
@@ -328,10 +353,7 @@ class _Parser:
                                 encoder_offset=f["encoder_offset"], rotor_inertia=f["rotor_inertia"],
                                 viscous_motor=f["viscous_motor"], coulomb_motor=f["coulomb_motor"],
                                 torque_constant=f["torque_constant"]))
-        for num, js in enumerate(kin.joints, start=1):
-            if js.actuated and js.sigma != 2 and num not in driven_by:
-                raise self.err("actuators", f"joint {num} ({js.name}) is not driven by any actuator; each "
-                                            "actuated joint must be driven exactly once")
+        self.every_joint_driven("actuators", "actuator", kin, driven_by)
         out = sorted(out, key=lambda a: a.joint)
         active = [num for num, js in enumerate(kin.joints, start=1) if js.actuated and js.sigma != 2]
         col = {num: k for k, num in enumerate(active)}
@@ -611,11 +633,7 @@ class _Parser:
             bearings = tuple(None if not e else Bearing(**self.table(e, f"{path}.bearings[{b + 1}]",
                                                                       BEARING_FIELDS))
                              for b, e in enumerate(br_raw))
-        mot = self.table(f["motor"], f"{path}.motor", MOTOR_FIELDS)
-        if mot["peak_torque"] < mot["continuous_torque"]:
-            raise self.err(f"{path}.motor.peak_torque", f"must be >= continuous_torque (got peak_torque = "
-                                                        f"{_fmt(mot['peak_torque'])}, continuous_torque = "
-                                                        f"{_fmt(mot['continuous_torque'])})")
+        mot = self.motor(f["motor"], f"{path}.motor")
         sen = self.table(f["sensors"], f"{path}.sensors", SENSOR_FIELDS)
         return TransmissionSpec(
             name=name, joint=joint, motor_radius=f["motor_radius"], crosses=tuple(crosses),
@@ -629,37 +647,16 @@ class _Parser:
         driven_by: dict[int, int] = {}
         names: dict[str, int] = {}
         out = []
-        n = kin.n_joints
         for i, item in enumerate(raw):
             path = f"drives[{i + 1}]"
             f = self.table(item, path, DRIVE_FIELDS)
-            joint = f["joint"]
-            if joint > n:
-                raise self.no_joint(f"{path}.joint", joint, n)
-            js = kin.joints[joint - 1]
-            if not js.actuated:
-                raise self.err(f"{path}.joint", f"joint {joint} ({js.name}) is not actuated (mu = 0)")
-            if joint in driven_by:
-                raise self.err(f"{path}.joint", f"joint {joint} is driven twice (also drives[{driven_by[joint]}]); "
-                                                "each joint must be driven exactly once")
-            driven_by[joint] = i + 1
-            name = f["name"] if f["name"] is not None else f"drive{joint}"
-            if name in names:
-                raise self.err(f"{path}.name", f"duplicate drive name {name!r} (also drives[{names[name]}])")
-            names[name] = i + 1
-            mot = self.table(f["motor"], f"{path}.motor", MOTOR_FIELDS)
-            if mot["peak_torque"] < mot["continuous_torque"]:
-                raise self.err(f"{path}.motor.peak_torque", f"must be >= continuous_torque (got peak_torque = "
-                                                            f"{_fmt(mot['peak_torque'])}, continuous_torque = "
-                                                            f"{_fmt(mot['continuous_torque'])})")
+            joint, name = self.driven_joint(f, "drives", "drive", "drive", i, kin, driven_by, names)
+            mot = self.motor(f["motor"], f"{path}.motor")
             sen = self.table(f["sensors"], f"{path}.sensors", SENSOR_FIELDS)
             out.append(Drive(name=name, joint=joint, ratio=f["ratio"], stiffness_motor=f["stiffness_motor"],
                              damping_motor=f["damping_motor"], coulomb_motor=f["coulomb_motor"],
                              viscous_motor=f["viscous_motor"], offset_joint=f["offset_joint"],
                              motor=Motor(**mot), sensors=Sensors(**sen),
                              servo_stiffness_motor=f["servo_stiffness_motor"]))
-        for num, js in enumerate(kin.joints, start=1):
-            if js.actuated and js.sigma != 2 and num not in driven_by:
-                raise self.err("drives", f"joint {num} ({js.name}) is not driven by any drive; each actuated "
-                                         "joint must be driven exactly once")
+        self.every_joint_driven("drives", "drive", kin, driven_by)
         return tuple(sorted(out, key=lambda d: d.joint))
