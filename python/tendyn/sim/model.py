@@ -11,6 +11,7 @@ import numpy as np
 
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.sim.catalogue import CHAIN_RATE_HZ
 from tendyn.transmission import Transmission
 
 
@@ -32,7 +33,7 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
     friction : False switches every friction source off (energy checks, FRFs)
     sensors : False gives ideal sensors (no quantisation, no current noise)
     """
-    if not 1_000.0 <= rate_hz <= 20_000.0:
+    if not CHAIN_RATE_HZ[0] <= rate_hz <= CHAIN_RATE_HZ[1]:
         raise ValueError(f"rate_hz must be within 1–20 kHz (got {rate_hz})")
     if control_hz is None:
         control_hz = default_control_hz(device)
