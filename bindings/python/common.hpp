@@ -14,9 +14,17 @@ namespace tendyn::py {
 namespace nb = nanobind;
 using VecRef = Eigen::Ref<const Eigen::VectorXd>;
 
-/// Raise ValueError on an error status; pass flags (Ok, SelfLocked) through to Python.
+/// Status::Diverged as its own Python exception (tendyn._core.SimulationDiverged, a ValueError): a diverged
+/// run is a computed result that failed, not bad input, and callers tell the two apart by type, not by text.
+struct SimulationDiverged : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Raise SimulationDiverged or ValueError on an error status; pass flags (Ok, SelfLocked) through to Python.
 inline Status check(Status s, const char* where) {
-  if (is_error(s)) throw nb::value_error((std::string(where) + ": " + status_message(s)).c_str());
+  const std::string msg = std::string(where) + ": " + status_message(s);
+  if (s == Status::Diverged) throw SimulationDiverged(msg);
+  if (is_error(s)) throw nb::value_error(msg.c_str());
   return s;
 }
 

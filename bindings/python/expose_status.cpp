@@ -11,6 +11,7 @@ void expose_status(nb::module_& m) {
       .value("InvalidModel", Status::InvalidModel)
       .value("Diverged", Status::Diverged);
   m.def("status_message", &status_message, nb::arg("status"));
+  nb::exception<SimulationDiverged>(m, "SimulationDiverged", PyExc_ValueError);
 }
 
 }  // namespace tendyn::py

@@ -210,6 +210,7 @@ def cmd_simulate(args) -> int:
 
     from tqdm import tqdm
 
+    from tendyn import _core
     from tendyn.sim import catalogue
 
     dev = _load(args.device)
@@ -226,10 +227,8 @@ def cmd_simulate(args) -> int:
     t0 = time.perf_counter()
     try:
         runs = catalogue.run(dev, args.experiment, opts, progress)
-    except ValueError as exc:
-        if "diverge" in str(exc).lower():   # Status::Diverged from the core: the result, not the input
-            raise CheckFailed(f"the simulation diverged ({exc}); try a higher --rate") from None
-        raise
+    except _core.SimulationDiverged as exc:   # Status::Diverged from the core: the result, not the input
+        raise CheckFailed(f"the simulation diverged ({exc}); try a higher --rate") from None
     finally:
         bar.close()
     wall = time.perf_counter() - t0

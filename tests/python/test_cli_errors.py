@@ -243,3 +243,33 @@ def test_catalogue_covers_exactly_the_experiments_each_device_kind_declares(name
 
     dev = load_device(bundled(name))
     assert set(dev.experiments) == {e.name for (k, _), e in catalogue.EXPERIMENTS.items() if k == dev.kind}
+
+
+def test_a_diverged_run_is_a_failed_check_exit_1_nothing_written(tmp_path, capsys, monkeypatch):
+    """The core's Status::Diverged reaches the CLI as its own exception type (not by matching the message
+    text): exit 1, one line that says so, no log or truth file left behind."""
+    from tendyn import _core
+    from tendyn.sim import catalogue
+
+    def diverge(*args, **kw):
+        raise _core.SimulationDiverged("run: the simulation diverged (planted)")
+
+    monkeypatch.setattr(catalogue, "run", diverge)
+    out = tmp_path / "x.parquet"
+    code = main(["simulate", "cea_branch", "blocked-link", "--joint", "1", "--out", str(out), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 1 and len(err) == 1 and "diverged" in err[0] and "Traceback" not in err[0]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_value_error_that_mentions_divergence_is_not_taken_for_a_diverged_run(tmp_path, capsys, monkeypatch):
+    """The old text match would have turned any ValueError saying 'diverge' into exit 1; now it is a bug (3)."""
+    from tendyn.sim import catalogue
+
+    def other(*args, **kw):
+        raise ValueError("the series diverges")
+
+    monkeypatch.setattr(catalogue, "run", other)
+    code = main(["simulate", "cea_branch", "blocked-link", "--joint", "1", "--out", str(tmp_path / "x.parquet"),
+                 "--quiet"])
+    assert code == 3
