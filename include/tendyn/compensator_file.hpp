@@ -171,14 +171,7 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       continue;
     }
     std::vector<double> values;
-    std::string tok;
-    while (ls >> tok) {
-      char* end = nullptr;
-      const double v = std::strtod(tok.c_str(), &end);
-      if (end == tok.c_str() || *end != '\0') return fail(lineno, key + ": '" + tok + "' is not a number");
-      if (!std::isfinite(v)) return fail(lineno, key + ": '" + tok + "' is not finite");
-      values.push_back(v);
-    }
+    if (const std::string bad = read_numbers(ls, &values); !bad.empty()) return fail(lineno, key + ": " + bad);
     auto expect = [&](int want, const char* shape) {
       if (static_cast<int>(values.size()) == want) return true;
       fail(lineno, key + ": " + std::to_string(values.size()) + " values, expected " + std::to_string(want) + " (" +

@@ -28,6 +28,7 @@
 // transmission of a compensator file loads with tendyn_transmission_load too.
 #pragma once
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -85,6 +86,22 @@ inline bool save_transmission_model(const TransmissionModel& m, const std::strin
   return write_text_atomically(transmission_model_text(m), path, error);
 }
 
+/// Read the remaining whitespace-separated tokens of a model-file line as finite numbers into `values`.
+/// Returns an empty string, or what is wrong ("'abc' is not a number", "'nan' is not finite") for the caller
+/// to prefix with line and field. Shared by the transmission and compensator sections.
+inline std::string read_numbers(std::istringstream& ls, std::vector<double>* values) {
+  values->clear();
+  std::string tok;
+  while (ls >> tok) {
+    char* end = nullptr;
+    const double v = std::strtod(tok.c_str(), &end);
+    if (end == tok.c_str() || *end != '\0') return "'" + tok + "' is not a number";
+    if (!std::isfinite(v)) return "'" + tok + "' is not finite";
+    values->push_back(v);
+  }
+  return std::string();
+}
+
 /// Parse model-file text into `m` (validated, matrices computed). `name` prefixes the messages.
 inline bool parse_transmission_model(const std::string& text, const std::string& name, TransmissionModel* m,
                                      std::string* error) {
@@ -118,13 +135,7 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
       continue;
     }
     std::vector<double> values;
-    std::string tok;
-    while (ls >> tok) {
-      char* end = nullptr;
-      const double v = std::strtod(tok.c_str(), &end);
-      if (end == tok.c_str() || *end != '\0') return fail(lineno, key + ": '" + tok + "' is not a number");
-      values.push_back(v);
-    }
+    if (const std::string bad = read_numbers(ls, &values); !bad.empty()) return fail(lineno, key + ": " + bad);
     if (n < 0) {
       if (key != "n" || values.size() != 1 || !(values[0] >= 1.0) || values[0] != static_cast<int>(values[0]))
         return fail(lineno, "the line after the header must be 'n <number of transmissions >= 1>'");

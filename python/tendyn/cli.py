@@ -275,12 +275,12 @@ def _check_out_folder(text: str) -> Path:
     out = Path(text)
     if out.exists() and not out.is_dir():
         raise UsageError(f"{out} exists and is not a folder", "out")
-    parent = out
-    while not parent.exists():
-        parent = parent.parent
-    if not parent.is_dir():
+    from tendyn.io.files import creatable
+
+    parent, problem = creatable(out / "_")      # the folder itself may be the nearest existing one
+    if problem == "not a folder":
         raise UsageError(f"cannot create {out}: {parent} is not a folder", "out")
-    if not os.access(parent, os.W_OK | os.X_OK):
+    if problem:
         raise UsageError(f"cannot write into {parent} (permission denied)", "out")
     return out
 

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
+    "creatable",
     "STAGING_MAX_AGE_S",
     "TEMP_MAX_AGE_S",
     "all_or_none",
@@ -207,6 +208,22 @@ def save_png(fig, path, dpi: int = 130) -> Path:
 # ----------------------------------------------------------------------------------------------------------
 # Several files: all or none
 # ----------------------------------------------------------------------------------------------------------
+
+def creatable(path) -> tuple[Path, str | None]:
+    """Whether ``path`` (file or folder) could be created, before the work that produces it; creates nothing.
+
+    Returns the nearest existing ancestor of ``path`` and ``None`` if it is a folder this user can write into,
+    else ``"not a folder"`` or ``"permission denied"`` (callers word the error for their option).
+    """
+    parent = Path(path).parent
+    while not parent.exists() and parent.parent != parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        return parent, "not a folder"
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return parent, "permission denied"
+    return parent, None
+
 
 def _make_folders(folder: Path) -> list[Path]:
     """Create ``folder`` and its missing parents; return those this call created, outermost first."""

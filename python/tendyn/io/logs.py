@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.files import atomic_write_bytes, to_jsonable
+from tendyn.io.files import atomic_write_bytes, creatable, to_jsonable
 
 __all__ = [
     "COLUMNS",
@@ -604,12 +604,10 @@ def check_log_path(path) -> Path:
     if path.is_dir():
         raise LogError("is a folder; give a file name ending in .parquet or .csv", file=str(path))
     _format(path)
-    parent = path.parent
-    while not parent.exists() and parent.parent != parent:
-        parent = parent.parent
-    if not parent.is_dir():
+    parent, problem = creatable(path)
+    if problem == "not a folder":
         raise LogError(f"cannot create the log: {parent} is a file, not a folder", file=str(path))
-    if not os.access(parent, os.W_OK | os.X_OK):
+    if problem:
         raise LogError(f"cannot create the log: no permission to write in the folder {parent}", file=str(path))
     return path
 
