@@ -96,7 +96,8 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None) -
         None keeps the device's own losses. Otherwise per-branch arrays (n, n), 0-based
         ``[transmission, branch]`` as the core fields: ``tau0`` [N], ``nu`` [N·s/m] and optionally ``beta`` [-]
         (the loss decomposition of S0 eqs. 18–21, corrected: ERRATA), either at the top level or under a
-        ``"branch_losses"`` key. Fields not given keep the device's values.
+        ``"branch_losses"`` key; ``reducer_efficiency`` (n,) η_d [-] may be given too (1 = a lossless reducer,
+        the S0 hypothesis that efficiencies are negligible, C12). Fields not given keep the device's values.
 
     Raises
     ------
@@ -113,13 +114,14 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None) -
     data = data.get("branch_losses", data)
     arrays = base.to_dict()
     n = base.n
-    given = [k for k in ("tau0", "nu", "beta") if k in data]
+    given = [k for k in ("tau0", "nu", "beta", "reducer_efficiency") if k in data]
     if not given:
         raise ValueError("friction: expected per-branch arrays 'tau0' and/or 'nu' (n, n) [N, N s/m]")
     for key in given:
         a = np.asarray(data[key], float)
-        if a.shape != (n, n):
-            raise ValueError(f"friction: {key} must have shape ({n}, {n}) (got {a.shape})")
+        shape = (n,) if key == "reducer_efficiency" else (n, n)
+        if a.shape != shape:
+            raise ValueError(f"friction: {key} must have shape {shape} (got {a.shape})")
         arrays[key] = a
     losses = {k: arrays[k] for k in arrays if k in ("tau0", "nu", "beta") or k.startswith("bearing_")}
     return Transmission.from_arrays(arrays["motor_radius"], arrays["K"], arrays["reducer_ratio"],

@@ -2,8 +2,8 @@
 8), loss decomposition, and the compensation of Fig. 7 with passivity (item 7).
 
 :func:`run_s0` returns one JSON-able document with the keys ``transmissions``, ``decomposition`` and
-``compensation``; with ``report`` it also writes the figures and the document into that folder (all files or
-none).
+``compensation`` (and ``hypotheses``, C12, unless quick); with ``report`` it also writes the figures and the
+document into that folder (all files or none).
 """
 
 from __future__ import annotations
@@ -95,6 +95,13 @@ def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> 
            "transmissions": ident["transmissions"],
            "decomposition": ident["decomposition"],
            "compensation": compensation_summary(fig7)}
+    hyp = None
+    if not quick:       # C12 on the twin's own losses, so that only the hypotheses differ
+        from .s0_hypotheses import hypotheses_experiment
+
+        print("[pipeline s0] S0's hypotheses switched one at a time (C12) …", file=sys.stderr)
+        hyp = hypotheses_experiment(compiled)
+        doc["hypotheses"] = hyp.to_dict()
     if "identification" in ident:
         doc["identification"] = ident["identification"]
     if report is not None:
@@ -103,8 +110,10 @@ def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> 
         out = Path(report)
         with all_or_none(out) as stage:
             save_png(fig7.plot(), stage / "fig7_compensation.png")
+            if hyp is not None:
+                save_png(hyp.plot(), stage / "s0_hypotheses.png")
             atomic_write_text(stage / "fig7_compensation.json", json.dumps(to_jsonable(fig7.to_dict()), indent=2))
             atomic_write_text(stage / "s0.json", json.dumps(to_jsonable(doc), indent=2))
         doc["report"] = {"figure": str(out / "fig7_compensation.png"), "data": str(out / "s0.json")}
-    doc["_table"] = fig7.table()
+    doc["_table"] = fig7.table() + ("\n\n" + hyp.table() if hyp is not None else "")
     return doc

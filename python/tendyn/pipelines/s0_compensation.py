@@ -21,7 +21,8 @@ import numpy as np
 
 from tendyn import _core
 from tendyn.control import Compensator, Renderer
-from tendyn.control.compensator import DEFAULT_UNDERESTIMATION
+from tendyn.control.compensator import (DEFAULT_UNDERESTIMATION, DEFAULT_VELOCITY_BAND,
+                                        DEFAULT_VELOCITY_CUTOFF_HZ)
 from tendyn.device import compile_device, load_device
 from tendyn.devices import bundled
 from tendyn.results import Result, format_table, new_figure
@@ -127,19 +128,27 @@ class HandRun:
 def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float = 0.04,
              period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
              hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
-             q0=Q0_LEXOS, seed: int = 7) -> HandRun:
+             q0=Q0_LEXOS, seed: int = 7, encoders: str = "quantised", velocity_band: float = DEFAULT_VELOCITY_BAND,
+             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ) -> HandRun:
     """The hand pulls the handle around a horizontal circle (radius [m], period [s]) for ``settle`` seconds
     of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
 
     The circle starts at the handle's start position; its radius grows smoothly over ``settle`` so the hand
     does not jerk. RMS and energy are taken over the ``cycles`` closed cycles after ``settle``.
+    ``encoders``: ``"quantised"`` (the twin's motor encoders, S0's position sensors) or ``"exact"`` (the motor
+    positions themselves, an ideal sensor, C12); ``velocity_band`` [rad/s] and ``velocity_cutoff_hz`` [Hz] are
+    the compensator's (:meth:`tendyn.control.Compensator.from_device`).
     """
+    if encoders not in ("quantised", "exact"):
+        raise ValueError(f"encoders must be 'quantised' or 'exact' (got {encoders!r})")
     compiled = _device(device)
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = np.asarray(q0, float)
     _reset(sim, data, q0, seed)
-    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz)
+    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
+                                   velocity_band=velocity_band, velocity_cutoff_hz=velocity_cutoff_hz)
+    read = _encoders if encoders == "quantised" else (lambda sim_, data_: np.array(data_.q_motor))
     handle = _Handle(compiled)
     x0, _ = handle(q0)
     omega = 2 * np.pi / period
@@ -153,7 +162,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     for s, t in enumerate(time):
         if abs(t - settle) < 0.5 / control_hz:
             work_at_settle = data.work_external
-        torque_motor = comp.cycle(_encoders(sim, data))
+        torque_motor = comp.cycle(read(sim, data))
         ctime[s] = comp.data.compute_time
         # blended circle: the radius grows with a smooth step over `settle`
         u = min(1.0, t / settle) if settle > 0 else 1.0
