@@ -21,19 +21,22 @@ void expose_regressor(nb::module_& m) {
   m.def(
       "identification_regressor",
       [](const RigidBodyModel& mo, RigidBodyData& d, const Eigen::MatrixXd& L, const Eigen::VectorXd& c,
-         const Eigen::MatrixXd& G, RowRef Q, RowRef V, RowRef A, const Eigen::VectorXd& taps, Eigen::Index K) {
+         const Eigen::MatrixXd& G, RowRef Q, RowRef V, RowRef A, const Eigen::VectorXd& taps, Eigen::Index K,
+         int threads) {
         const Eigen::Index no = decimated_length(Q.rows(), taps.size(), K);
         RowMatrixXd out(L.cols() * no, regressor_columns(mo, L.cols(), G.rows()));
+        Status s;
         {
           nb::gil_scoped_release release;
-          check(identification_regressor(mo, d, L, c, G, Q, V, A, taps, K, out), "identification_regressor");
+          s = identification_regressor(mo, d, L, c, G, Q, V, A, taps, K, out, threads);
         }
+        check(s, "identification_regressor");   // raise with the GIL held
         return out;
       },
       nb::arg("model"), nb::arg("data"), nb::arg("L"), nb::arg("c"), nb::arg("G"), nb::arg("Q"), nb::arg("V"),
-      nb::arg("A"), nb::arg("taps"), nb::arg("K"),
-      "Identification regressor of all samples (rows joint-major), filtered by taps and decimated by K; "
-      "see include/tendyn/regressor.hpp for the column layout.");
+      nb::arg("A"), nb::arg("taps"), nb::arg("K"), nb::arg("threads") = 1,
+      "Identification regressor of all samples (rows joint-major), filtered by taps and decimated by K, on "
+      "`threads` threads (each its own Pinocchio data); see include/tendyn/regressor.hpp for the column layout.");
 }
 
 }  // namespace tendyn::py

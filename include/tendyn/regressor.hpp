@@ -21,7 +21,10 @@
 // This is setup-time work (allocates); it is not a real-time call.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <thread>
+#include <vector>
 
 #include <Eigen/Core>
 #include <pinocchio/algorithm/regressor.hpp>
@@ -66,34 +69,22 @@ inline Status fir_decimate(const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen:
   return Status::Ok;
 }
 
-/// Identification regressor over all samples, optionally filtered and decimated in the same pass.
-/// @param m, d   rigid-body tree and its data (d is used as workspace)
-/// @param L      (n_tree, n_a) ∂q_tree/∂q_a (identity for a serial chain)
-/// @param c      (n_tree,) constant offsets of the constraints [rad or m]
-/// @param G      (n_m, n_a) motor-from-joint position matrix q_m = G q_a [rad/rad]
-/// @param Q, V, A  (n, n_a) active positions [rad], velocities [rad/s], accelerations [rad/s²], one row per sample
-/// @param taps   symmetric FIR of odd length (the parallel filter); [1] for none
-/// @param K      decimation factor ≥ 1
-/// @param out    (n_a · n_out, regressor_columns), joint-major rows, written
-inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d, const Eigen::MatrixXd& L,
-                                       const Eigen::VectorXd& c, const Eigen::MatrixXd& G,
-                                       const Eigen::Ref<const RowMatrixXd>& Q, const Eigen::Ref<const RowMatrixXd>& V,
-                                       const Eigen::Ref<const RowMatrixXd>& A,
-                                       const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen::Index K,
-                                       Eigen::Ref<RowMatrixXd> out) {
-  const Eigen::Index nt = m.pin.nv, na = L.cols(), nm = G.rows(), n = Q.rows();
-  const Eigen::Index ntaps = taps.size();
-  if (L.rows() != nt || c.size() != nt || G.cols() != na) return Status::SizeMismatch;
-  if (Q.cols() != na || V.cols() != na || A.cols() != na || V.rows() != n || A.rows() != n)
-    return Status::SizeMismatch;
-  if (K < 1 || ntaps % 2 == 0) return Status::InvalidModel;
-  const Eigen::Index no = decimated_length(n, ntaps, K);
+namespace detail {
+
+/// Outputs [k_begin, k_end) of identification_regressor (sizes checked by the caller, rows zeroed): the input
+/// samples whose windows reach them, with `d` as workspace. Ranges of outputs are independent, so threads
+/// each take one (the few input samples shared by two neighbouring ranges are computed by both).
+inline void regressor_outputs(const RigidBodyModel& m, RigidBodyData& d, const Eigen::MatrixXd& L,
+                              const Eigen::VectorXd& c, const Eigen::MatrixXd& G,
+                              const Eigen::Ref<const RowMatrixXd>& Q, const Eigen::Ref<const RowMatrixXd>& V,
+                              const Eigen::Ref<const RowMatrixXd>& A, const Eigen::Ref<const Eigen::VectorXd>& taps,
+                              Eigen::Index K, Eigen::Index no, Eigen::Index k_begin, Eigen::Index k_end,
+                              Eigen::Ref<RowMatrixXd> out) {
+  const Eigen::Index nt = m.pin.nv, na = L.cols(), nm = G.rows(), ntaps = taps.size();
   const Eigen::Index p = regressor_columns(m, na, nm), p_in = 10 * (m.pin.njoints - 1);
-  if (out.rows() != na * no || out.cols() != p) return Status::SizeMismatch;
-  if (!all_finite(Q) || !all_finite(V) || !all_finite(A) || !all_finite(taps)) return Status::NonFiniteInput;
-  out.setZero();
-  if (no == 0) return Status::Ok;
   const Eigen::MatrixXd Gt = G.transpose();
+  // A serial chain has L = I, c = 0: skip the projection (a dense n×n by n×10n product per sample).
+  const bool serial = nt == na && L.isIdentity(0.0) && c.isZero(0.0);
   // Row j of Lᵀ Y_tree can only be nonzero from the first link supported by a tree joint r with
   // L(r, j) ≠ 0 (Pinocchio numbers descendants after their ancestors): accumulate from there on.
   Eigen::VectorXi first(na);
@@ -104,17 +95,24 @@ inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d
   }
   Eigen::VectorXd q(nt), v(nt), a(nt), qm_d(nm), qm_dd(nm);
   RowMatrixXd Ya(na, p);  // row-major: each row is added whole into the outputs
-  const Eigen::Index last = (no - 1) * K + ntaps;  // input samples that reach an output
-  for (Eigen::Index s = 0; s < last; ++s) {
+  Ya.setZero();
+  const Eigen::Index s_end = (k_end - 1) * K + ntaps;  // input samples that reach an output of the range
+  for (Eigen::Index s = k_begin * K; s < s_end; ++s) {
     const auto qa = Q.row(s).transpose();
     const auto va = V.row(s).transpose();
     const auto aa = A.row(s).transpose();
-    q.noalias() = L * qa + c;
-    v.noalias() = L * va;
-    a.noalias() = L * aa;
+    if (serial) {
+      q = qa; v = va; a = aa;
+    } else {
+      q.noalias() = L * qa + c;
+      v.noalias() = L * va;
+      a.noalias() = L * aa;
+    }
     pinocchio::computeJointTorqueRegressor(m.pin, d.pin, q, v, a);
-    Ya.leftCols(p_in).noalias() = L.transpose() * d.pin.jointTorqueRegressor;
-    Ya.rightCols(p - p_in).setZero();
+    if (serial)
+      Ya.leftCols(p_in) = d.pin.jointTorqueRegressor;
+    else
+      Ya.leftCols(p_in).noalias() = L.transpose() * d.pin.jointTorqueRegressor;
     for (Eigen::Index j = 0; j < na; ++j) {
       Ya(j, p_in + 4 * j + 0) = aa[j];
       Ya(j, p_in + 4 * j + 1) = va[j];
@@ -129,10 +127,11 @@ inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d
       Ya.col(col + 1) = Gt.col(i) * qm_d[i];
       Ya.col(col + 2) = Gt.col(i) * sign0(qm_d[i]);
     }
-    // outputs k whose window [k K, k K + ntaps) contains s
+    // outputs k of the range whose window [k K, k K + ntaps) contains s
     Eigen::Index k_lo = s >= ntaps ? (s - ntaps) / K + 1 : 0;
     while (k_lo * K + ntaps <= s) ++k_lo;
-    for (Eigen::Index k = k_lo; k < no && k * K <= s; ++k) {
+    k_lo = std::max(k_lo, k_begin);
+    for (Eigen::Index k = k_lo; k < k_end && k * K <= s; ++k) {
       const double w = taps[s - k * K];
       if (w == 0.0) continue;
       for (Eigen::Index j = 0; j < na; ++j) {
@@ -144,6 +143,53 @@ inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d
       }
     }
   }
+}
+
+}  // namespace detail
+
+/// Identification regressor over all samples, optionally filtered and decimated in the same pass.
+/// @param m, d   rigid-body tree and its data (d is used as workspace)
+/// @param L      (n_tree, n_a) ∂q_tree/∂q_a (identity for a serial chain)
+/// @param c      (n_tree,) constant offsets of the constraints [rad or m]
+/// @param G      (n_m, n_a) motor-from-joint position matrix q_m = G q_a [rad/rad]
+/// @param Q, V, A  (n, n_a) active positions [rad], velocities [rad/s], accelerations [rad/s²], one row per sample
+/// @param taps   symmetric FIR of odd length (the parallel filter); [1] for none
+/// @param K      decimation factor ≥ 1
+/// @param out    (n_a · n_out, regressor_columns), joint-major rows, written
+/// @param threads  worker threads (≥ 1; 1 runs in the caller's thread with `d`, more each get their own data)
+inline Status identification_regressor(const RigidBodyModel& m, RigidBodyData& d, const Eigen::MatrixXd& L,
+                                       const Eigen::VectorXd& c, const Eigen::MatrixXd& G,
+                                       const Eigen::Ref<const RowMatrixXd>& Q, const Eigen::Ref<const RowMatrixXd>& V,
+                                       const Eigen::Ref<const RowMatrixXd>& A,
+                                       const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen::Index K,
+                                       Eigen::Ref<RowMatrixXd> out, int threads = 1) {
+  const Eigen::Index nt = m.pin.nv, na = L.cols(), nm = G.rows(), n = Q.rows();
+  const Eigen::Index ntaps = taps.size();
+  if (L.rows() != nt || c.size() != nt || G.cols() != na) return Status::SizeMismatch;
+  if (Q.cols() != na || V.cols() != na || A.cols() != na || V.rows() != n || A.rows() != n)
+    return Status::SizeMismatch;
+  if (K < 1 || ntaps % 2 == 0 || threads < 1) return Status::InvalidModel;
+  const Eigen::Index no = decimated_length(n, ntaps, K);
+  const Eigen::Index p = regressor_columns(m, na, nm);
+  if (out.rows() != na * no || out.cols() != p) return Status::SizeMismatch;
+  if (!all_finite(Q) || !all_finite(V) || !all_finite(A) || !all_finite(taps)) return Status::NonFiniteInput;
+  out.setZero();
+  if (no == 0) return Status::Ok;
+  // below a few hundred outputs per thread the start-up of a thread and its Pinocchio data costs more
+  const Eigen::Index T = std::max<Eigen::Index>(1, std::min<Eigen::Index>(threads, no / 256));
+  if (T == 1) {
+    detail::regressor_outputs(m, d, L, c, G, Q, V, A, taps, K, no, 0, no, out);
+    return Status::Ok;
+  }
+  std::vector<std::thread> pool;
+  for (Eigen::Index t = 0; t < T; ++t) {
+    const Eigen::Index k0 = no * t / T, k1 = no * (t + 1) / T;
+    pool.emplace_back([&, k0, k1] {
+      RigidBodyData local(m);
+      detail::regressor_outputs(m, local, L, c, G, Q, V, A, taps, K, no, k0, k1, out);
+    });
+  }
+  for (auto& th : pool) th.join();
   return Status::Ok;
 }
 

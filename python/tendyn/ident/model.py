@@ -17,6 +17,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 
+import os
+
 import numpy as np
 import scipy.linalg
 
@@ -171,7 +173,7 @@ class IdentModel:
         return np.array([val.get(n, 0.0) for n in self.standard_names])
 
     # -- regressor ------------------------------------------------------------------------------------
-    def regressor(self, q, qd, qdd, taps=(1.0,), K: int = 1, columns=None) -> np.ndarray:
+    def regressor(self, q, qd, qdd, taps=(1.0,), K: int = 1, columns=None, threads: int | None = None) -> np.ndarray:
         """Observation matrix of all samples, joint-major rows, filtered by ``taps`` and decimated by ``K``.
 
         Parameters
@@ -179,6 +181,7 @@ class IdentModel:
         q, qd, qdd : (n, n_active) active positions [rad], velocities [rad/s], accelerations [rad/s²].
         taps : symmetric FIR of odd length (the parallel filter; (1,) = none); K : decimation factor.
         columns : None for the standard parameters (:attr:`standard_names`), or indices into them.
+        threads : core threads (None: the CPUs this process may use); the result does not depend on it.
 
         Returns
         -------
@@ -188,7 +191,8 @@ class IdentModel:
 
         f = lambda x: np.ascontiguousarray(x, float)
         W = _core.identification_regressor(self.rigid_body, self._data, self.L, self.c, self.G, f(q), f(qd),
-                                           f(qdd), np.asarray(taps, float), int(K))
+                                           f(qdd), np.asarray(taps, float), int(K),
+                                           int(threads or len(os.sched_getaffinity(0))))
         cols = self.standard_columns if columns is None else self.standard_columns[np.asarray(columns)]
         return W[:, cols]
 

@@ -15,7 +15,7 @@ import numpy as np
 from .model import IdentModel
 from .treatment import butter_zero_phase, central_differences, default_treatment, parallel_filter_taps
 
-__all__ = ["NormalEquations", "accumulate", "iter_parquet_chunks", "solve_normal"]
+__all__ = ["NormalEquations", "accumulate", "iter_parquet_chunks", "prefetch", "solve_normal"]
 
 
 class NormalEquations:
@@ -152,6 +152,50 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
         yield t, qm @ Ginv.T + model.joint_offsets, y @ model.G
 
 
+def prefetch(chunks, depth: int = 1):
+    """Iterate ``chunks`` with the next one read in a background thread while the caller works on this one.
+
+    The core's regressor releases the GIL, so reading and decoding the next Parquet batch (Python, pyarrow)
+    overlaps the C++ work on the current one. At most ``depth`` chunks wait ahead (memory stays bounded).
+    An exception of the reader is raised in the caller at the chunk where it happened.
+    """
+    import queue
+    import threading
+
+    q: queue.Queue = queue.Queue(maxsize=depth)
+    done = object()
+    stop = threading.Event()
+
+    def read():
+        try:
+            for c in chunks:
+                while not stop.is_set():
+                    try:
+                        q.put((c, None), timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if stop.is_set():
+                    return
+            q.put((done, None))
+        except BaseException as exc:       # handed to the caller
+            q.put((done, exc))
+
+    th = threading.Thread(target=read, name="tendyn-prefetch", daemon=True)
+    th.start()
+    try:
+        while True:
+            item, exc = q.get()
+            if item is done:
+                if exc is not None:
+                    raise exc
+                return
+            yield item
+    finally:
+        stop.set()
+        th.join()
+
+
 class StreamingIDIM:
     """OLS/WLS identification of a Parquet log too large for memory (scikit-learn shape).
 
@@ -193,7 +237,7 @@ class StreamingIDIM:
         from tendyn import _core
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
-        (ne_a, ne_b), _ = accumulate(model, iter_parquet_chunks(model, path, self.chunk_rows), rate, tr,
+        (ne_a, ne_b), _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows)), rate, tr,
                                      split_at=n_out // 2)
         ne = NormalEquations(*ne_a.B.shape).merge(ne_a).merge(ne_b)   # the whole log, as in memory
         x, se, cond, resid, per = solve_normal(ne, self.method)
