@@ -383,15 +383,15 @@ class OperationalModel:
         g = self._gamma(np.vstack([qa, qa]), np.vstack([qd, z]), np.vstack([z, z]), "inertial")
         return g[0] - g[1]
 
-    def viscous_matrix(self, qa) -> np.ndarray:
+    def viscous_matrix(self, qa, x=None) -> np.ndarray:
         """F_v [N·m·s/rad]: F_v e_i = Γ_FV(q, e_i, 0)."""
         na = len(self.ratio)
-        return self._gamma(np.tile(qa, (na, 1)), np.eye(na), np.zeros((na, na)), "viscous").T
+        return self._gamma(np.tile(qa, (na, 1)), np.eye(na), np.zeros((na, na)), "viscous", x).T
 
-    def coulomb_matrix(self, qa) -> np.ndarray:
+    def coulomb_matrix(self, qa, x=None) -> np.ndarray:
         """F_c [N·m]: F_c e_i = Γ_FS(q, e_i, 0) (diag(FS) for friction at the drives)."""
         na = len(self.ratio)
-        return self._gamma(np.tile(qa, (na, 1)), np.eye(na), np.zeros((na, na)), "coulomb").T
+        return self._gamma(np.tile(qa, (na, 1)), np.eye(na), np.zeros((na, na)), "coulomb", x).T
 
     def friction(self, qd, factor: float = 1.0) -> np.ndarray:
         """factor · (F_v q̇ + F_c sign(q̇)) [N·m] (S2 eq. 15)."""
@@ -406,8 +406,8 @@ class OperationalModel:
         J = self.jacobian(qa)
         Ji = np.linalg.inv(J)
         A = self.mass_matrix(qa, x)
-        return OperationalPoint(qa, J, Ji.T @ A @ Ji, Ji.T @ self.viscous_matrix(qa) @ Ji,
-                                Ji.T @ np.diag(self.joint_stiffness) @ Ji, Ji.T @ self.coulomb_matrix(qa))
+        return OperationalPoint(qa, J, Ji.T @ A @ Ji, Ji.T @ self.viscous_matrix(qa, x) @ Ji,
+                                Ji.T @ np.diag(self.joint_stiffness) @ Ji, Ji.T @ self.coulomb_matrix(qa, x))
 
     def disturbance(self, qa, qd) -> np.ndarray:
         """F_d [N] = J⁻ᵀ (Q(q) + offsets + C(q, q̇) q̇ − A(q) J⁻¹ J̇ q̇) (S2 eq. 20, corrected: ERRATA)."""
@@ -452,24 +452,24 @@ class OperationalModel:
             fd[k] = tau @ Ji
         return points, fd0, fd
 
-    def max_mass_stderr(self, qa) -> float:
-        """Standard deviation [kg] of the largest apparent mass at qa from the parameters' stderr (first order,
-        parameters independent: the contract carries no covariance)."""
+    def stderr_of(self, qa, quantity) -> float:
+        """Standard deviation of ``quantity(OperationalPoint)`` at qa from the parameters' stderr (first order,
+        parameters independent: the contract carries no covariance); the quantity's derivative along each
+        parameter by a one-sided difference of one stderr."""
         qa = np.asarray(qa, float)
-        J = self.jacobian(qa)
-        Ji = np.linalg.inv(J)
-        p = self.at(qa)
-        w, v = np.linalg.eigh(0.5 * (p.M + p.M.T))
-        u = v[:, int(np.argmax(np.abs(w)))]
+        ref = quantity(self.at(qa))
         var = 0.0
         for k, s in zip(self.columns, self.stderr):
-            if s <= 0 or self.kinds[k] != "inertial":
+            if s <= 0:
                 continue
-            e = np.zeros_like(self.x)
-            e[k] = 1.0
-            dM = Ji.T @ self.mass_matrix(qa, e) @ Ji
-            var += (s * float(u @ dM @ u)) ** 2
+            x = self.x.copy()
+            x[k] += s
+            var += (quantity(self.at(qa, x)) - ref) ** 2
         return float(math.sqrt(var))
+
+    def max_mass_stderr(self, qa) -> float:
+        """Standard deviation [kg] of the largest apparent mass at qa (:meth:`stderr_of`)."""
+        return self.stderr_of(qa, lambda p: float(p.mass_singular_values[0]))
 
 
 def natural_pose(model: OperationalModel, n: int = 41) -> np.ndarray:
@@ -689,9 +689,9 @@ def _neighbourhood(maps_arrays, offsets, reachable, widths):
     return out
 
 
-def _workspace(model: OperationalModel, q0, x0, n_cube: int = 7, n_joint: int = 17) -> dict:
+def _workspace(model: OperationalModel, q0, x0, n_cube: int = 7, n_joint: int = 17, tol: float = 1e-3) -> dict:
     """C45: the edge of the largest cube centred on the natural handle position whose surface (n_cube² points
-    per face) is reachable inside the joint limits (bisection, 1 mm), and the extents of the handle positions over a joint-space grid
+    per face) is reachable inside the joint limits (bisection to ``tol`` [m]), and the extents of the handle positions over a joint-space grid
     of the limits (every tree joint checked)."""
     g = np.linspace(-1.0, 1.0, n_cube)
     unit = np.array([[a, b, c] for a in g for b in g for c in g if max(abs(a), abs(b), abs(c)) == 1.0])
@@ -704,7 +704,7 @@ def _workspace(model: OperationalModel, q0, x0, n_cube: int = 7, n_joint: int = 
         return True
 
     lo_h, hi_h = 0.0, 0.4
-    while hi_h - lo_h > 1e-3:
+    while hi_h - lo_h > tol:
         mid = 0.5 * (lo_h + hi_h)
         lo_h, hi_h = (mid, hi_h) if cube_ok(mid) else (lo_h, mid)
     joints = model.device.kinematics.joints
@@ -797,6 +797,7 @@ def operational_maps(device, params=None, *, stiffness_motor=None, q_natural=Non
            "stiffness_diag_N_per_m": [float(v) for v in np.diag(p0.K)],
            "stiffness_eigenvalues_N_per_m": [float(v) for v in np.linalg.eigvalsh(p0.K)],
            "dry_friction_N": [float(v) for v in p0.coulomb_singular_values],
+           "dry_friction_stderr_N": model.stderr_of(q0, lambda p: float(p.coulomb_singular_values[0])),
            "dry_friction_all_joints_moving_N": p0.coulomb_vertex_max(),
            "viscous_diag_N_s_per_m": [float(v) for v in np.diag(p0.B)],
            "fd_static_N": float(np.linalg.norm(model.disturbance(q0, np.zeros(3))))}
