@@ -12,9 +12,6 @@ from __future__ import annotations
 
 import functools
 import json
-import subprocess
-import sys
-
 import numpy as np
 import pytest
 
@@ -254,29 +251,36 @@ def test_params_contract_errors_name_the_field(tmp_path):
         OperationalModel(device(), [dict(good[0], name="ZZ9R", expression="ZZ9 + 1.0*IA9")])
 
 
-def _cli(*args):
-    return subprocess.run([sys.executable, "-m", "tendyn.cli", *args], capture_output=True, text=True, timeout=300)
+def test_cli_maps_json_and_report(tmp_path, capsys):
+    from tendyn.cli import main
 
-
-def test_cli_maps_json_and_errors(tmp_path):
     p = tmp_path / "params.json"
     p.write_text(json.dumps({"params": true_params(device())}), encoding="utf-8")
-    r = _cli("maps", "cea_branch", str(p), "--json", "--points", "3", "--half-width", "0.02", "--report",
-             str(tmp_path / "rep"))
-    assert r.returncode == 0, r.stderr
-    doc = json.loads(r.stdout)
+    code = main(["maps", "cea_branch", str(p), "--json", "--points", "3", "--half-width", "0.02", "--report",
+                 str(tmp_path / "rep")])
+    out = capsys.readouterr()
+    assert code == 0, out.err
+    doc = json.loads(out.out)
     assert {"max_apparent_mass_kg", "stiffness_range_N_per_m", "max_dry_friction_N", "natural_pose",
             "workspace"} <= set(doc)
-    assert len(doc["stiffness_range_N_per_m"]) == 2
+    assert len(doc["stiffness_range_N_per_m"]) == 2 and doc["workspace"]["reachable_cube_edge_m"] > 0.2
     assert {f.name for f in (tmp_path / "rep").iterdir()} == {"fig8.png", "fig9.png", "maps.json", "maps.txt"}
+
+
+def test_cli_maps_bad_inputs_are_one_line(tmp_path, capsys):
+    from tendyn.cli import main
+
+    p = tmp_path / "params.json"
+    p.write_text(json.dumps({"params": true_params(device())}), encoding="utf-8")
     bad = tmp_path / "bad.json"
     bad.write_text(json.dumps({"params": [{"name": "ZZ1R", "value": "x", "expression": "ZZ1"}]}), encoding="utf-8")
     for args, needle in (((str(bad),), "params[0].value"), ((str(p), "--stiffness", "2,2"), "--stiffness"),
-                         ((str(p), "--points", "4"), "--points")):
-        r = _cli("maps", "cea_branch", *args)
-        assert r.returncode == 2 and needle in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
-    r = _cli("maps", "lexos", str(p))
-    assert r.returncode == 2 and "drives" in r.stderr
+                         ((str(p), "--points", "4"), "--points"), ((str(tmp_path / "none.json"),), "not found")):
+        assert main(["maps", "cea_branch", *args]) == 2
+        err = capsys.readouterr().err
+        assert needle in err and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert main(["maps", "lexos", str(p)]) == 2
+    assert "drives" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------------------------------------------------
