@@ -79,9 +79,9 @@ def read_params(source) -> list[dict]:
 
     Parameters
     ----------
-    source : path, mapping or list
-        A PARAMS.json file or the document ``tendyn identify --json`` prints (a mapping with ``"params"``), or
-        the list itself. Each entry needs ``name`` (str), ``value`` (finite) and ``expression`` (str, the
+    source : path, mapping, list or IdentificationResult
+        A PARAMS.json file or the document ``tendyn identify --json`` prints (a mapping with ``"params"``), the
+        list itself, or an object with ``to_dict()`` giving that document (:class:`tendyn.ident.IdentificationResult`). Each entry needs ``name`` (str), ``value`` (finite) and ``expression`` (str, the
         regrouping, its first term the kept standard column); ``stderr`` (finite ≥ 0, default 0) is used for
         the uncertainty of the maps; ``unit`` and ``rel_stderr_pct`` are informative.
 
@@ -91,7 +91,7 @@ def read_params(source) -> list[dict]:
         Naming the file and the field (``params[2].expression``).
     """
     file = None
-    doc = source
+    doc = source.to_dict() if hasattr(source, "to_dict") and not isinstance(source, Mapping) else source
     if isinstance(source, (str, Path)):
         file = str(source)
         try:
@@ -725,7 +725,7 @@ def _workspace(model: OperationalModel, q0, x0, n_cube: int = 7, n_joint: int = 
 def operational_maps(device, params=None, *, stiffness_motor=None, q_natural=None,
                      half_width: float = DEFAULT_HALF_WIDTH, points: int = DEFAULT_POINTS,
                      speed: float = DEFAULT_SPEED, neighbourhoods: Sequence[float] = NEIGHBOURHOODS,
-                     workspace: bool = True, progress=None) -> OperationalMaps:
+                     workspace: bool = True, quick: bool = False, progress=None) -> OperationalMaps:
     """Operational maps of a capstan-driven branch from base parameters (C41–C45).
 
     Parameters
@@ -738,11 +738,15 @@ def operational_maps(device, params=None, *, stiffness_motor=None, q_natural=Non
     speed : handle speed [m/s] of the velocity part of F_d
     neighbourhoods : half-widths [m] of the cubes of the neighbourhood profile
     workspace : compute the workspace size (C45; a few seconds)
+    quick : 5 points per axis and a coarse workspace search (tests, ``--quick`` pipelines)
+    progress : callable(str) for progress messages (stderr in the commands)
 
     Returns
     -------
     OperationalMaps (``to_dict()`` is the ``maps`` summary: :func:`maps_summary`)
     """
+    if quick:
+        points = min(points, 5)
     if points < 3 or points % 2 == 0:
         raise ValueError(f"points must be odd and >= 3 (got {points})")
     if not half_width > 0:
@@ -801,7 +805,7 @@ def operational_maps(device, params=None, *, stiffness_motor=None, q_natural=Non
            "dry_friction_all_joints_moving_N": p0.coulomb_vertex_max(),
            "viscous_diag_N_s_per_m": [float(v) for v in np.diag(p0.B)],
            "fd_static_N": float(np.linalg.norm(model.disturbance(q0, np.zeros(3))))}
-    ws = _workspace(model, q0, x0) if workspace else {"reachable_cube_edge_m": float("nan"), "extents_m": [float("nan")] * 3}
+    ws = _workspace(model, q0, x0, **(dict(n_cube=3, n_joint=9, tol=5e-3) if quick else {})) if workspace else {"reachable_cube_edge_m": float("nan"), "extents_m": [float("nan")] * 3}
     if progress and workspace:
         progress(f"maps: reachable cube edge {1e3 * ws['reachable_cube_edge_m']:.0f} mm")
     prof = _neighbourhood((mass_sv, stiff, coul), offsets, reach, [h for h in neighbourhoods if h <= half_width + 1e-12])
