@@ -315,3 +315,35 @@ def test_C46_gravity_compensation_holds_the_handle():
     hold = {h["compensated"]: h for h in compensation().summary["hold"]}
     assert hold[True]["drift_m"] < 1e-4
     assert hold[False]["drift_m"] > 1e-2          # without it the branch falls
+
+
+def test_C46_from_identified_parameters_passive_and_holding():
+    from tendyn.pipelines.s2_compensation import compensation_from_identified
+
+    s = compensation_from_identified(device(), identified_params(), factors=(0.8,), quick=True,
+                                     q_natural=q_nat()).summary
+    assert s["params"] == "identified" and s["passive"] and s["stable"] and s["gravity_holds"]
+    st = s["strokes"][0]
+    assert st["friction_felt_N"] == pytest.approx(st["friction_predicted_N"], abs=0.03)
+
+
+def test_C46_underestimation_keeps_an_overestimated_friction_model_passive():
+    """Friction identified 15 % too high (cable wear since the identification): compensating it fully (k = 1)
+    pushes the hand (energy flows to it), k = 0.8 stays passive — why S2 implants under-estimated coefficients."""
+    from tendyn.pipelines.s2_compensation import compensation_from_identified
+
+    params = [dict(p, value=p["value"] * (1.15 if p["name"].startswith(("FV", "FS")) else 1.0))
+              for p in true_params(device())]
+    s = compensation_from_identified(device(), params, factors=(0.8, 1.0), quick=True, q_natural=q_nat()).summary
+    k8, k1 = s["strokes"]
+    assert k8["energy_to_hand_J"] < 0 < k1["energy_to_hand_J"]
+    assert k1["friction_felt_N"] < 0 < k8["friction_felt_N"]
+    assert not s["passive"]
+
+
+def test_C43_stiffness_option_scales_the_total_stiffness():
+    """K_T = 4 N·m/rad with K_E = 2: K_tot = 4/3 N·m/rad, K_op = 400 · 4/3 / d3² at the natural pose."""
+    m = OperationalModel(device(), stiffness_motor=(4.0, 4.0, 4.0))
+    np.testing.assert_allclose(np.diag(m.at(q_nat()).K), 400.0 * (4.0 / 3.0) / D3 ** 2, rtol=1e-9)
+    with pytest.raises(ValueError, match="stiffness_motor"):
+        OperationalModel(device(), stiffness_motor=(2.0, -1.0, 2.0))

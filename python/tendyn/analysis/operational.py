@@ -647,12 +647,14 @@ class OperationalMaps(Result):
         d = self.to_dict()
         nat = self.natural
         rows = [
-            ("max apparent mass (natural pose) [g]", 1e3 * nat["apparent_mass_kg"][0], "≈ 650 (±30 %)"),
+            ("max apparent mass (natural pose) [g]",
+             f"{1e3 * nat['apparent_mass_kg'][0]:.4g} ± {1e3 * nat['apparent_mass_stderr_kg']:.2g}", "≈ 650 (±30 %)"),
             ("max apparent mass (grid) [g]", 1e3 * d["max_apparent_mass_kg"], "up to 800 (±30 %)"),
             ("stiffness (natural pose) [N/m]", "–".join(f"{v:.0f}" for v in nat["stiffness_diag_N_per_m"]),
              "2000–5000"),
             ("stiffness range (grid) [N/m]", "–".join(f"{v:.0f}" for v in d["stiffness_range_N_per_m"]), "2000–5000"),
-            ("max dry friction (natural pose) [N]", nat["dry_friction_N"][0], "0.3–0.4 (±30 %)"),
+            ("max dry friction (natural pose) [N]",
+             f"{nat['dry_friction_N'][0]:.4g} ± {nat['dry_friction_stderr_N']:.2g}", "0.3–0.4 (±30 %)"),
             ("max dry friction (grid) [N]", d["max_dry_friction_N"], "0.3–0.4 (±30 %)"),
             ("dry friction, every joint moving (grid) [N]", d["max_dry_friction_all_joints_moving_N"], "–"),
             ("max viscous friction (grid) [N·s/m]", d["max_viscous_N_s_per_m"], "–"),
