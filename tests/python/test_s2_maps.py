@@ -2,8 +2,8 @@
 parameters (C46).
 
 Oracles never share the code under test: the Jacobian against finite differences of the forward kinematics;
-A(q) from the base parameters (C++ identification regressor) against Pinocchio's CRBA of the twin plus its
-rotor inertias; the operational model against the twin's inverse dynamics (Pinocchio RNEA and the drive
+A(q) from the base parameters (the closed-loop regressor Lᵀ Y_tree) against Pinocchio's CRBA of the twin plus
+its rotor inertias; the operational model against the twin's inverse dynamics (Pinocchio RNEA and the drive
 friction of the device file); the natural pose against the closed-form isotropic Jacobian J = d · orthogonal;
 the felt friction against Σ F_i |J⁻¹u|_i from the device's own friction.
 """
@@ -18,8 +18,7 @@ import pytest
 from tendyn.analysis.operational import (OperationalModel, ParamsError, natural_pose, operational_maps,
                                          read_params, true_params)
 from tendyn.device import compile_device, load_device
-from tendyn.device.closed_loop import active_dynamics, active_mass_matrix, base_parameters, drive_parameters
-from tendyn.device.rigid_body import standard_parameters
+from tendyn.device.closed_loop import active_dynamics, active_mass_matrix
 from tendyn.devices import bundled
 
 D3 = 0.30  # m, arm and forearm lengths of the twin (d3 = d4, DEVICES.md §3)
@@ -84,21 +83,25 @@ def test_C41_jacobian_and_jdot_qd_match_finite_differences(rng):
 
 def test_C41_handle_is_the_handle_support_not_the_cut_joint():
     """The handle point is frame 4 (end of the forearm, d3 + d4 from o1 when stretched), not the cut joint 7."""
-    from tendyn.control.compensator import end_effector_point
+    from tendyn.device.closed_loop import end_effector_point
     from tendyn.device.rigid_body import tree_joint_numbers
 
     joint, point = end_effector_point(device())
     assert tree_joint_numbers(device().device)[joint] == 4 and np.allclose(point, 0.0)
 
 
-def test_C41_true_params_match_the_pinocchio_base_parameters():
-    bp = base_parameters(device())
-    x = np.concatenate([standard_parameters(device().device)[1], drive_parameters(device().device)[1]])
-    ref = bp.values(x)
-    got = {p["name"]: p["value"] for p in true_params(device())}
+def test_C41_true_params_match_the_identification_models_base_parameters():
+    """The twin's true base parameters (Pinocchio regressor route) equal those of the identification model (C++
+    regressor, Khalil order): the maps and `tendyn identify` speak of the same parameters."""
+    from tendyn.ident.estimate import cached_model
+
+    im = cached_model(device().device)
+    ref = dict(zip(im.base.names, im.base.combination @ im.prior()))
+    got = {p["name"]: p for p in true_params(device())}
     assert set(got) == set(ref)
-    for name, v in ref.items():
-        assert got[name] == pytest.approx(v, abs=1e-12), name
+    for i, (name, v) in enumerate(ref.items()):
+        assert got[name]["value"] == pytest.approx(v, abs=1e-12), name
+        assert got[name]["expression"].split()[0] == im.standard_names[im.base.columns[i]]
 
 
 def test_C41_mass_matrix_from_base_parameters_equals_the_twin(rng):

@@ -20,7 +20,7 @@ Every joint-space term comes from *base parameters* — the identification contr
 (:func:`true_params`). A base parameter multiplies the regressor column of the first standard parameter of its
 ``expression`` (the column kept when the others were regrouped into it), so
 
-    Γ(q, q̇, q̈) = Σ_k x̂_k W_k(q, q̇, q̈)     (S2 eq. 2, the C++ identification regressor),
+    Γ(q, q̇, q̈) = Σ_k x̂_k W_k(q, q̇, q̈)     (S2 eq. 2; W = Lᵀ Y_tree plus the drive columns, S2 eq. 12),
 
 and A(q) e_i = Γ_inertial(q, 0, e_i) − Γ_inertial(q, 0, 0), Q(q) = Γ_inertial(q, 0, 0) + offsets,
 C(q, q̇) q̇ = Γ_inertial(q, q̇, 0) − Γ_inertial(q, 0, 0), F_v e_i = Γ_FV(q, e_i, 0), F_c e_i = Γ_FS(q, e_i, 0).
@@ -135,16 +135,21 @@ def read_params(source) -> list[dict]:
 def true_params(device: Device | CompiledDevice) -> list[dict]:
     """The twin's own base parameters in the identification contract (stderr 0): x_b = combination · x_std
     with the device file's standard link and drive parameters (what identification tries to recover; an
-    estimator never reads it). :func:`tendyn.device.closed_loop.base_parameters` gives the same values by an
-    independent (Pinocchio) route."""
-    from tendyn.ident.estimate import cached_model
-    from tendyn.ident.model import unit_of
+    estimator never reads it), through :func:`tendyn.device.closed_loop.base_parameters`."""
+    from tendyn.device.closed_loop import base_parameters, drive_parameters
+    from tendyn.device.rigid_body import standard_parameters, unit_of
 
-    model = cached_model(compile_device(device).device)
-    base = model.base
-    xb = base.combination @ model.prior()
-    return [{"name": n, "value": float(v), "stderr": 0.0, "rel_stderr_pct": 0.0, "unit": unit_of(n),
-             "expression": base.expression(i, model.standard_names)} for i, (n, v) in enumerate(zip(base.names, xb))]
+    compiled = compile_device(device)
+    bp = base_parameters(compiled)
+    x = np.concatenate([standard_parameters(compiled.device)[1], drive_parameters(compiled.device)[1]])
+    values = bp.values(x)
+    out = []
+    for i, name in enumerate(bp.names):
+        lead = bp.standard_names[bp.base_columns[i]]
+        terms = [f"{'-' if c < 0 else '+'} {abs(c):.6g}*{n}" for n, c in bp.terms(name).items() if n != lead]
+        out.append({"name": name, "value": values[name], "stderr": 0.0, "rel_stderr_pct": 0.0, "unit": unit_of(name),
+                    "expression": " ".join([lead] + terms)})
+    return out
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -214,26 +219,27 @@ class OperationalModel:
     def __init__(self, device, params=None, stiffness_motor=None):
         import pinocchio as pin
 
-        from tendyn.control.compensator import end_effector_point
-        from tendyn.ident.estimate import cached_model
+        from tendyn.device.closed_loop import drive_parameters, end_effector_point
+        from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
 
         self.compiled = compile_device(device)
         dev = self.compiled.device
-        if not dev.drives:
+        if dev.kind != "serial" or not dev.drives:
             raise ValueError(f"{dev.name}: the operational maps need capstan drives ([[drives]]: N, K_T, K_E)")
         self.device = dev
         self.params = true_params(self.compiled) if params is None else read_params(params)
-        self.ident = cached_model(dev)
-        names = self.ident.standard_names
+        numbers = tree_joint_numbers(dev)
+        self.active_numbers = [numbers[k] for k in self.compiled.active_joints]
+        names = standard_parameters(dev)[0] + drive_parameters(dev)[0]   # the columns of active_regressor
+        self.standard_names = tuple(names)
+        self._drive_rows = [self.active_numbers.index(d.joint) for d in dev.drives]
+        self._pm = self.compiled.pinocchio_model
+        self._pd = self.compiled.pinocchio_data()
         idx = {n: k for k, n in enumerate(names)}
-        base = self.ident.base
-        base_lead = {bn: names[base.columns[i]] for i, bn in enumerate(base.names)}
         self.x = np.zeros(len(names))
         self.columns = []
         for i, p in enumerate(self.params):
             lead = p["expression"].split()[0].lstrip("+")
-            if lead not in idx:
-                lead = base_lead.get(p["name"], lead)
             if lead not in idx:
                 raise ParamsError(f"{p['expression'].split()[0]!r} is not a standard parameter of {dev.name} "
                                   f"(known: {', '.join(names[:6])}, …)", f"params[{i}].expression")
@@ -246,7 +252,7 @@ class OperationalModel:
         self.stderr = np.array([p["stderr"] for p in self.params], float)
         self.kinds = np.array([_kind(n) for n in names])
         drives = sorted(dev.drives, key=lambda d: d.joint)
-        act = self.ident.active_numbers
+        act = self.active_numbers
         if [d.joint for d in drives] != act:
             raise ValueError(f"{dev.name}: one drive per active joint expected (drives {[d.joint for d in drives]}, "
                              f"active joints {act})")
@@ -349,15 +355,22 @@ class OperationalModel:
         return q
 
     # ---- joint-space dynamics from the base parameters ---------------------------------------------------
+    def regressor(self, q, qd, qdd) -> np.ndarray:
+        """W(q, q̇, q̈) of each sample, (n_samples, n_active, n_standard): the closed-loop regressor in active
+        coordinates (:func:`tendyn.device.closed_loop.active_regressor`, S2 eqs. 2 and 12), columns
+        :attr:`standard_names` (links, then IA, FV, FS, OFFSET per drive)."""
+        from tendyn.device.closed_loop import active_regressor
+
+        q, qd, qdd = (np.atleast_2d(np.asarray(a, float)) for a in (q, qd, qdd))
+        return np.array([active_regressor(self._pm, self.L, self.c, a, b, e, self._drive_rows, self._pd)
+                         for a, b, e in zip(q, qd, qdd)])
+
     def _gamma(self, q, qd, qdd, kind: str | None = None, x=None) -> np.ndarray:
         """Σ_k x_k W_k over the columns of one kind: (n_samples, n_active) [N·m]."""
-        q, qd, qdd = (np.atleast_2d(np.asarray(a, float)) for a in (q, qd, qdd))
-        W = self.ident.regressor(q, qd, qdd)            # joint-major rows
         xx = self.x if x is None else x
         if kind is not None:
             xx = np.where(self.kinds == kind, xx, 0.0)
-        n = q.shape[0]
-        return (W @ xx).reshape(q.shape[1], n).T
+        return self.regressor(q, qd, qdd) @ xx
 
     def mass_matrix(self, qa, x=None) -> np.ndarray:
         """A(q) [kg·m²], active coordinates, rotor inertias included: A e_i = Γ(q, 0, e_i) − Γ(q, 0, 0)."""
@@ -433,8 +446,7 @@ class OperationalModel:
         qs = np.repeat(Q, per, axis=0)
         qd = np.concatenate([np.vstack([np.zeros((1 + na, na)), E, qdv[k]]) for k in range(m)])
         qdd = np.concatenate([np.vstack([np.zeros((1, na)), E, Z, np.zeros((nd, na))]) for _ in range(m)])
-        W = self.ident.regressor(qs, qd, qdd)                                               # joint-major
-        W = W.reshape(na, m * per, -1).transpose(1, 0, 2).reshape(m, per, na, -1)
+        W = self.regressor(qs, qd, qdd).reshape(m, per, na, -1)
         xk = {kind: np.where(self.kinds == kind, self.x, 0.0) for kind in ("inertial", "viscous", "coulomb", "offset")}
         points, fd0, fd = [], np.empty((m, 3)), np.empty((m, nd, 3))
         for k in range(m):
@@ -480,7 +492,7 @@ def natural_pose(model: OperationalModel, n: int = 41) -> np.ndarray:
     from scipy.optimize import minimize
 
     joints = model.device.kinematics.joints
-    act = model.ident.active_numbers
+    act = model.active_numbers
     lo = np.array([joints[j - 1].lower for j in act], float)
     hi = np.array([joints[j - 1].upper for j in act], float)
     q = 0.5 * (lo + hi)
@@ -710,7 +722,7 @@ def _workspace(model: OperationalModel, q0, x0, n_cube: int = 7, n_joint: int = 
         mid = 0.5 * (lo_h + hi_h)
         lo_h, hi_h = (mid, hi_h) if cube_ok(mid) else (lo_h, mid)
     joints = model.device.kinematics.joints
-    act = model.ident.active_numbers
+    act = model.active_numbers
     grids = [np.linspace(joints[j - 1].lower, joints[j - 1].upper, n_joint) for j in act]
     pts = []
     for qa in np.stack(np.meshgrid(*grids, indexing="ij"), -1).reshape(-1, len(act)):

@@ -25,6 +25,7 @@ import numpy as np
 
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.device.closed_loop import end_effector_point
 from tendyn.transmission import Transmission, as_vector
 
 __all__ = ["Compensator", "chain_model", "end_effector_point", "transmission_with_friction",
@@ -36,36 +37,6 @@ DEFAULT_VELOCITY_BAND = 0.5
 """v_band [rad/s], motor side: below it the friction feedforward fades to zero (2 % of a slow 25 rad/s move)."""
 DEFAULT_VELOCITY_CUTOFF_HZ = 30.0
 """First-order velocity filter cut-off [Hz] (encoder quantisation noise at 1 kHz vs. phase lag)."""
-
-
-def end_effector_point(device: Device | CompiledDevice) -> tuple[int, np.ndarray]:
-    """(0-based joint, point [m] in that joint frame) of the end effector: for standard DH the origin of the
-    last DH frame (the handle of L-EXOS, ``a4`` along x4), seen from the last joint frame; for a tree with
-    closed loops (mdh with cut joints) the origin of the frame of the last leaf of the tree that is not a cut
-    joint (the CEA branch: frame 4, the handle support at the end of the forearm, not the cut joint 7 that
-    closes the parallelogram); otherwise the origin of the last joint frame."""
-    compiled = compile_device(device)
-    kin = compiled.device.kinematics
-    frames = compiled.joint_frames
-    n = len(frames)
-    if kin.convention == "dh":
-        from tendyn.device.rigid_body import rot_x, rot_z, trans
-
-        js = kin.joints[-1]
-        link = rot_z(js.theta_offset) @ trans(z=js.d) @ trans(x=js.a) @ rot_x(js.alpha)
-        return n - 1, np.array(link[:3, 3], float)
-    if kin.convention == "mdh":
-        from tendyn.device.closed_loop import _closing_pairs
-        from tendyn.device.rigid_body import tree_joint_numbers
-
-        cut = {k for k, _ in _closing_pairs(compiled.device)}
-        if cut:
-            numbers = tree_joint_numbers(compiled.device)
-            parents = {f.parent for f in frames}
-            leaves = [i for i in range(n) if (i + 1) not in parents and numbers[i] not in cut]
-            if leaves:
-                return leaves[-1], np.zeros(3)
-    return n - 1, np.zeros(3)
 
 
 def chain_model(device: Device | CompiledDevice) -> Any:

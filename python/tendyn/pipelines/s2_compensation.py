@@ -79,12 +79,11 @@ class CapstanCompensator:
         """τ [N·m] at joint estimate q [rad] and motor velocity estimate [rad/s]."""
         na = len(self.ratio)
         qd = qd_motor / self.ratio
-        W = self.model.ident.regressor(np.vstack([q, q]), np.vstack([np.zeros(na), qd]), np.zeros((2, na)))
-        W = W.reshape(na, 2, -1)
-        tau = W[:, 0] @ self._xg if self.gravity else np.zeros(na)
+        W = self.model.regressor(np.vstack([q, q]), np.vstack([np.zeros(na), qd]), np.zeros((2, na)))
+        tau = W[0] @ self._xg if self.gravity else np.zeros(na)
         if self.factor > 0:
             w = np.minimum(1.0, np.abs(qd_motor) / self.band) if self.band > 0 else np.ones(na)
-            tau = tau + self.factor * w * (W[:, 1] @ self._xf)
+            tau = tau + self.factor * w * (W[1] @ self._xf)
         return tau
 
     def cycle(self, q_motor) -> np.ndarray:
