@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import json
 import math
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -132,6 +133,9 @@ def read_params(source) -> list[dict]:
     return out
 
 
+_TRUE_PARAMS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per compiled device (a QR each)
+
+
 def true_params(device: Device | CompiledDevice) -> list[dict]:
     """The twin's own base parameters in the identification contract (stderr 0): x_b = combination · x_std
     with the device file's standard link and drive parameters (what identification tries to recover; an
@@ -140,6 +144,8 @@ def true_params(device: Device | CompiledDevice) -> list[dict]:
     from tendyn.device.rigid_body import standard_parameters, unit_of
 
     compiled = compile_device(device)
+    if compiled in _TRUE_PARAMS:
+        return [dict(p) for p in _TRUE_PARAMS[compiled]]
     bp = base_parameters(compiled)
     x = np.concatenate([standard_parameters(compiled.device)[1], drive_parameters(compiled.device)[1]])
     values = bp.values(x)
@@ -149,7 +155,8 @@ def true_params(device: Device | CompiledDevice) -> list[dict]:
         terms = [f"{'-' if c < 0 else '+'} {abs(c):.6g}*{n}" for n, c in bp.terms(name).items() if n != lead]
         out.append({"name": name, "value": values[name], "stderr": 0.0, "rel_stderr_pct": 0.0, "unit": unit_of(name),
                     "expression": " ".join([lead] + terms)})
-    return out
+    _TRUE_PARAMS[compiled] = out
+    return [dict(p) for p in out]
 
 
 # --------------------------------------------------------------------------------------------------------
