@@ -25,6 +25,7 @@ import numpy as np
 
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.device.closed_loop import end_effector_point
 from tendyn.transmission import Transmission, as_vector
 
 __all__ = ["Compensator", "chain_model", "end_effector_point", "transmission_with_friction",
@@ -36,22 +37,6 @@ DEFAULT_VELOCITY_BAND = 0.5
 """v_band [rad/s], motor side: below it the friction feedforward fades to zero (2 % of a slow 25 rad/s move)."""
 DEFAULT_VELOCITY_CUTOFF_HZ = 30.0
 """First-order velocity filter cut-off [Hz] (encoder quantisation noise at 1 kHz vs. phase lag)."""
-
-
-def end_effector_point(device: Device | CompiledDevice) -> tuple[int, np.ndarray]:
-    """(0-based joint, point [m] in that joint frame) of the end effector: for standard DH the origin of the
-    last DH frame (the handle of L-EXOS, ``a4`` along x4), seen from the last joint frame; otherwise the
-    origin of the last joint frame."""
-    compiled = compile_device(device)
-    kin = compiled.device.kinematics
-    n = len(compiled.joint_frames)
-    if kin.convention == "dh":
-        from tendyn.device.rigid_body import rot_x, rot_z, trans
-
-        js = kin.joints[-1]
-        link = rot_z(js.theta_offset) @ trans(z=js.d) @ trans(x=js.a) @ rot_x(js.alpha)
-        return n - 1, np.array(link[:3, 3], float)
-    return n - 1, np.zeros(3)
 
 
 def chain_model(device: Device | CompiledDevice) -> Any:

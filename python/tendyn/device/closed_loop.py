@@ -31,6 +31,9 @@ from .rigid_body import (
     STANDARD_PARAMETER_NAMES,
     cut_frames,
     joint_frames,
+    rot_x,
+    rot_z,
+    trans,
     standard_parameters,
     tree_joint_numbers,
 )
@@ -43,6 +46,7 @@ __all__ = [
     "active_regressor",
     "base_parameters",
     "drive_parameters",
+    "end_effector_point",
     "loop_closure_error",
 ]
 
@@ -184,6 +188,31 @@ def loop_closure_error(device: Device | CompiledDevice, qa, pairs=None, model=No
         out.append(Tj[:3, 3] - Tk[:3, 3])
         out.append(pin.log3(Tk[:3, :3].T @ Tj[:3, :3]))
     return np.concatenate(out) if out else np.zeros(0)
+
+
+def end_effector_point(device: Device | CompiledDevice) -> tuple[int, np.ndarray]:
+    """(0-based joint, point [m] in that joint frame) of the end effector: for standard DH the origin of the
+    last DH frame (the handle of L-EXOS, ``a4`` along x4), seen from the last joint frame; for a tree with
+    closed loops (mdh with cut joints) the origin of the frame of the last leaf of the tree that is not a cut
+    joint (the CEA branch: frame 4, the handle support at the end of the forearm, not the cut joint 7 that
+    closes the parallelogram); otherwise the origin of the last joint frame."""
+    compiled = compile_device(device)
+    kin = compiled.device.kinematics
+    frames = compiled.joint_frames
+    n = len(frames)
+    if kin.convention == "dh":
+        js = kin.joints[-1]
+        link = rot_z(js.theta_offset) @ trans(z=js.d) @ trans(x=js.a) @ rot_x(js.alpha)
+        return n - 1, np.array(link[:3, 3], float)
+    if kin.convention == "mdh":
+        cut = {k for k, _ in _closing_pairs(compiled.device)}
+        if cut:
+            numbers = tree_joint_numbers(compiled.device)
+            parents = {f.parent for f in frames}
+            leaves = [i for i in range(n) if (i + 1) not in parents and numbers[i] not in cut]
+            if leaves:
+                return leaves[-1], np.zeros(3)
+    return n - 1, np.zeros(3)
 
 
 # --------------------------------------------------------------------------------------------------------

@@ -226,6 +226,21 @@ STANDARD_PARAMETER_NAMES = ("M", "MX", "MY", "MZ", "XX", "XY", "YY", "XZ", "YZ",
 [kg·m] and inertia [kg·m²] about the link frame's origin, link-frame axes (S2 section II)."""
 
 
+UNITS = {"XX": "kg·m²", "XY": "kg·m²", "XZ": "kg·m²", "YY": "kg·m²", "YZ": "kg·m²", "ZZ": "kg·m²",
+         "MX": "kg·m", "MY": "kg·m", "MZ": "kg·m", "M": "kg", "IA": "kg·m²", "FV": "N·m·s/rad", "FS": "N·m",
+         "OFFSET": "N·m", "IAm": "kg·m² (motor side)", "FVm": "N·m·s/rad (motor side)",
+         "FSm": "N·m (motor side)"}
+"""Units of the standard (and drive) parameters by stem; a base parameter has the unit of its stem."""
+
+
+def unit_of(name: str) -> str:
+    """The unit of a standard or base parameter name (``ZZ1R`` → kg·m²)."""
+    stem = name
+    while stem and (stem[-1].isdigit() or stem[-1] == "R"):
+        stem = stem[:-1]
+    return UNITS.get(stem, "")
+
+
 def standard_parameters(device) -> tuple[list[str], np.ndarray]:
     """Names (``"ZZ2"``: parameter + file joint number) and values of the standard parameters of the tree.
 

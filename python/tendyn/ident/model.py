@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg
 
 from tendyn.device import compile_device
-from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
+from tendyn.device.rigid_body import UNITS, standard_parameters, tree_joint_numbers, unit_of  # noqa: F401
 
 __all__ = ["IdentModel", "KHALIL", "PINOCCHIO", "khalil_from_pinocchio", "pinocchio_from_khalil"]
 
@@ -33,12 +33,6 @@ PINOCCHIO = ("M", "MX", "MY", "MZ", "XX", "XY", "YY", "XZ", "YZ", "ZZ")
 """Pinocchio's order (``computeJointTorqueRegressor``, ``Inertia.toDynamicParameters``)."""
 _K_FROM_P = np.array([PINOCCHIO.index(n) for n in KHALIL])
 _P_FROM_K = np.array([KHALIL.index(n) for n in PINOCCHIO])
-
-UNITS = {"XX": "kg·m²", "XY": "kg·m²", "XZ": "kg·m²", "YY": "kg·m²", "YZ": "kg·m²", "ZZ": "kg·m²",
-         "MX": "kg·m", "MY": "kg·m", "MZ": "kg·m", "M": "kg", "IA": "kg·m²", "FV": "N·m·s/rad", "FS": "N·m",
-         "OFFSET": "N·m", "IAm": "kg·m² (motor side)", "FVm": "N·m·s/rad (motor side)",
-         "FSm": "N·m (motor side)"}
-
 
 def khalil_from_pinocchio(x) -> np.ndarray:
     """Inertial parameters (…, 10 n) from Pinocchio's order to Khalil's, link by link (last axis)."""
@@ -52,14 +46,6 @@ def pinocchio_from_khalil(x) -> np.ndarray:
     x = np.asarray(x, float)
     n = x.shape[-1] // 10
     return x.reshape(x.shape[:-1] + (n, 10))[..., _P_FROM_K].reshape(x.shape)
-
-
-def unit_of(name: str) -> str:
-    """The unit of a standard or base parameter name (``ZZ1R`` → kg·m²)."""
-    stem = name
-    while stem and (stem[-1].isdigit() or stem[-1] == "R"):
-        stem = stem[:-1]
-    return UNITS.get(stem, "")
 
 
 @dataclass(frozen=True)
