@@ -180,6 +180,9 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     if omega is None:
         omega = 2 * math.pi * np.arange(6.0, 46.0, 2.0 if quick else 1.0)
     omega = np.asarray(omega, float)
+    # closed loops: the same grid and up to 60 Hz (nominal T = ω_n²/(s² + 2ζω_n s + 2ω_n²) peaks near 49 Hz)
+    top = omega.max() / (2 * math.pi)
+    omega_cl = np.concatenate([omega, 2 * math.pi * np.arange(top + 5.0, 60.0 + 1e-9, 5.0)])
     cyc = dict(cycles=4, settle_cycles=6, settle_s=0.4) if quick else dict(cycles=8, settle_cycles=10, settle_s=0.6)
     params = PlantParams.from_bench(bench)
     plant = TendonDrivePlant(params)
@@ -286,23 +289,38 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # but the nominal robust performance is lost, which is why it is not S1's design.
     say("loop shaping on the twin")
     C40, ctrl, T0 = s1_controller(fit, label="C = L/P̂, 40 Hz")
-    closed = _closed_loop_frfs(compiled, ctrl, omega, amplitudes, T0, cyc)
+    closed = _closed_loop_frfs(compiled, ctrl, omega_cl, amplitudes, T0, cyc)
     summary["closed_loop_peaks"] = _peaks(closed)
     summary["closed_loop_spread_db"] = spread_db(list(closed.values()), 30.0)
     summary["normalisation"] = "closed-loop responses divided by T(0) = 0.5 (S1 eq. 10, corrected: ERRATA)"
     summary["inverse_zeta"] = INVERSE_ZETA
     summary["controller_gain_band"] = {"s1": controller_gain_band(C40),
                                        "exact_inverse": controller_gain_band(loop_shaping_controller(P_hat, target_loop()))}
+    # S1 §4.4 as printed (exact P̂ inverted): robust on paper, but |C| ≈ 0.15 at the identified resonance
+    # leaves small-amplitude commands inside the dead-band there (F_m ≈ 0: "stuck" grid points)
+    _, ctrl_x, _ = s1_controller(fit, inverse_zeta=None, label="C = L/P̂ (exact P̂)")
+    closed_x = _closed_loop_frfs(compiled, ctrl_x, omega_cl, amplitudes, T0, cyc)
+    summary["closed_loop_exact_inverse"] = {
+        "peaks": _peaks(closed_x), "spread_db": spread_db(list(closed_x.values()), 30.0),
+        "stuck_points": {f"{a:g}": int(np.sum(r.magnitude * T0 < 1e-2)) for a, r in closed_x.items()}}
+    # the trade-off in the damping ratio of the inverted P̂ (analytic, nominal P̂): robust performance needs
+    # the lightly damped poles cancelled, the twin needs |C| not notched at the resonance
+    tradeoff = []
+    for z in (None, 0.1, 0.2, 0.3, 0.5):
+        Cz = s1_controller(fit, inverse_zeta=z)[0]
+        tradeoff.append({"inverse_zeta": z, "min_abs_C_below_30hz": controller_gain_band(Cz)[0],
+                         "robust_performance": robust_performance(Cz * P_hat).value})
+    summary["inverse_zeta_tradeoff"] = tradeoff
     # beside it: the same design with integral action below INTEGRAL_HZ (L(0) = inf, T(0) = 1), not S1's
     CI, ctrl_i, T0_i = s1_controller(fit, integral_hz=INTEGRAL_HZ, label="C = L(1 + ω_i/s)/P̂")
-    closed_i = _closed_loop_frfs(compiled, ctrl_i, omega, amplitudes, T0_i, cyc)
+    closed_i = _closed_loop_frfs(compiled, ctrl_i, omega_cl, amplitudes, T0_i, cyc)
     summary["closed_loop_integral"] = {"integral_hz": INTEGRAL_HZ, "peaks": _peaks(closed_i),
                                        "spread_db": spread_db(list(closed_i.values()), 30.0),
                                        "controller_gain_band": controller_gain_band(CI),
                                        "robust_performance": robust_performance(CI * P_hat).value}
     # and with the target scaled: |C| ≈ CLOSED_LOOP_GAIN, T(0) = k/(1 + k)
     CK, ctrl_k, T0_k = s1_controller(fit, gain=CLOSED_LOOP_GAIN, label=f"C = {CLOSED_LOOP_GAIN:g} L/P̂")
-    closed_k = _closed_loop_frfs(compiled, ctrl_k, omega, amplitudes, T0_k, cyc)
+    closed_k = _closed_loop_frfs(compiled, ctrl_k, omega_cl, amplitudes, T0_k, cyc)
     summary["closed_loop_gain_scaled"] = {"gain": CLOSED_LOOP_GAIN, "T0": T0_k, "peaks": _peaks(closed_k),
                                           "spread_db": spread_db(list(closed_k.values()), 30.0),
                                           "controller_gain_band": controller_gain_band(CK),
