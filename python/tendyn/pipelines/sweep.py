@@ -12,9 +12,11 @@ scheduler. Metrics per design:
   stepped sine at the largest amplitude), C28;
 * ``robust_performance``: ‖ |W1 S| + |W2 T| ‖∞ of C = L/P with P the design's analytic plant (C25).
 
-The local cluster runs single-threaded worker processes without the memory monitor and the statistical
-profiler (``memory_limit=0``, ``distributed.worker.profile.enabled = False``): a design point is ~0.1–0.3 s of
-CPU, and on a 2-core machine those two periodic samplers cost a third of it (measured, issue 11 report).
+The local cluster (:func:`local_cluster`) runs single-threaded worker processes without the memory monitor
+and the statistical profiler, with the event-loop tick probe and the system monitor slowed down: a design
+point is ~0.15 s of CPU, and with the defaults these periodic samplers cost the workers (and the client
+process that hosts the nannies) a third again as much CPU as the design points themselves (issue 11 report:
+16 designs, busiest worker 1.59 s → 1.20 s of CPU against 2.0–2.3 s for all of them in one process).
 """
 
 from __future__ import annotations
@@ -146,7 +148,10 @@ def local_cluster(n_workers: int = 2):
     import dask
     from dask.distributed import LocalCluster
 
-    with dask.config.set({"distributed.worker.profile.enabled": False}):   # read by the spawned workers
+    quiet = {"distributed.worker.profile.enabled": False,          # read by the spawned workers
+             "distributed.admin.tick.interval": "1000ms",           # event-loop blocking probe (default 20 ms)
+             "distributed.admin.system-monitor.interval": "5000ms"}  # psutil sampling (default 500 ms)
+    with dask.config.set(quiet):
         return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, memory_limit=0,
                             dashboard_address=None)
 
