@@ -36,6 +36,9 @@ __all__ = ["LOOPS", "METRICS", "SweepResult", "design_grid", "evaluate_design", 
 
 METRICS = ("peak_shift_hz", "open_loop_spread_db", "closed_loop_spread_db", "robust_performance")
 LOOPS = ("open", "closed")
+METRIC_LABELS = {"peak_shift_hz": "open-loop peak shift [Hz]", "open_loop_spread_db": "open-loop spread < 30 Hz [dB]",
+                 "closed_loop_spread_db": "closed-loop spread < 30 Hz [dB] (C = L/P̂)",
+                 "robust_performance": "|| |W1 S| + |W2 T| ||_inf [-]"}
 
 
 def parse_param(text: str) -> tuple[str, np.ndarray]:
@@ -122,12 +125,13 @@ class SweepResult(Result):
             order = np.argsort(x)
             ax.plot(x[order], z[order], "o-")
             ax.set_xlabel(names[0])
+            ax.set_ylabel(METRIC_LABELS.get(self.metric, self.metric))
             if x.min() > 0 and x.max() / x.min() > 10:
                 ax.set_xscale("log")
         else:
             a, b = names[:2]
             sc = ax.scatter(self.column(a), self.column(b), c=z, s=60, cmap="viridis")
-            ax.figure.colorbar(sc, ax=ax, label=self.metric)
+            ax.figure.colorbar(sc, ax=ax, label=METRIC_LABELS.get(self.metric, self.metric))
             ax.set_xlabel(a)
             ax.set_ylabel(b)
         ax.set_title(f"{self.device}: {self.metric}")
