@@ -339,6 +339,19 @@ def test_C28_in_loop_friction_error_falls_as_one_over_the_controller_gain(s1_jso
             assert row["min_abs_C_below_30hz"] < 0.3
 
 
+def test_C28_numbers_reached_on_the_twin_by_a_high_gain_loop_at_the_price_of_robust_performance(s1_json):
+    """C28's numbers (spread ≤ 1 dB below 30 Hz, 0.2 Hz / 0.31 N loop area near zero) need |C| ≈ 10, which
+    S1's eq. (10) cannot give: a proportional gain 10 with a phase lead reaches them on the twin, and loses
+    robust performance with the documented weights and amplifies the sensor noise in the command."""
+    h = s1_json["closed_loop_high_gain"]
+    assert h["controller_gain_band"][0] > 8
+    assert h["spread_db"] <= 1.0 < s1_json["closed_loop_spread_db"]
+    assert abs(h["loop_area"]) < 0.1 < s1_json["loop_area"]
+    assert h["phase_margin_deg"] > 30 and h["gain_margin"] > 3
+    assert h["robust_performance"] > 1.0
+    assert h["noise_amplification_db"] > 6.0
+
+
 def test_C27_80_hz_target_breaks_robust_performance_and_amplifies_noise_above_40_hz(s1_json):
     assert s1_json["robust_performance_exact_inverse_80hz"] > 1.0 > s1_json["robust_performance_exact_inverse"]
     assert s1_json["noise_amplification_db"] > 3.0
