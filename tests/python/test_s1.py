@@ -388,6 +388,7 @@ def test_sweep_closed_loop_design_point_reports_the_C28_spread(bench):
     freqs = list(np.arange(10.0, 34.0, 4.0))
     row = evaluate_design(fields, {"friction_c0": 0.1}, (0.31, 2.0), freqs, loop="closed")
     assert math.isfinite(row["closed_loop_spread_db"]) and row["closed_loop_spread_db"] > 1.0   # S1's L: |C| ≈ 1
+    assert row["closed_loop_spread_db"] < 0.7 * row["open_loop_spread_db"]   # but the loop is closed (peak gone)
     frictionless = evaluate_design(fields, {"friction_c0": 0.0, "friction_mu_tension": 0.0}, (0.31, 2.0), freqs,
                                    loop="closed")
     assert frictionless["closed_loop_spread_db"] < 0.3                    # a linear twin: no amplitude dependence
