@@ -228,20 +228,46 @@ def sensitivity(params: Any = None, *, omega, which=PARAMETERS, **grid) -> dict:
     cancellation-free forms k_e ∂ln G/∂k_e = P Q/D, 1/Q − (P + k_e)/D = k_e P/(Q D). Chain rule: S_IM = m1 ∂ln G/∂m1,
     S_B = c1 ∂ln G/∂c1, S_r = 2 (S_IM + S_B), S_k1 = S_ke k2/(k1 + k2), S_k2 = S_ke k1/(k1 + k2)
     (S1 eq. 4, corrected: ERRATA).
+
+    The evaluation runs in blocks of design rows (``BLOCK_ELEMENTS`` complex values per block) so that the
+    temporaries stay in cache; each block is the same broadcast expression.
     """
     s, v = _broadcast(params, omega, grid)
+    which = tuple(which)
+    shape = np.broadcast_shapes(s.shape, *(x.shape for x in v.values()))
+    rows = shape[0] if len(shape) > 1 else 1
+    per_row = int(np.prod(shape[1:])) if len(shape) > 1 else int(np.prod(shape))
+    step = max(1, BLOCK_ELEMENTS // max(per_row, 1))
+    if rows <= step:
+        return _sensitivity_kernel(s, v, which, shape)
+    out = {n: np.empty(shape, complex) for n in which}
+    for i in range(0, rows, step):
+        sl = slice(i, min(i + step, rows))
+        vb = {k: (x[sl] if x.shape[0] == rows else x) for k, x in v.items()}
+        part = _sensitivity_kernel(s, vb, which, (sl.stop - sl.start,) + shape[1:])
+        for n in which:
+            out[n][sl] = part[n]
+    return out
+
+
+BLOCK_ELEMENTS = 16384
+"""Complex values per block of :func:`sensitivity` (256 kB per temporary: L2-resident)."""
+
+
+def _sensitivity_kernel(s, v, which, shape) -> dict:
     r, I_M, B, k1, k2, I_c, k_z = (v[k] for k in ("r", "I_M", "B", "k1", "k2", "I_c", "k_z"))
     ke = k1 * k2 / (k1 + k2)
     m1, c1 = r * r * I_M, r * r * B
     s2 = s * s
     P = (m1 * s + c1) * s
     Q = I_c * s2 + k_z
-    D = P * (Q + ke) + ke * Q
+    qke = Q + ke
+    D = P * qke + ke * Q
     inv_d = 1.0 / D
     out = {}
     need = set(which)
     if need & {"r", "I_M", "B"}:
-        qk = (Q + ke) * inv_d
+        qk = qke * inv_d
         s_im = -m1 * s2 * qk
         s_b = -c1 * s * qk
         if "I_M" in need:
@@ -262,7 +288,7 @@ def sensitivity(params: Any = None, *, omega, which=PARAMETERS, **grid) -> dict:
             out["k_z"] = k_z * common
         if "I_c" in need:
             out["I_c"] = I_c * s2 * common
-    return {n: out[n] for n in which}
+    return {n: np.broadcast_to(out[n], shape) if out[n].shape != tuple(shape) else out[n] for n in which}
 
 
 # ---- figures of S1 §3 (Figs. 3–4) -------------------------------------------------------------------

@@ -1,5 +1,5 @@
-"""`tendyn sweep DEVICE --param NAME=LO:HI:N ... [--amplitudes A,…] [--metric M] [--scheduler ADDRESS]
---out TABLE.parquet [--json]`: design sweeps of the nonlinear twin on Dask (:mod:`tendyn.pipelines.sweep`)."""
+"""`tendyn sweep DEVICE --param NAME=LO:HI:N ... [--amplitudes A,…] [--loop open|closed] [--metric M]
+[--scheduler ADDRESS] --out TABLE.parquet [--json]`: design sweeps of the nonlinear twin on Dask (:mod:`tendyn.pipelines.sweep`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from tendyn.errors import UsageError
 
 
 def register(subparsers) -> None:
-    from tendyn.pipelines.sweep import METRICS
+    from tendyn.pipelines.sweep import LOOPS, METRICS
 
     p = subparsers.add_parser("sweep", help="design sweep of a tendon-bench twin on Dask (table + figure)")
     p.add_argument("device", help="device file or bundled twin (a tendon bench)")
@@ -18,7 +18,10 @@ def register(subparsers) -> None:
                    help="a bench field and its grid (repeat for a grid of several fields)")
     p.add_argument("--amplitudes", type=numbers(0.0, lo_open=True, unit="N"), default=(0.31, 0.38, 0.6, 2.0),
                    metavar="A,…", help="stepped-sine input amplitudes [N] [default: 0.31,0.38,0.6,2]")
-    p.add_argument("--metric", choices=METRICS, default="peak_shift_hz", help="metric drawn over the grid")
+    p.add_argument("--loop", choices=LOOPS, default="open",
+                   help="open: the twin alone; closed: also S1's loop-shaping controller C = L/P̂ in the twin")
+    p.add_argument("--metric", choices=METRICS, default=None,
+                   help="metric drawn over the grid [default: peak_shift_hz, closed_loop_spread_db with --loop closed]")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler [default: a local cluster]")
     p.add_argument("--workers", type=int, default=2, help="workers of the local cluster [default: 2]")
     p.add_argument("--out", required=True, help="table (.parquet); the figure goes beside it (.png)")
@@ -29,8 +32,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from tendyn.cli import _load, _print_json
-    from tendyn.io import save_png
-    from tendyn.pipelines.sweep import parse_param, run_sweep, write_table
+    from tendyn.pipelines.sweep import parse_param, run_sweep, write_outputs
+    from tendyn.sim.tendon_bench import bench_model
 
     dev = _load(args.device)
     if dev.kind != "tendon_bench_2n":
@@ -44,6 +47,13 @@ def run(args) -> int:
             raise UsageError(str(exc), "param") from None
         if name not in fields:
             raise UsageError(f"unknown bench field {name!r} (known: {', '.join(sorted(fields))})", "param")
+        if name in params:
+            raise UsageError(f"{name} given twice", "param")
+        for value in (grid.min(), grid.max()):      # the core validates every field (range, finiteness)
+            try:
+                bench_model(dev.replace(**{name: float(value)}))
+            except ValueError as exc:
+                raise UsageError(f"{name}={value:g}: {exc}", "param") from None
         params[name] = grid
     out = Path(args.out)
     if out.suffix.lower() != ".parquet":
@@ -52,11 +62,15 @@ def run(args) -> int:
         raise UsageError(f"{out.parent}: folder not found", "out")
     if args.workers < 1:
         raise UsageError(f"must be >= 1 (got {args.workers})", "workers")
-    res = run_sweep(dev, params, amplitudes=args.amplitudes, metric=args.metric, scheduler=args.scheduler,
-                    n_workers=args.workers, progress=not args.quiet)
-    write_table(res, out)
-    fig_path = out.with_suffix(".png")
-    save_png(res.plot(), fig_path)
+    metric = args.metric or ("closed_loop_spread_db" if args.loop == "closed" else "peak_shift_hz")
+    if metric == "closed_loop_spread_db" and args.loop != "closed":
+        raise UsageError("closed_loop_spread_db needs --loop closed", "metric")
+    try:
+        res = run_sweep(dev, params, amplitudes=args.amplitudes, metric=metric, loop=args.loop,
+                        scheduler=args.scheduler, n_workers=args.workers, progress=not args.quiet)
+    except ConnectionError as exc:
+        raise UsageError(str(exc), "scheduler") from None
+    out, fig_path = write_outputs(res, out)
     doc = res.to_dict() | {"table": str(out), "figure": str(fig_path)}
     if args.json:
         _print_json(doc)

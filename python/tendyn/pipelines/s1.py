@@ -18,13 +18,14 @@ import numpy as np
 
 from tendyn.analysis.s1_plant import (PlantParams, TendonDrivePlant, ratio_tradeoff, sensitivity,
                                       sensitivity_study, sensitivity_symbolic)
-from tendyn.control.loop_shaping import (closed_loop, discretise, fit_plant_frf, freqresp, lead_compensator,
+from tendyn.control.loop_shaping import (LOOP_OMEGA_N, closed_loop, discretise, fit_plant_frf, freqresp, lead_compensator,
                                          loop_shaping_controller, robust_performance, sensitivity_gain, target_loop)
 from tendyn.device import compile_device
 from tendyn.results import FrequencyResponse, Result, format_table, new_figure
 from tendyn.sim.tendon_bench import Controller, loop_io, loop_stepped_sine, simulate_closed_loop
 
-__all__ = ["S1Report", "run_s1", "loop_area", "spread_db", "wiener_response", "fit_dead_band"]
+__all__ = ["S1Report", "run_s1", "controller_gain_band", "loop_area", "s1_controller", "spread_db", "wiener_response",
+           "fit_dead_band"]
 
 OPEN_LOOP_AMPLITUDES = (0.31, 0.34, 0.38, 0.6, 2.0)
 """Input amplitudes [N] of the stepped sines (very stiff load): the dead-band (≈ 0.25 N) to linear."""
@@ -36,6 +37,45 @@ INTEGRAL_HZ = 10.0
 """Corner [Hz] of the integral action of the augmented design reported beside S1's."""
 CONTROL_HZ = 10000.0
 """Control rate [Hz] of the discretised controllers (bench steps at 20 kHz)."""
+HIGH_GAIN = 10.0
+"""Proportional gain of the high-gain loop reported beside S1's design (not S1's: C28's numbers, RP lost)."""
+LEAD_HZ = (60.0, 300.0)
+"""Zero and pole [Hz] of its phase lead (phase margin ≈ 40° on P̂)."""
+ROLL_OFF_HZ = 2000.0
+"""Its roll-off pole [Hz] (strictly proper controller)."""
+CLOSED_LOOP_GAIN = 3.0
+"""Scale k of the target k·L reported beside S1's design (C28 physics: the spread falls as 1/|C|)."""
+
+
+def s1_controller(fit, *, omega_n: float = LOOP_OMEGA_N, gain: float = 1.0, inverse_zeta: float | None = INVERSE_ZETA,
+                  integral_hz: float | None = None, control_hz: float = CONTROL_HZ, label: str | None = None):
+    """S1's loop-shaping controller for the twin, from the identified Ĝ_L ``fit`` (:class:`PlantFit`):
+    C = gain · L (1 + 2π·integral_hz/s) / P̂_inv, L of S1 eq. (10) (ω_n [rad/s], ζ = 0.5), made proper and
+    discretised (Tustin) at ``control_hz`` [Hz]. P̂_inv keeps the identified gain and natural frequency with the
+    damping ratio ``inverse_zeta`` (None: the exact identified P̂, S1 §4.4 as printed).
+
+    ``gain = 1`` and ``integral_hz = None`` is S1's design (L(0) = 1, T(0) = 0.5); the others scale the loop.
+    Returns (C continuous TransferFunction, :class:`Controller`, T(0)) with T(0) = gain/(1 + gain), or 1 with
+    integral action.
+    """
+    import control as ct
+
+    P_inv = fit.tf() if inverse_zeta is None else ct.tf([fit.gain], [fit.a, 2 * inverse_zeta * math.sqrt(fit.a), 1.0])
+    L = gain * target_loop(omega_n)
+    if integral_hz is not None:
+        L = L * ct.tf([1.0, 2 * math.pi * integral_hz], [1.0, 0.0])
+    C = loop_shaping_controller(P_inv, L)
+    name = label or f"C = {gain:g} L/P̂, {omega_n / (2 * math.pi):g} Hz"
+    ctrl = Controller.from_realisation(discretise(C, 1.0 / control_hz), label=name)
+    return C, ctrl, (1.0 if integral_hz is not None else gain / (1.0 + gain))
+
+
+def controller_gain_band(C, band_hz: float = 30.0) -> list:
+    """[min, max] of |C(j2πf)| for 0.5 Hz ≤ f ≤ ``band_hz``: the factor by which the loop divides the in-loop
+    friction relative to the reference (C28, see :func:`run_s1`)."""
+    w = 2 * math.pi * np.linspace(0.5, band_hz, 200)
+    c = np.abs(freqresp(C, omega=w))
+    return [float(c.min()), float(c.max())]
 
 
 def loop_area(x: np.ndarray, y: np.ndarray) -> float:
@@ -122,7 +162,15 @@ class S1Report(Result):
               f"\nrobust performance || |W1 S| + |W2 T| ||_inf = {s['robust_performance']:.3f}"
               f" (omega_n = 2pi 80: {s['robust_performance_80hz']:.3f})"
               f"\nloop area (closed loop, 0.2 Hz / 0.31 N): {s['loop_area']:.3f} (open loop {s['open_loop_area']:.3f})"
-              f"\nnoise above 40 Hz, omega_n 80 vs 40 Hz: {s['noise_amplification_db']:.1f} dB")
+              f"\nnoise above 40 Hz, omega_n 80 vs 40 Hz: {s['noise_amplification_db']:.1f} dB"
+              f"\n|C| below 30 Hz (S1 design): {s['controller_gain_band']['s1'][0]:.2f}..{s['controller_gain_band']['s1'][1]:.2f}"
+              f"; with {s['closed_loop_gain_scaled']['gain']:g} L: spread {s['closed_loop_gain_scaled']['spread_db']:.2f} dB, "
+              f"robust performance {s['closed_loop_gain_scaled']['robust_performance']:.2f}"
+              f"; with integral action: spread {s['closed_loop_integral']['spread_db']:.2f} dB"
+              f"\nhigh-gain loop K = {s['closed_loop_high_gain']['gain']:g} with lead (not S1's): spread "
+              f"{s['closed_loop_high_gain']['spread_db']:.2f} dB, loop area {s['closed_loop_high_gain']['loop_area']:.3f}, "
+              f"robust performance {s['closed_loop_high_gain']['robust_performance']:.2f}, command noise above 40 Hz "
+              f"{s['closed_loop_high_gain']['noise_amplification_db']:+.1f} dB vs S1's")
         return t
 
 
@@ -142,6 +190,9 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     if omega is None:
         omega = 2 * math.pi * np.arange(6.0, 46.0, 2.0 if quick else 1.0)
     omega = np.asarray(omega, float)
+    # closed loops: the same grid and up to 60 Hz (nominal T = ω_n²/(s² + 2ζω_n s + 2ω_n²) peaks near 49 Hz)
+    top = omega.max() / (2 * math.pi)
+    omega_cl = np.concatenate([omega, 2 * math.pi * np.arange(top + 5.0, 60.0 + 1e-9, 5.0)])
     cyc = dict(cycles=4, settle_cycles=6, settle_s=0.4) if quick else dict(cycles=8, settle_cycles=10, settle_s=0.6)
     params = PlantParams.from_bench(bench)
     plant = TendonDrivePlant(params)
@@ -235,25 +286,75 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # 7. loop shaping C = L/P̂ (C25–C28). The inverse keeps P̂'s identified gain and natural frequency but
     # a damping ratio of INVERSE_ZETA: cancelling the lightly damped identified poles exactly is the
     # non-robust pole-zero cancellation S1 §4.4 warns about — on the twin the resonance moves with amplitude
-    # and an exact notch leaves the small-amplitude loop stuck in the dead-band around 30 Hz.
+    # and an exact notch (|C| ≈ 0.16 at 30 Hz) leaves the small-amplitude loop stuck in the dead-band.
+    #
+    # C28, physics. Friction f acts at the motor node, where the command acts: F_m = T r − G S f, so
+    # F_m/T(0) = (T/T(0)) r − (G S/T(0)) f and, relative to the reference-driven part, the in-loop friction
+    # error is f/(C r) (T = C G S), against f/r in open loop. A sliding Coulomb node gives |f| ≈ (4/π) F_c
+    # whatever the amplitude, so the loop divides the amplitude dependence by |C(jω)|. S1's L(0) = 1 and
+    # P̂(0) ≈ 1 make |C| ≈ 1 from DC to 30 Hz (controller_gain_band): eq. (10) by construction cannot make the
+    # response amplitude-independent on this twin (at DC: S(0) = 0.5 halves the friction's output but also
+    # halves the command, so u = r/2 sits deeper in the class-B dead-band at 0.31 N). Beside it we run the same
+    # inverse with the target scaled by CLOSED_LOOP_GAIN (|C| ≈ 3): the spread falls as the law predicts,
+    # but the nominal robust performance is lost, which is why it is not S1's design.
     say("loop shaping on the twin")
-    P_inv = ct.tf([fit.gain], [fit.a, 2 * INVERSE_ZETA * math.sqrt(fit.a), 1.0])
-    C40 = loop_shaping_controller(P_inv, target_loop())
-    ctrl = Controller.from_realisation(discretise(C40, 1.0 / CONTROL_HZ), label="C = L/P̂, 40 Hz")
-    T0 = 0.5
-    closed = _closed_loop_frfs(compiled, ctrl, omega, amplitudes, T0, cyc)
+    C40, ctrl, T0 = s1_controller(fit, label="C = L/P̂, 40 Hz")
+    closed = _closed_loop_frfs(compiled, ctrl, omega_cl, amplitudes, T0, cyc)
     summary["closed_loop_peaks"] = _peaks(closed)
     summary["closed_loop_spread_db"] = spread_db(list(closed.values()), 30.0)
     summary["normalisation"] = "closed-loop responses divided by T(0) = 0.5 (S1 eq. 10, corrected: ERRATA)"
     summary["inverse_zeta"] = INVERSE_ZETA
+    summary["controller_gain_band"] = {"s1": controller_gain_band(C40),
+                                       "exact_inverse": controller_gain_band(loop_shaping_controller(P_hat, target_loop()))}
+    # S1 §4.4 as printed (exact P̂ inverted): robust on paper, but |C| ≈ 0.15 at the identified resonance
+    # leaves small-amplitude commands inside the dead-band there (F_m ≈ 0: "stuck" grid points)
+    _, ctrl_x, _ = s1_controller(fit, inverse_zeta=None, label="C = L/P̂ (exact P̂)")
+    closed_x = _closed_loop_frfs(compiled, ctrl_x, omega_cl, amplitudes, T0, cyc)
+    summary["closed_loop_exact_inverse"] = {
+        "peaks": _peaks(closed_x), "spread_db": spread_db(list(closed_x.values()), 30.0),
+        "stuck_points": {f"{a:g}": int(np.sum(r.magnitude * T0 < 1e-2)) for a, r in closed_x.items()}}
+    # the trade-off in the damping ratio of the inverted P̂ (analytic, nominal P̂): robust performance needs
+    # the lightly damped poles cancelled, the twin needs |C| not notched at the resonance
+    tradeoff = []
+    for z in (None, 0.1, 0.2, 0.3, 0.5):
+        Cz = s1_controller(fit, inverse_zeta=z)[0]
+        tradeoff.append({"inverse_zeta": z, "min_abs_C_below_30hz": controller_gain_band(Cz)[0],
+                         "robust_performance": robust_performance(Cz * P_hat).value})
+    summary["inverse_zeta_tradeoff"] = tradeoff
     # beside it: the same design with integral action below INTEGRAL_HZ (L(0) = inf, T(0) = 1), not S1's
-    CI = loop_shaping_controller(P_inv, target_loop() * ct.tf([1.0, 2 * math.pi * INTEGRAL_HZ], [1.0, 0.0]))
-    ctrl_i = Controller.from_realisation(discretise(CI, 1.0 / CONTROL_HZ), label=f"C = L(1 + ω_i/s)/P̂")
-    closed_i = _closed_loop_frfs(compiled, ctrl_i, omega, amplitudes, 1.0, cyc)
+    CI, ctrl_i, T0_i = s1_controller(fit, integral_hz=INTEGRAL_HZ, label="C = L(1 + ω_i/s)/P̂")
+    closed_i = _closed_loop_frfs(compiled, ctrl_i, omega_cl, amplitudes, T0_i, cyc)
     summary["closed_loop_integral"] = {"integral_hz": INTEGRAL_HZ, "peaks": _peaks(closed_i),
-                                       "spread_db": spread_db(list(closed_i.values()), 30.0)}
+                                       "spread_db": spread_db(list(closed_i.values()), 30.0),
+                                       "controller_gain_band": controller_gain_band(CI),
+                                       "robust_performance": robust_performance(CI * P_hat).value}
+    # and with the target scaled: |C| ≈ CLOSED_LOOP_GAIN, T(0) = k/(1 + k)
+    CK, ctrl_k, T0_k = s1_controller(fit, gain=CLOSED_LOOP_GAIN, label=f"C = {CLOSED_LOOP_GAIN:g} L/P̂")
+    closed_k = _closed_loop_frfs(compiled, ctrl_k, omega_cl, amplitudes, T0_k, cyc)
+    summary["closed_loop_gain_scaled"] = {"gain": CLOSED_LOOP_GAIN, "T0": T0_k, "peaks": _peaks(closed_k),
+                                          "spread_db": spread_db(list(closed_k.values()), 30.0),
+                                          "controller_gain_band": controller_gain_band(CK),
+                                          "robust_performance": robust_performance(CK * P_hat).value,
+                                          "phase_margin_deg": float(ct.margin(CK * P_hat)[1])}
+    # and a loop that is not S1's: a proportional gain HIGH_GAIN with a phase lead (LEAD_HZ) and a roll-off pole,
+    # |C| ≈ 10 below 30 Hz. On the twin it makes the response amplitude-independent (C28's numbers), at the
+    # price S1 §4.4 names: closed-loop bandwidth far beyond 40 Hz (|W2 T| > 1: robust performance lost with
+    # the documented weights) and ≈ K times the sensor noise in the command.
+    CH = lead_compensator(HIGH_GAIN * LEAD_HZ[1] / LEAD_HZ[0], 2 * math.pi * LEAD_HZ[0], 2 * math.pi * LEAD_HZ[1]) \
+        * ct.tf([1.0], [1.0 / (2 * math.pi * ROLL_OFF_HZ), 1.0])
+    ctrl_h = Controller.from_realisation(discretise(CH, 1.0 / CONTROL_HZ), label=f"K = {HIGH_GAIN:g} with lead")
+    T0_h = HIGH_GAIN / (1.0 + HIGH_GAIN)
+    closed_h = _closed_loop_frfs(compiled, ctrl_h, omega_cl, amplitudes, T0_h, cyc)
+    slow_h = loop_io(compiled, ctrl_h, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
+    gm_h, pm_h, _, _ = ct.margin(CH * P_hat)
+    summary["closed_loop_high_gain"] = {
+        "gain": HIGH_GAIN, "lead_hz": list(LEAD_HZ), "roll_off_hz": ROLL_OFF_HZ, "T0": T0_h,
+        "peaks": _peaks(closed_h), "spread_db": spread_db(list(closed_h.values()), 30.0),
+        "loop_area": loop_area(slow_h.u, slow_h.force / T0_h), "controller_gain_band": controller_gain_band(CH),
+        "robust_performance": robust_performance(CH * P_hat).value, "gain_margin": float(gm_h),
+        "phase_margin_deg": float(pm_h)}
+    C80, ctrl80, _ = s1_controller(fit, omega_n=2 * math.pi * 80, label="C = L/P̂, 80 Hz")
     rp = robust_performance(C40 * P_hat, label="omega_n = 2pi 40")
-    C80 = loop_shaping_controller(P_inv, target_loop(2 * math.pi * 80))
     rp80 = robust_performance(C80 * P_hat, label="omega_n = 2pi 80")
     rp_exact = robust_performance(loop_shaping_controller(P_hat, target_loop()) * P_hat, label="exact inverse, 40 Hz")
     rp80_exact = robust_performance(loop_shaping_controller(P_hat, target_loop(2 * math.pi * 80)) * P_hat,
@@ -281,17 +382,17 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
 
     # C27: ω_n = 2π·80 with sensor noise: command and force above 40 Hz (dithering)
     say("noise amplification")
-    ctrl80 = Controller.from_realisation(discretise(C80, 1.0 / CONTROL_HZ), label="C = L/P̂, 80 Hz")
     noise = {}
     n = int(1.0 * 20000) if quick else int(2.0 * 20000)
     r = 0.5 * np.sin(2 * math.pi * 2.0 * (np.arange(n) + 0.5) / 20000.0)
-    for name, c in (("40", ctrl), ("80", ctrl80)):
+    for name, c in (("40", ctrl), ("80", ctrl80), ("high_gain", ctrl_h)):
         run = simulate_closed_loop(compiled, c, r, seed=3, noise_force=0.02)
         noise[name] = {"u": _band_rms(run.u[n // 4:], 20000.0, 40.0, 400.0),
                        "force": _band_rms(run.force_true[n // 4:], 20000.0, 40.0, 400.0)}
     summary["noise_rms_above_40hz_N"] = noise
     summary["noise_amplification_db"] = 20 * math.log10(noise["80"]["u"] / noise["40"]["u"])
     summary["noise_amplification_force_db"] = 20 * math.log10(noise["80"]["force"] / noise["40"]["force"])
+    summary["closed_loop_high_gain"]["noise_amplification_db"] = 20 * math.log10(noise["high_gain"]["u"] / noise["40"]["u"])
 
     return S1Report(bench.name, summary, open_loop, closed, proportional, wiener, figures)
 

@@ -7,7 +7,16 @@ scheduler. Metrics per design:
 
 * ``peak_shift_hz``: max − min over the amplitudes of the open-loop resonance peak [Hz] (C22);
 * ``open_loop_spread_db``: spread of |F_m/F_τ| across the amplitudes below 30 Hz [dB];
+* ``closed_loop_spread_db`` (``loop="closed"``): spread below 30 Hz of F_m/(T(0) r) with S1's loop-shaping
+  controller in the twin (:func:`tendyn.pipelines.s1.s1_controller`, Ĝ_L identified on the design's own
+  stepped sine at the largest amplitude), C28;
 * ``robust_performance``: ‖ |W1 S| + |W2 T| ‖∞ of C = L/P with P the design's analytic plant (C25).
+
+The local cluster (:func:`local_cluster`) runs single-threaded worker processes without the memory monitor
+and the statistical profiler, with the event-loop tick probe and the system monitor slowed down: a design
+point is ~0.15 s of CPU, and with the defaults these periodic samplers cost the workers (and the client
+process that hosts the nannies) a third again as much CPU as the design points themselves (issue 11 report:
+16 designs, busiest worker 1.59 s → 1.20 s of CPU against 2.0–2.3 s for all of them in one process).
 """
 
 from __future__ import annotations
@@ -22,9 +31,14 @@ import numpy as np
 from tendyn.device import compile_device
 from tendyn.results import Result, format_table
 
-__all__ = ["METRICS", "SweepResult", "design_grid", "evaluate_design", "parse_param", "run_sweep", "write_table"]
+__all__ = ["LOOPS", "METRICS", "SweepResult", "design_grid", "evaluate_design", "local_cluster", "parse_param", "run_sweep",
+           "write_outputs", "write_table"]
 
-METRICS = ("peak_shift_hz", "open_loop_spread_db", "robust_performance")
+METRICS = ("peak_shift_hz", "open_loop_spread_db", "closed_loop_spread_db", "robust_performance")
+LOOPS = ("open", "closed")
+METRIC_LABELS = {"peak_shift_hz": "open-loop peak shift [Hz]", "open_loop_spread_db": "open-loop spread < 30 Hz [dB]",
+                 "closed_loop_spread_db": "closed-loop spread < 30 Hz [dB] (C = L/P̂)",
+                 "robust_performance": "|| |W1 S| + |W2 T| ||_inf [-]"}
 
 
 def parse_param(text: str) -> tuple[str, np.ndarray]:
@@ -54,27 +68,40 @@ def design_grid(params: dict) -> list[dict]:
 
 
 def evaluate_design(bench_fields: dict, design: dict, amplitudes: Sequence[float], freqs_hz: Sequence[float],
-                    cycles: int = 4) -> dict:
-    """One design point: stepped sines at each amplitude (open loop, H1), the metrics. Plain in, plain out."""
+                    cycles: int = 4, loop: str = "open") -> dict:
+    """One design point: stepped sines at each amplitude (open loop, H1), the metrics; with ``loop="closed"``
+    also S1's loop-shaping controller identified on the design's largest-amplitude response and run in the
+    twin at every amplitude. Plain in, plain out."""
     from tendyn.analysis.s1_plant import PlantParams, TendonDrivePlant
-    from tendyn.control.loop_shaping import loop_shaping_controller, robust_performance, target_loop
+    from tendyn.control.loop_shaping import fit_plant_frf, loop_shaping_controller, robust_performance, target_loop
     from tendyn.device.tendon_bench import TendonBench
+    from tendyn.pipelines.s1 import s1_controller, spread_db
     from tendyn.sim.tendon_bench import loop_stepped_sine
 
+    if loop not in LOOPS:
+        raise ValueError(f"loop must be one of {', '.join(LOOPS)} (got {loop!r})")
     bench = TendonBench(**{**bench_fields, **design})
     omega = 2 * math.pi * np.asarray(freqs_hz, float)
-    peaks, mags = [], []
-    for a in amplitudes:
-        fr = loop_stepped_sine(bench, None, omega=omega, amplitude_N=float(a), cycles=cycles, settle_cycles=6, settle_s=0.3)
-        peaks.append(fr.peak_hz())
-        mags.append(20 * np.log10(np.maximum(fr.magnitude, 1e-12)))
-    mags = np.array(mags)
-    sel = np.asarray(freqs_hz) <= 30.0
-    spread = float(np.max(mags[:, sel].max(axis=0) - mags[:, sel].min(axis=0))) if sel.any() else float("nan")
+    cyc = dict(cycles=cycles, settle_cycles=6, settle_s=0.3)
+    frs = {float(a): loop_stepped_sine(bench, None, omega=omega, amplitude_N=float(a), **cyc) for a in amplitudes}
+    peaks = [fr.peak_hz() for fr in frs.values()]
+    has_band = bool(np.any(np.asarray(freqs_hz) <= 30.0))
+    row = {**design, "peak_shift_hz": float(max(peaks) - min(peaks)),
+           "open_loop_spread_db": spread_db(list(frs.values()), 30.0) if has_band else float("nan")}
     P = TendonDrivePlant(PlantParams.from_bench(bench)).tf()
-    rp = robust_performance(loop_shaping_controller(P, target_loop()) * P, omega=2 * math.pi * np.logspace(-1, 3, 2000)).value
-    return {**design, "peak_shift_hz": float(max(peaks) - min(peaks)), "open_loop_spread_db": spread,
-            "robust_performance": float(rp), **{f"peak_hz_{a:g}N": float(p) for a, p in zip(amplitudes, peaks)}}
+    row["robust_performance"] = float(robust_performance(loop_shaping_controller(P, target_loop()) * P,
+                                                         omega=2 * math.pi * np.logspace(-1, 3, 2000)).value)
+    row.update({f"peak_hz_{a:g}N": float(p) for a, p in zip(frs, peaks)})
+    if loop == "closed":
+        big = frs[max(frs)]
+        _, ctrl, T0 = s1_controller(fit_plant_frf(big.omega, big.ratio))
+        closed = []
+        for a in frs:
+            fr = loop_stepped_sine(bench, ctrl, omega=omega, amplitude_N=a, **cyc)
+            closed.append(fr)
+            row[f"closed_peak_hz_{a:g}N"] = float(fr.peak_hz())
+        row["closed_loop_spread_db"] = spread_db(closed, 30.0) if has_band else float("nan")
+    return row
 
 
 @dataclass(eq=False)
@@ -98,12 +125,13 @@ class SweepResult(Result):
             order = np.argsort(x)
             ax.plot(x[order], z[order], "o-")
             ax.set_xlabel(names[0])
+            ax.set_ylabel(METRIC_LABELS.get(self.metric, self.metric))
             if x.min() > 0 and x.max() / x.min() > 10:
                 ax.set_xscale("log")
         else:
             a, b = names[:2]
             sc = ax.scatter(self.column(a), self.column(b), c=z, s=60, cmap="viridis")
-            ax.figure.colorbar(sc, ax=ax, label=self.metric)
+            ax.figure.colorbar(sc, ax=ax, label=METRIC_LABELS.get(self.metric, self.metric))
             ax.set_xlabel(a)
             ax.set_ylabel(b)
         ax.set_title(f"{self.device}: {self.metric}")
@@ -118,15 +146,36 @@ class SweepResult(Result):
         return format_table(cols, [[r[c] for c in cols] for r in self.rows], f"{self.device}: design sweep")
 
 
+def local_cluster(n_workers: int = 2):
+    """A local Dask cluster of ``n_workers`` single-threaded worker processes for design sweeps (no dashboard,
+    no memory monitor, no statistical profiler: see the module docstring). Use as a context manager."""
+    import dask
+    from dask.distributed import LocalCluster
+
+    quiet = {"distributed.worker.profile.enabled": False,          # read by the spawned workers
+             "distributed.admin.tick.interval": "1000ms",           # event-loop blocking probe (default 20 ms)
+             "distributed.admin.system-monitor.interval": "5000ms"}  # psutil sampling (default 500 ms)
+    with dask.config.set(quiet):
+        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, memory_limit=0,
+                            dashboard_address=None)
+
+
 def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), freqs_hz=None, metric="peak_shift_hz",
-              scheduler: str | None = None, n_workers: int = 2, progress: bool = True, client=None) -> SweepResult:
+              loop: str = "open", scheduler: str | None = None, n_workers: int = 2, progress: bool = True,
+              client=None) -> SweepResult:
     """Evaluate every design of ``params`` ({name: grid}) on Dask; ``scheduler`` an address or None (a local
-    cluster of ``n_workers`` single-threaded processes, closed afterwards); ``client`` an existing Client."""
-    from dask.distributed import Client, LocalCluster, as_completed
+    cluster of ``n_workers`` single-threaded processes, :func:`local_cluster`, closed afterwards); ``client``
+    an existing Client. ``loop="closed"`` adds S1's loop-shaping controller (needed by
+    ``metric="closed_loop_spread_db"``)."""
+    from dask.distributed import Client, as_completed
     from tqdm import tqdm
 
     if metric not in METRICS:
         raise ValueError(f"metric must be one of {', '.join(METRICS)} (got {metric!r})")
+    if loop not in LOOPS:
+        raise ValueError(f"loop must be one of {', '.join(LOOPS)} (got {loop!r})")
+    if metric == "closed_loop_spread_db" and loop != "closed":
+        raise ValueError("metric closed_loop_spread_db needs loop='closed'")
     bench = compile_device(device).device
     fields = {k: v for k, v in bench.to_dict().items() if k not in ("name", "description", "source")}
     for k in params:
@@ -138,13 +187,16 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
     cluster = None
     if own:
         if scheduler:
-            client = Client(scheduler)
+            try:
+                client = Client(scheduler, timeout="10s")
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise ConnectionError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
         else:
-            cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None)
+            cluster = local_cluster(n_workers)
             client = Client(cluster)
     try:
         futures = client.map(evaluate_design, [fields] * len(grid), grid, [list(amplitudes)] * len(grid),
-                             [freqs_hz] * len(grid), pure=False)
+                             [freqs_hz] * len(grid), loop=loop, pure=False)
         index = {f.key: i for i, f in enumerate(futures)}
         rows: list = [None] * len(grid)
         with tqdm(total=len(grid), desc=f"{bench.name}: sweep", unit="design", disable=not progress or None,
@@ -160,22 +212,35 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
     return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)")
 
 
-def write_table(result: SweepResult, path) -> None:
-    """Write the rows as one Parquet table (temporary file, then rename: nothing half-written)."""
-    import os
-    import tempfile
-    from pathlib import Path
+def _parquet_bytes(result: SweepResult) -> bytes:
+    import io
 
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    path = Path(path)
-    table = pa.Table.from_pylist(result.rows)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".parquet.tmp")
-    os.close(fd)
-    try:
-        pq.write_table(table, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    buf = io.BytesIO()
+    pq.write_table(pa.Table.from_pylist(result.rows), buf)
+    return buf.getvalue()
+
+
+def write_table(result: SweepResult, path) -> None:
+    """Write the rows as one Parquet table (:func:`tendyn.io.atomic_write_bytes`: nothing half-written)."""
+    from tendyn.io.files import atomic_write_bytes
+
+    atomic_write_bytes(path, _parquet_bytes(result))
+
+
+def write_outputs(result: SweepResult, table_path):
+    """The table (Parquet) and the figure of the metric beside it (same stem, ``.png``), all or none
+    (:func:`tendyn.io.files.all_or_none`). Returns (table path, figure path)."""
+    from pathlib import Path
+
+    from tendyn.io import save_png
+    from tendyn.io.files import all_or_none, atomic_write_bytes
+
+    table_path = Path(table_path)
+    fig_path = table_path.with_suffix(".png")
+    with all_or_none(table_path.parent) as stage:
+        atomic_write_bytes(stage / table_path.name, _parquet_bytes(result))
+        save_png(result.plot(), stage / fig_path.name)
+    return table_path, fig_path
