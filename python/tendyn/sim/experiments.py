@@ -275,6 +275,13 @@ def smooth_triangle(t, freq: float, amplitude: float, phase: float = 0.0, sharpn
     return q, qd, qdd
 
 
+def smooth_triangle_scale(amplitude: float, sharpness: float = 0.1) -> float:
+    """The scale s of :func:`smooth_triangle` (its cruise speed is 2π f s) [rad]."""
+    t = np.linspace(0.0, 1.0, 2, endpoint=False)
+    q, qd, _ = smooth_triangle(t, 1.0, amplitude, 0.0, sharpness)
+    return float(abs(qd[0]) / (2 * np.pi))
+
+
 @dataclass(frozen=True)
 class ExcitingDesign:
     """An exciting trajectory of S2 §VI: along each mode a rounded triangle (constant velocities: gravity and
@@ -302,6 +309,7 @@ class ExcitingDesign:
     sin_phase: np.ndarray
     band_hz: tuple
     ramp_s: float = 2.0
+    sharpness: float = 0.1
 
     @property
     def n_phases(self) -> int:
@@ -340,7 +348,8 @@ class ExcitingDesign:
         wd = np.where(t < T, 0.5 * np.pi / T * np.sin(np.pi * t / T), 0.0)
         wdd = np.where(t < T, 0.5 * (np.pi / T) ** 2 * np.cos(np.pi * t / T), 0.0)
         for k in range(nm):
-            e, ed, edd = smooth_triangle(t, self.tri_freq_hz[k], self.tri_amplitude[k], self.tri_phase[k])
+            e, ed, edd = smooth_triangle(t, self.tri_freq_hz[k], self.tri_amplitude[k], self.tri_phase[k],
+                                         self.sharpness)
             for a, f, ph in zip(self.sin_amplitude[k], self.sin_freq_hz[k], self.sin_phase[k]):
                 x = 2 * np.pi * (f * t + ph)
                 e = e + a * np.sin(x)
@@ -355,7 +364,7 @@ class ExcitingDesign:
     def to_dict(self) -> dict:
         return to_jsonable({k: getattr(self, k) for k in ("center", "modes", "tri_amplitude", "tri_freq_hz",
                                                           "tri_phase", "sin_amplitude", "sin_freq_hz", "sin_phase",
-                                                          "band_hz", "ramp_s")})
+                                                          "band_hz", "ramp_s", "sharpness")})
 
 
 def tree_limits(device) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -402,7 +411,8 @@ def excitation_modes(device) -> np.ndarray:
 
 
 def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float = 0.25, max_speed: float = 1.5,
-                    margin: float = 0.1, seed: int = 0, modes=None) -> ExcitingDesign:
+                    margin: float = 0.1, seed: int = 0, modes=None, sine_speed_ratio: float | None = 0.8,
+                    tri_freq_factors=(1.5, 2.0, 2.5)) -> ExcitingDesign:
     """An :class:`ExcitingDesign` that keeps every tree joint (passive ones too: q_tree = L q_a + c) inside its
     limits less ``margin`` [rad], and every active joint below ``max_speed`` [rad/s].
 
@@ -412,7 +422,14 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     (slow sweeps over the whole range: gravity and offsets separate, friction sees constant speeds); sines on
     nm × n_sin distinct frequencies over [band_hi / 4, band_hi] dealt to the modes in turn (no two modes share
     one), amplitudes ∝ 1 / f, ``sin_share`` of R_k; sines are scaled down until the joints' peak speed is below
-    ``max_speed``. Phases: seeded uniform draws (see :func:`optimise_exciting` to improve cond(W)).
+    ``max_speed``. With ``sine_speed_ratio`` r (default 0.8) the sines of a mode are also scaled so that their
+    summed velocity amplitude stays below r × the triangle's cruise speed: the velocity then changes sign only at
+    the triangles' rounded corners (a few times per minute), not on every sine cycle. On a capstan drive the
+    dry friction sits at the motor, behind the cable spring: at each reversal the motor sticks while the
+    spring winds up by 2 F_c / K (S2 Fig. 4), which the rigid model's F_C sign(q̇) does not describe; with
+    reversals on every sine cycle this biased ZZ3R by +4 % and FV5 by +12 % on the CEA twin (ideal sensors),
+    a few reversals make it negligible. Triangle frequencies band_lo × ``tri_freq_factors`` [Hz].
+    Phases: seeded uniform draws (see :func:`optimise_exciting` to improve cond(W)).
     """
     from scipy.optimize import linprog
 
@@ -436,7 +453,8 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     x = r2.x if r2.success else np.r_[r1.x[:na], np.full(nm, t_common)]
     center, R = x[:na], x[na:]
     f_lo, f_hi = band_hz
-    tri_f = f_lo * (1.0 + 0.37 * np.arange(nm))
+    factors = np.asarray(tri_freq_factors, float)
+    tri_f = f_lo * (factors[np.arange(nm) % factors.size] + 0.37 * (np.arange(nm) // factors.size))
     grid = np.linspace(f_hi / 4, f_hi, nm * n_sin)
     sin_f = np.array([grid[k::nm] for k in range(nm)])
     rng = np.random.default_rng(seed)
@@ -454,7 +472,12 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
         tri_only = dataclasses.replace(design, sin_amplitude=0 * sin_a).peak_speed()
     sin_only = design.peak_speed() - tri_only
     k = np.min(np.where(sin_only > 0, (max_speed - tri_only) / np.maximum(sin_only, 1e-300), np.inf))
-    return dataclasses.replace(design, sin_amplitude=sin_a * min(1.0, float(k)))
+    sin_a = design.sin_amplitude * min(1.0, float(k))
+    if sine_speed_ratio is not None:
+        cruise = 2 * np.pi * design.tri_freq_hz * np.array([smooth_triangle_scale(a) for a in design.tri_amplitude])
+        sine_speed = (2 * np.pi * sin_a * design.sin_freq_hz).sum(axis=1)
+        sin_a = sin_a * np.minimum(1.0, sine_speed_ratio * cruise / np.maximum(sine_speed, 1e-300))[:, None]
+    return dataclasses.replace(design, sin_amplitude=sin_a)
 
 
 def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
