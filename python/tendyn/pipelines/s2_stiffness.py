@@ -163,6 +163,8 @@ def capstan_bandwidth(device, stiffness_motor, poses=None, n_poses: int = 60, se
     ratio = np.array([d.ratio for d in dev.drives], float)
     Kj = np.diag(ratio**2 * np.asarray(stiffness_motor, float))
     if poses is None:
+        from tendyn.sim.experiments import _active_limits
+
         lo, hi = _active_limits(dev)
         poses = np.random.default_rng(seed).uniform(lo, hi, (n_poses, lo.size))
     freqs, diag = [], []
@@ -181,8 +183,3 @@ def identification_band(bandwidth_hz: float) -> tuple[float, float]:
     """The identification band [Hz]: (BAND_LOW_HZ, bandwidth / BAND_DECADE), S2 §V-B (20 Hz → 0.1–2 Hz)."""
     return BAND_LOW_HZ, float(bandwidth_hz) / BAND_DECADE
 
-
-def _active_limits(device):
-    joints = device.kinematics.joints
-    act = [js for js in joints if getattr(js, "mu", None) in (None, 1) and getattr(js, "sigma", 0) != 2]
-    return np.array([js.lower for js in act], float), np.array([js.upper for js in act], float)

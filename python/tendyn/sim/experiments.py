@@ -317,7 +317,7 @@ class ExcitingDesign:
 
     def with_phases(self, phases) -> "ExcitingDesign":
         """The same design with other phases [cycles]: triangles first, then the sines row by row (the free
-        variables of :func:`optimise_exciting`)."""
+        variables of :func:`tendyn.pipelines.s2.optimise_exciting`)."""
         import dataclasses
 
         p = np.asarray(phases, float)
@@ -429,7 +429,7 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     spring winds up by 2 F_c / K (S2 Fig. 4), which the rigid model's F_C sign(q̇) does not describe; with
     reversals on every sine cycle this biased ZZ3R by +4 % and FV5 by +12 % on the CEA twin (ideal sensors),
     a few reversals make it negligible. Triangle frequencies band_lo × ``tri_freq_factors`` [Hz].
-    Phases: seeded uniform draws (see :func:`optimise_exciting` to improve cond(W)).
+    Phases: seeded uniform draws (see :func:`tendyn.pipelines.s2.optimise_exciting` to improve cond(W)).
     """
     from scipy.optimize import linprog
 
