@@ -244,3 +244,20 @@ def test_pipeline_s2_refuses_a_device_without_drives(capsys):
     code = main(["pipeline", "s2", "lexos", "--json"])
     assert code == 2
     assert "device" in capsys.readouterr().err
+
+
+def test_identify_parameters_option(tmp_path, capsys):
+    """`tendyn identify --parameters` fits the named base parameters only (S2's reduced model); an unknown name
+    is a usage error naming the option."""
+    from tendyn.cli import main
+
+    log = tmp_path / "ex.parquet"
+    assert main(["simulate", "cea_branch", "exciting", "--duration", "8", "--out", str(log), "--quiet"]) == 0
+    capsys.readouterr()
+    names = "ZZ1R,MY1R,FS1,FS2,FS5,MX2R,MX3R,OFFSET2,OFFSET5"
+    assert main(["identify", "cea_branch", str(log), "--parameters", names, "--json", "--quiet"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [p["name"] for p in doc["params"]] == names.split(",")
+    assert main(["identify", "cea_branch", str(log), "--parameters", "ZZ1R,BOGUS", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--parameters" in err and "BOGUS" in err
