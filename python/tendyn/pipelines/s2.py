@@ -202,7 +202,7 @@ def run_s2(device: Any, *, quick: bool = False, seed: int = 0, optimise: bool = 
     """Run the S2 protocol on a capstan twin (default ``cea_branch``) and return the report.
 
     quick : shorter runs (tests): blocked tests of 2 cycles, 4 friction speeds, a 90 s exciting trajectory
-        instead of the paper's length (≈ 260 s, W ≈ 15000 rows); %σ are also given scaled to 15000 rows.
+        instead of the paper's length (320 s: W ≈ 15000 rows after the velocity threshold); %σ are also given scaled to 15000 rows.
     optimise : lower cond(W) by the phases of the exciting design (:func:`optimise_exciting`).
     """
     from tendyn.device import compile_device
@@ -242,7 +242,7 @@ def run_s2(device: Any, *, quick: bool = False, seed: int = 0, optimise: bool = 
 
     # ---- C37: exciting trajectories inside the band, cond(W) ---------------------------------------------
     params16 = table4_names()
-    duration = 90.0 if quick else 260.0
+    duration = 90.0 if quick else 320.0
     design = design_exciting(compiled, band_hz=band, seed=seed)
     summary["exciting_design"] = design.to_dict()
     if optimise:
