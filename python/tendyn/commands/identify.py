@@ -25,6 +25,9 @@ def register(subparsers) -> None:
                    help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: 2 %% of "
                         "each joint's peak speed)")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
+    p.add_argument("--parameters", default=None, metavar="NAMES",
+                   help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
+                        "are taken as zero")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")
     p.add_argument("--stream", action="store_true",
@@ -54,6 +57,18 @@ def _scheduler(arg, n_logs: int):
     return "local" if n_logs > 1 else None
 
 
+def _parameters(text, model):
+    """The names of ``--parameters`` (None: all base parameters), each checked against the device's base set."""
+    if text is None:
+        return None
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in model.base.names]
+    if not names or unknown:
+        raise UsageError(f"not base parameters of {model.device.name}: {', '.join(unknown) or '(none given)'} "
+                         f"(base: {', '.join(model.base.names)})", "parameters")
+    return names
+
+
 def cmd_identify(args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident import IDIM
@@ -81,7 +96,8 @@ def cmd_identify(args) -> int:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
     est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
                velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
-               scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet)
+               scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
+               parameters=_parameters(args.parameters, model))
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
     except ValueError as exc:
@@ -113,7 +129,7 @@ def _identify_stream(dev, args) -> int:
 
     if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
         raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
-    for opt in ("consistent", "essential"):
+    for opt in ("consistent", "essential", "parameters"):
         if getattr(args, opt):
             raise UsageError(f"--{opt} is not available with --stream", opt)
     est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,

@@ -161,10 +161,14 @@ class IDIM:
         otherwise the address of a Dask scheduler (``tcp://host:8786``).
     progress : bool
         Progress bar (stderr) over the logs.
+    parameters : sequence of str or None
+        Identify only these base parameters (names of :attr:`IdentModel.base`), the others taken as zero: a
+        reduced model such as S2 Table 4's 16 of the 29 (None: all base parameters).
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
-                 essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False):
+                 essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
+                 parameters=None):
         self.device = device
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -176,6 +180,7 @@ class IDIM:
         self.consistent = consistent
         self.scheduler = scheduler
         self.progress = progress
+        self.parameters = parameters
 
     # -- data ------------------------------------------------------------------------------------------
     def _model(self) -> IdentModel:
@@ -309,8 +314,14 @@ class IDIM:
         base = model.base
         Y, Wstd, rows, t, na = self.observations(logs)
         cols = list(range(len(base.names)))
+        if self.parameters is not None:
+            unknown = [n for n in self.parameters if n not in base.names]
+            if unknown:
+                raise ValueError(f"not base parameters of {model.device.name}: {', '.join(unknown)} "
+                                 f"(base: {', '.join(base.names)})")
+            cols = [base.names.index(n) for n in self.parameters]
         Wb = Wstd[:, list(base.columns)]
-        x, se, weights = self._solve(Wb, Y, rows, na)
+        x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
         if self.essential:
             cols, x, se, weights = self._essential(Wb, Y, rows, na)
         Wsel = Wb[:, cols]

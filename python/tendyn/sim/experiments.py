@@ -253,30 +253,278 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
                        options=opts, log_rate_hz=log_rate_hz, reference_space=space, progress=progress)
 
 
+def smooth_triangle(t, freq: float, amplitude: float, phase: float = 0.0, sharpness: float = 0.1):
+    """Triangle wave ± ``amplitude`` with rounded corners: constant-velocity segments (S2 §VI: "triangular
+    positions give constant velocities") joined by reversals of finite acceleration.
+
+    With x = 2π(f t + phase) and P(x) = ∫ tanh(cos x / ε) dx (ε = ``sharpness``; ε → 0 gives the sharp
+    triangle of :func:`triangle_wave`), q = s P(x), q̇ = 2π f s tanh(cos x / ε),
+    q̈ = −(2π f)² s sin x / (ε cosh²(cos x / ε)), s = amplitude / max P. Returns (q, qd, qdd)."""
+    t = np.asarray(t, float)
+    x = 2 * np.pi * (freq * t + phase)
+    eps = float(sharpness)
+    xs = np.linspace(-np.pi / 2, 3 * np.pi / 2, 4097)      # one period, P(-π/2) = minimum
+    g = np.tanh(np.cos(xs) / eps)
+    prof = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(xs))])
+    prof = prof - 0.5 * (prof.max() + prof.min())
+    s = amplitude / prof.max()
+    w = 2 * np.pi * freq
+    q = s * np.interp(np.mod(x + np.pi / 2, 2 * np.pi) - np.pi / 2, xs, prof)
+    qd = w * s * np.tanh(np.cos(x) / eps)
+    qdd = -w * w * s * np.sin(x) / (eps * np.cosh(np.cos(x) / eps) ** 2)
+    return q, qd, qdd
+
+
+def smooth_triangle_scale(amplitude: float, sharpness: float = 0.1) -> float:
+    """The scale s of :func:`smooth_triangle` (its cruise speed is 2π f s) [rad]."""
+    t = np.linspace(0.0, 1.0, 2, endpoint=False)
+    q, qd, _ = smooth_triangle(t, 1.0, amplitude, 0.0, sharpness)
+    return float(abs(qd[0]) / (2 * np.pi))
+
+
+@dataclass(frozen=True)
+class ExcitingDesign:
+    """An exciting trajectory of S2 §VI: along each mode a rounded triangle (constant velocities: gravity and
+    friction) plus sines (sinusoidal accelerations: inertia), every frequency inside the identification band;
+    the active joints are q = center + modes @ u(t).
+
+    Attributes (SI units, joint side)
+    ---------------------------------
+    center : (na,) [rad]
+    modes : (na, nm) directions in active-joint space [-] (identity for a serial device; for a parallelogram the
+        free common motion and the differential motion that bends the passive joints, see :func:`excitation_modes`)
+    tri_amplitude, tri_freq_hz, tri_phase : (nm,) [rad], [Hz], [cycles]
+    sin_amplitude, sin_freq_hz, sin_phase : (nm, n_sin) [rad], [Hz], [cycles]
+    band_hz : (low, high) [Hz] the identification band the frequencies were chosen in
+    ramp_s : fade-in [s] of the excursions (the run starts at rest on ``center``)
+    """
+
+    center: np.ndarray
+    modes: np.ndarray
+    tri_amplitude: np.ndarray
+    tri_freq_hz: np.ndarray
+    tri_phase: np.ndarray
+    sin_amplitude: np.ndarray
+    sin_freq_hz: np.ndarray
+    sin_phase: np.ndarray
+    band_hz: tuple
+    ramp_s: float = 2.0
+    sharpness: float = 0.1
+
+    @property
+    def n_phases(self) -> int:
+        return self.tri_phase.size + self.sin_phase.size
+
+    def with_phases(self, phases) -> "ExcitingDesign":
+        """The same design with other phases [cycles]: triangles first, then the sines row by row (the free
+        variables of :func:`tendyn.pipelines.s2.optimise_exciting`)."""
+        import dataclasses
+
+        p = np.asarray(phases, float)
+        nt = self.tri_phase.size
+        return dataclasses.replace(self, tri_phase=p[:nt], sin_phase=p[nt:].reshape(self.sin_phase.shape))
+
+    def phases(self) -> np.ndarray:
+        return np.concatenate([self.tri_phase, self.sin_phase.ravel()])
+
+    def mode_excursion(self) -> np.ndarray:
+        """Largest excursion of each mode coordinate [rad] (triangle + every sine in phase)."""
+        return self.tri_amplitude + self.sin_amplitude.sum(axis=1)
+
+    def peak_speed(self) -> np.ndarray:
+        """Upper bound of |q̇| per active joint [rad/s]."""
+        # the rounded triangle cruises at 2π f s, s = A / max P ≈ 4 A f × 1.1 for ε = 0.1
+        mode = 4.4 * self.tri_amplitude * self.tri_freq_hz + (2 * np.pi * self.sin_amplitude * self.sin_freq_hz).sum(axis=1)
+        return np.abs(self.modes) @ mode
+
+    def references(self, duration: float, dt: float):
+        """(q, qd, qdd) of shape (n, na) on the grid dt [s] (n = duration / dt)."""
+        t = np.arange(int(round(duration / dt))) * dt
+        nm = self.tri_amplitude.size
+        u, ud, udd = (np.zeros((t.size, nm)) for _ in range(3))
+        # fade-in w(t) = (1 - cos(pi t / T)) / 2 on the excursions: e(t) w(t), derivatives by the product rule
+        T = max(self.ramp_s, 1e-9)
+        w = np.where(t < T, 0.5 * (1 - np.cos(np.pi * t / T)), 1.0)
+        wd = np.where(t < T, 0.5 * np.pi / T * np.sin(np.pi * t / T), 0.0)
+        wdd = np.where(t < T, 0.5 * (np.pi / T) ** 2 * np.cos(np.pi * t / T), 0.0)
+        for k in range(nm):
+            e, ed, edd = smooth_triangle(t, self.tri_freq_hz[k], self.tri_amplitude[k], self.tri_phase[k],
+                                         self.sharpness)
+            for a, f, ph in zip(self.sin_amplitude[k], self.sin_freq_hz[k], self.sin_phase[k]):
+                x = 2 * np.pi * (f * t + ph)
+                e = e + a * np.sin(x)
+                ed = ed + a * 2 * np.pi * f * np.cos(x)
+                edd = edd - a * (2 * np.pi * f) ** 2 * np.sin(x)
+            u[:, k] = w * e
+            ud[:, k] = w * ed + wd * e
+            udd[:, k] = w * edd + 2 * wd * ed + wdd * e
+        M = self.modes.T
+        return self.center + u @ M, ud @ M, udd @ M
+
+    def to_dict(self) -> dict:
+        return to_jsonable({k: getattr(self, k) for k in ("center", "modes", "tri_amplitude", "tri_freq_hz",
+                                                          "tri_phase", "sin_amplitude", "sin_freq_hz", "sin_phase",
+                                                          "band_hz", "ramp_s", "sharpness")})
+
+
+def tree_limits(device) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Joint limits of every tree joint (active and passive) and the map q_tree = L q_active + c:
+    (lower, upper, L, c) [rad]."""
+    from tendyn.device.rigid_body import tree_joint_numbers
+
+    compiled = compile_device(device)
+    joints = compiled.device.kinematics.joints
+    numbers = tree_joint_numbers(compiled.device)
+    L, c = compiled.active_map
+    lo = np.array([joints[n - 1].lower for n in numbers], float)
+    hi = np.array([joints[n - 1].upper for n in numbers], float)
+    return lo, hi, np.asarray(L, float), np.asarray(c, float)
+
+
+def excitation_modes(device) -> np.ndarray:
+    """Directions (na, na) in active-joint space for an exciting trajectory: first the motions that leave every
+    limited passive joint still (each active axis projected on that null space, in order, orthonormalised),
+    then those that move them (the row space of their rows of L). For a serial device: the identity. On the
+    CEA parallelogram: q1 alone, q2 and q5 together (q3 = q5 − q2 still, eq. 8), then q5 − q2."""
+    lo, hi, L, _ = tree_limits(device)
+    na = L.shape[1]
+    passive = [k for k in range(L.shape[0]) if np.count_nonzero(np.abs(L[k]) > 1e-12) != 1 or
+               abs(np.abs(L[k]).sum() - 1.0) > 1e-12]
+    passive = [k for k in passive if hi[k] - lo[k] < 2 * np.pi - 1e-9]
+    if not passive:
+        return np.eye(na)
+    P = L[passive]
+    U, sv, Vt = np.linalg.svd(P)
+    rank = int(np.sum(sv > 1e-9 * sv.max()))
+    row = Vt[:rank].T
+    proj = np.eye(na) - row @ row.T
+    basis = []
+    for i in range(na):
+        v = proj[:, i].copy()
+        for b in basis:
+            v -= (b @ v) * b
+        if np.linalg.norm(v) > 1e-9:
+            basis.append(v / np.linalg.norm(v))
+    for v in row.T:
+        basis.append(v * np.sign(v[np.argmax(np.abs(v))]))
+    return np.column_stack(basis[:na])
+
+
+def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float = 0.25, max_speed: float = 1.5,
+                    margin: float = 0.1, seed: int = 0, modes=None, sine_speed_ratio: float | None = 0.8,
+                    tri_freq_factors=(1.5, 2.0, 2.5)) -> ExcitingDesign:
+    """An :class:`ExcitingDesign` that keeps every tree joint (passive ones too: q_tree = L q_a + c) inside its
+    limits less ``margin`` [rad], and every active joint below ``max_speed`` [rad/s].
+
+    Centre and mode excursions R_k come from two linear programs on q = center + M u, |u_k| ≤ R_k (a tree joint
+    moves by at most Σ_k |(L M)_jk| R_k): (1) the largest common excursion t (all R_k = t); (2) keeping R_k ≥ t,
+    the largest Σ R_k. Frequencies: triangles at distinct low frequencies band_lo × (1, 1.37, 1.74, …) [Hz]
+    (slow sweeps over the whole range: gravity and offsets separate, friction sees constant speeds); sines on
+    nm × n_sin distinct frequencies over [band_hi / 4, band_hi] dealt to the modes in turn (no two modes share
+    one), amplitudes ∝ 1 / f, ``sin_share`` of R_k; sines are scaled down until the joints' peak speed is below
+    ``max_speed``. With ``sine_speed_ratio`` r (default 0.8) the sines of a mode are also scaled so that their
+    summed velocity amplitude stays below r × the triangle's cruise speed: the velocity then changes sign only at
+    the triangles' rounded corners (a few times per minute), not on every sine cycle. On a capstan drive the
+    dry friction sits at the motor, behind the cable spring: at each reversal the motor sticks while the
+    spring winds up by 2 F_c / K (S2 Fig. 4), which the rigid model's F_C sign(q̇) does not describe; with
+    reversals on every sine cycle this biased ZZ3R by +4 % and FV5 by +12 % on the CEA twin (ideal sensors),
+    a few reversals make it negligible. Triangle frequencies band_lo × ``tri_freq_factors`` [Hz].
+    Phases: seeded uniform draws (see :func:`tendyn.pipelines.s2.optimise_exciting` to improve cond(W)).
+    """
+    from scipy.optimize import linprog
+
+    lo, hi, L, c = tree_limits(device)
+    na = L.shape[1]
+    M = excitation_modes(device) if modes is None else np.asarray(modes, float)
+    nm = M.shape[1]
+    LM = L @ M
+    A = np.abs(LM)
+    b_ub = np.concatenate([hi - margin - c, -(lo + margin) + c])
+    # (1) common excursion t: variables [q_c (na), t]
+    A1 = np.vstack([np.hstack([L, A.sum(axis=1, keepdims=True)]), np.hstack([-L, A.sum(axis=1, keepdims=True)])])
+    r1 = linprog(np.r_[np.zeros(na), -1.0], A_ub=A1, b_ub=b_ub, bounds=[(None, None)] * na + [(0, None)])
+    if not r1.success or r1.x[-1] <= 0:
+        raise ValueError("the joint limits leave no room for an exciting trajectory")
+    t_common = float(r1.x[-1])
+    # (2) variables [q_c (na), R (nm)]
+    A2 = np.vstack([np.hstack([L, A]), np.hstack([-L, A])])
+    r2 = linprog(np.r_[np.zeros(na), -np.ones(nm)], A_ub=A2, b_ub=b_ub,
+                 bounds=[(None, None)] * na + [(t_common * 0.999, None)] * nm)
+    x = r2.x if r2.success else np.r_[r1.x[:na], np.full(nm, t_common)]
+    center, R = x[:na], x[na:]
+    f_lo, f_hi = band_hz
+    factors = np.asarray(tri_freq_factors, float)
+    tri_f = f_lo * (factors[np.arange(nm) % factors.size] + 0.37 * (np.arange(nm) // factors.size))
+    grid = np.linspace(f_hi / 4, f_hi, nm * n_sin)
+    sin_f = np.array([grid[k::nm] for k in range(nm)])
+    rng = np.random.default_rng(seed)
+    weights = 1.0 / sin_f
+    sin_a = sin_share * R[:, None] * weights / weights.sum(axis=1, keepdims=True)
+    tri_a = (1 - sin_share) * R
+    design = ExcitingDesign(center, M, tri_a, tri_f, rng.uniform(0, 1, nm), sin_a, sin_f,
+                            rng.uniform(0, 1, (nm, n_sin)), (float(f_lo), float(f_hi)))
+    # speed bound: scale the sines (then, if needed, the triangles) down
+    import dataclasses
+
+    tri_only = dataclasses.replace(design, sin_amplitude=0 * sin_a).peak_speed()
+    if np.any(tri_only > max_speed):
+        design = dataclasses.replace(design, tri_amplitude=tri_a * (0.5 * max_speed / tri_only.max()))
+        tri_only = dataclasses.replace(design, sin_amplitude=0 * sin_a).peak_speed()
+    sin_only = design.peak_speed() - tri_only
+    k = np.min(np.where(sin_only > 0, (max_speed - tri_only) / np.maximum(sin_only, 1e-300), np.inf))
+    sin_a = design.sin_amplitude * min(1.0, float(k))
+    if sine_speed_ratio is not None:
+        cruise = 2 * np.pi * design.tri_freq_hz * np.array([smooth_triangle_scale(a) for a in design.tri_amplitude])
+        sine_speed = (2 * np.pi * sin_a * design.sin_freq_hz).sum(axis=1)
+        sin_a = sin_a * np.minimum(1.0, sine_speed_ratio * cruise / np.maximum(sine_speed, 1e-300))[:, None]
+    return dataclasses.replace(design, sin_amplitude=sin_a)
+
+
 def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
                         f_sin=(0.5, 1.1, 1.7), a_sin: float = 0.05, rate_hz: float = 5_000.0,
                         control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
-                        bandwidth_hz: float = 8.0, progress=None) -> SimRun:
-    """Triangular + sinusoidal joint trajectories (S2 §VI), clipped inside the joint limits, tracked
-    by a joint-space PID. amplitude [rad] of the triangles; a_sin [rad] of each sine."""
+                        bandwidth_hz: float = 8.0, design: "ExcitingDesign | str | None" = None,
+                        progress=None) -> SimRun:
+    """Triangular + sinusoidal joint trajectories (S2 §VI) tracked by a joint-space PID.
+
+    design : ExcitingDesign, "band", "classic" or None
+        "classic": one triangle per joint (``amplitude`` [rad], ``f_tri`` [Hz]) plus the sines ``f_sin`` [Hz]
+        of ``a_sin`` [rad] shared by all joints, clipped inside the active joint limits. "band": the design of
+        :func:`design_exciting` inside the device's identification band (0.1 Hz … ``device.bandwidth_hz``),
+        passive joints kept inside their limits, distinct frequencies per joint (``q0``, ``amplitude``,
+        ``f_tri``, ``f_sin``, ``a_sin`` unused). None: "band" when the device file gives ``bandwidth_hz``
+        (its motion bandwidth, e.g. the CEA branch's 2 Hz), else "classic".
+    """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
-    lo, hi = _active_limits(device)
-    q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
-    refs, vels = [], []
-    for i in range(na):
-        room = max(0.0, min(q0[i] - lo[i], hi[i] - q0[i]) - a_sin * len(f_sin) - 0.05)
-        p, v = triangle_sine_profile(duration, m.dt, min(amplitude, room), f_tri * (1 + 0.17 * i), f_sin,
-                                     a_sin, phase=0.1 * i)
-        refs.append(q0[i] + p)
-        vels.append(v)
-    ref_q, ref_qd = np.column_stack(refs), np.column_stack(vels)
+    dev_bw = getattr(device.device, "bandwidth_hz", None)
+    if design is None:
+        design = "band" if dev_bw else "classic"
+    if isinstance(design, str) and design == "band":
+        design = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
+    if isinstance(design, ExcitingDesign):
+        ref_q, ref_qd, _ = design.references(duration, m.dt)
+        q0 = design.center
+        opts = dict(duration=duration, design=design.to_dict(), rate_hz=rate_hz, control_hz=control_hz)
+    elif design == "classic":
+        lo, hi = _active_limits(device)
+        q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
+        refs, vels = [], []
+        for i in range(na):
+            room = max(0.0, min(q0[i] - lo[i], hi[i] - q0[i]) - a_sin * len(f_sin) - 0.05)
+            p, v = triangle_sine_profile(duration, m.dt, min(amplitude, room), f_tri * (1 + 0.17 * i), f_sin,
+                                         a_sin, phase=0.1 * i)
+            refs.append(q0[i] + p)
+            vels.append(v)
+        ref_q, ref_qd = np.column_stack(refs), np.column_stack(vels)
+        opts = dict(duration=duration, amplitude=amplitude, f_tri=f_tri, f_sin=list(f_sin), a_sin=a_sin, q0=q0,
+                    rate_hz=rate_hz, control_hz=control_hz)
+    else:
+        raise ValueError(f"design must be an ExcitingDesign, 'band' or 'classic' (got {design!r})")
     m.mode = _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz)
     m.velocity_cutoff_hz = 100.0
-    opts = dict(duration=duration, amplitude=amplitude, f_tri=f_tri, f_sin=list(f_sin), a_sin=a_sin, q0=q0,
-                rate_hz=rate_hz, control_hz=control_hz)
     return run_on_twin(device, m, ref_q[0], ref_q, ref_qd, np.zeros_like(ref_q), None, seed=seed,
                        experiment="exciting", options=opts, log_rate_hz=log_rate_hz, reference_space="joint",
                        progress=progress)

@@ -1,0 +1,263 @@
+"""S2 on the CEA branch twin, end to end (issue 10 items 1–5, 8): capstan stiffness and bandwidth (C31, C32),
+friction protocol and passive joints (C33–C35), exciting trajectories and cond(W) (C37), Table 4 (C36, C38),
+omitted parameters (C39), cross-validation (C40), `tendyn pipeline s2`.
+
+One quick run of the pipeline (module fixture, ~40 s) feeds every test. The estimators read only the logs; the
+twin's truth (its standard parameters regrouped by :func:`tendyn.device.closed_loop.base_parameters`, a route
+independent of the identification model's) is read here only.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from tendyn.device import load_device
+from tendyn.device.closed_loop import base_parameters, drive_parameters
+from tendyn.device.rigid_body import standard_parameters
+from tendyn.devices import bundled
+
+
+@pytest.fixture(scope="module")
+def device():
+    return load_device(bundled("cea_branch"))
+
+
+@pytest.fixture(scope="module")
+def report(device):
+    from tendyn.pipelines.s2 import run_s2
+
+    return run_s2(device, quick=True, seed=0)
+
+
+@pytest.fixture(scope="module")
+def truth(device):
+    """Base parameters of the twin (its file's standard parameters, regrouped numerically)."""
+    bp = base_parameters(device, n_samples=120, seed=3)
+    return bp.values(np.concatenate([standard_parameters(device)[1], drive_parameters(device)[1]]))
+
+
+INERTIAL = ("ZZ1R", "MY1R", "ZZ2R", "MX2R", "ZZ3R", "MX3R")   # XX2R, XX3R: see the xfail below
+
+
+# ---- C31, C32 -------------------------------------------------------------------------------------------
+
+def test_C31_capstan_stiffness_per_drive(report, device):
+    """Blocked links, triangular torques: K by LS on [dq_m, dq̇_m, 1] recovers the twin's K_T per drive with
+    a small %σ (S2 Table 2: 2.0 N·m/rad, 0.3–0.5 %); the loop's width is twice the motor's dry friction."""
+    rows = report.summary["stiffness"]
+    assert [r["drive"] for r in rows] == [d.joint for d in device.drives]
+    for r, d in zip(rows, device.drives):
+        assert r["K"] == pytest.approx(d.stiffness_motor, rel=0.02)
+        assert r["rel_stderr_pct"] < 1.0
+        assert r["hysteresis_width_Nm"] == pytest.approx(2 * d.coulomb_motor, rel=0.3)
+    assert report.stiffness_motor == [r["K"] for r in rows]
+    fig = report.figures["hysteresis_joint2"].plot()
+    assert fig.axes[0].get_xlabel().startswith("motor angle")
+
+
+def test_C31_stiffness_fit_on_a_known_line():
+    """The fit itself: a synthetic log τ = K dq + B dq̇ + off (+ noise) returns K, B, off within their σ."""
+    from tendyn.io.logs import make_log
+    from tendyn.pipelines.s2_stiffness import fit_capstan_stiffness
+
+    rng = np.random.default_rng(4)
+    t = np.arange(6000) / 1000.0
+    q = 0.05 * np.sin(2 * np.pi * 0.5 * t)
+    tau = 2.5 * q + 0.01 * 2 * np.pi * 0.5 * 0.05 * np.cos(2 * np.pi * 0.5 * t) + 0.003 + rng.normal(0, 1e-3, t.size)
+    log = make_log({"time": t, "q_motor_1": q, "torque_motor_1": tau}, device="x", rate_hz=1000.0, seed=0,
+                   experiment="blocked_link")
+    fit = fit_capstan_stiffness(log, 1)
+    assert abs(fit.K - 2.5) < 4 * fit.stderr[0] and abs(fit.offset - 0.003) < 4 * fit.stderr[2] + 1e-4
+    assert fit.rel_stderr_pct[0] < 0.5
+
+
+def test_C32_bandwidth_and_identification_band(report):
+    """K with the CAD inertia gives the ≈ 20 Hz bandwidth, and the identification band 0.1–2 Hz a decade
+    below it; the treatment that IDIM used keeps the capstan resonance out of W (parallel cut-off < bw / 2)."""
+    s = report.summary
+    assert 15.0 < s["bandwidth_hz"] < 25.0
+    lo, hi = s["identification_band_hz"]
+    assert lo == pytest.approx(0.1) and hi == pytest.approx(s["bandwidth_hz"] / 10)
+    assert s["treatment"]["parallel_cutoff_hz"] < s["bandwidth_hz"] / 2
+    assert s["treatment"]["cutoff_hz"] < s["bandwidth_hz"]
+
+
+# ---- C33–C35 --------------------------------------------------------------------------------------------
+
+def test_C33_C35_friction_table3(report, device):
+    """Viscous + Coulomb per joint from constant-speed tests recovers the twin's joint-side friction
+    (F_C = N C_m, F_V = N² ν) within 3σ (+1 % for the stick-slip of the motor); cond(W) ≈ 6 (S2)."""
+    rows = {r["name"]: r for r in report.summary["friction"]["table3"]}
+    drive = {d.joint: d for d in device.drives}
+    expect = {"FV1": drive[1].viscous_joint, "FC1": drive[1].coulomb_joint,
+              "FV2t1": drive[2].viscous_joint, "FC2t1": drive[2].coulomb_joint,
+              "FV2t2": drive[2].viscous_joint, "FC2t2": drive[2].coulomb_joint,
+              "FV5t1": drive[5].viscous_joint, "FC5t1": drive[5].coulomb_joint,
+              "FV5t3": drive[5].viscous_joint, "FC5t3": drive[5].coulomb_joint}
+    for name, value in expect.items():
+        r = rows[name]
+        assert abs(r["value"] - value) < 3 * r["stderr"] + 0.01 * value, (name, r, value)
+        assert r["rel_stderr_pct"] < (25.0 if name.startswith("FV") else 2.0)
+    conds = report.summary["cond_friction"]
+    assert all(3.0 < c < 12.0 for c in conds.values()), conds
+
+
+def test_C34_passive_joint_friction_negligible(report):
+    """t1 vs t2 (joint 2) and t1 vs t3 (joint 5) agree: every difference |z| < 3, so F_V3R = F_C3R = 0."""
+    dec = report.summary["friction"]["passive_joints"]
+    assert dec["passive_friction_negligible"]
+    assert all(abs(v["z"]) < 3 for v in dec["differences"].values())
+
+
+def test_C34_the_decision_can_fail():
+    """A passive-joint Coulomb friction of 5σ in t2 and t3 is detected."""
+    from tendyn.pipelines.s2_friction import passive_friction_test
+
+    base = {k: {"value": v, "stderr": 0.001} for k, v in
+            {"FV2t1": 0.03, "FV2t2": 0.03, "FC2t1": 0.12, "FC2t2": 0.12, "FV5t1": 0.03, "FV5t3": 0.03,
+             "FC5t1": 0.12, "FC5t3": 0.12}.items()}
+    assert passive_friction_test(base)["passive_friction_negligible"]
+    bad = dict(base, FC2t2={"value": 0.12 + 0.0071, "stderr": 0.001})
+    assert not passive_friction_test(bad)["passive_friction_negligible"]
+
+
+# ---- C37 ------------------------------------------------------------------------------------------------
+
+def test_C37_exciting_trajectory_cond(report, device):
+    """Triangles + sines inside the band, joint and passive-joint limits: cond(W) of the Table 4 model ≈ 50
+    (paper), far below the full 30-parameter model's; the phase optimisation does not make it worse."""
+    s = report.summary
+    assert 10.0 < s["cond_exciting"] < 100.0
+    assert s["cond_full"] > 5 * s["cond_exciting"]
+    assert s["cond_design"]["after"] <= s["cond_design"]["before"]
+    from tendyn.sim.experiments import ExcitingDesign, tree_limits
+
+    d = s["exciting_design"]
+    design = ExcitingDesign(**{k: (np.asarray(v) if isinstance(v, list) else v) for k, v in d.items()})
+    q, qd, _ = design.references(90.0, 0.01)
+    lo, hi, L, c = tree_limits(device)
+    qt = q @ L.T + c
+    assert np.all(qt >= lo) and np.all(qt <= hi)          # passive joints too
+    assert np.abs(qd).max() <= 1.5 + 1e-6
+    f = np.concatenate([design.sin_freq_hz.ravel(), design.tri_freq_hz])
+    assert f.min() >= 0.1 and f.max() <= s["identification_band_hz"][1] + 1e-9
+    assert len(set(np.round(design.sin_freq_hz.ravel(), 6))) == design.sin_freq_hz.size
+
+
+# ---- C36, C38, C39 --------------------------------------------------------------------------------------
+
+def test_C36_names_as_in_the_paper(report):
+    from tendyn.pipelines.s2 import TABLE4_PAPER
+
+    names = [r["name"] for r in report.summary["table4"]]
+    assert names == list(TABLE4_PAPER)
+    full = [p["paper_name"] for p in report.summary["params_full"]]
+    s2_list = ["ZZ1R", "MX1", "MY1R", "FV1", "FS1", "OFFSET1", "XX2R", "XY2R", "XZ2R", "YZ2R", "ZZ2R", "MX2R",
+               "MY2", "FV2", "FS2", "OFFSET2", "XX3R", "XY3R", "XZ3R", "YZ3R", "ZZ3R", "MX3R", "MY3", "MX5R", "MY5",
+               "FV5R", "FS5R", "OFFSET5", "MY6"]
+    assert set(s2_list) <= set(full) and len(full) == 30        # S2's 29 + MY4 of the twin
+    for p in report.summary["params"]:
+        assert set(p) >= {"name", "value", "stderr", "rel_stderr_pct", "unit", "expression"}
+
+
+def test_C38_table4_within_3_sigma(report, truth):
+    """Every Table 4 parameter is recovered within 3σ of the twin's value, and the report's flag agrees."""
+    for r in report.summary["table4"]:
+        x = truth[r["base_name"]]
+        assert abs(r["identified"] - x) <= 3 * r["stderr"], (r, x)
+        assert r["within_3_sigma"] == (abs(r["identified"] - r["paper"]) <= 3 * r["stderr"])
+
+
+def test_C38_relative_deviations_of_the_papers_order(report):
+    """At the paper's W length (15000 rows): inertial %σ < 1.5, Coulomb < 1.3, offsets 0.3–5 %; %σ(ZZ1R) near
+    the paper's 0.45 % (the current noise of the twin is calibrated for it, docs/s2.md)."""
+    t4 = {r["name"]: r["rel_stderr_pct_at_paper_rows"] for r in report.summary["table4"]}
+    for n in INERTIAL:
+        assert t4[n] < 1.5, (n, t4[n])
+    for n in ("FS1", "FS2", "FS5R"):
+        assert t4[n] < 1.3, (n, t4[n])
+    for n in ("OFFSET2", "OFFSET5"):
+        assert 0.3 < t4[n] < 5.0, (n, t4[n])
+    assert 0.3 < t4["ZZ1R"] < 0.65
+
+
+@pytest.mark.xfail(strict=True, reason="NOT REACHED: XX2R and XX3R come out at %σ ≈ 2.5 % at 15000 rows (S2: 0.85, "
+                   "1.25 %): the XX columns (sin 2q, cos 2q terms) are weakly excited by the design's ranges")
+def test_C38_XX_inertias_below_1p5_percent(report):
+    t4 = {r["name"]: r["rel_stderr_pct_at_paper_rows"] for r in report.summary["table4"]}
+    assert t4["XX2R"] < 1.5 and t4["XX3R"] < 1.5
+
+
+@pytest.mark.xfail(strict=True, reason="the twin's viscous friction is exactly linear and the exciting speeds span "
+                   "0-1.5 rad/s: FV comes out at %σ 2-5 %, not the paper's ~20 % (S2's joints show no significant "
+                   "viscous friction, which the twin, built from Table 4, does not reproduce)")
+def test_C38_viscous_relative_deviation_about_20_percent(report):
+    t4 = {r["name"]: r["rel_stderr_pct_at_paper_rows"] for r in report.summary["table4"]}
+    assert all(8.0 < t4[n] < 40.0 for n in ("FV1", "FV2R", "FV5R"))
+
+
+def test_C39_omitted_parameters(report):
+    """The parameters S2 omits have a large %σ when identified, and removing them moves the Table 4 ones by
+    less than 3σ."""
+    om = report.summary["omitted"]
+    assert len(om) == 14
+    assert all(o["rel_stderr_pct"] > 30.0 for o in om), om
+    assert report.summary["omitted_perturbation_max_sigma"] < 3.0
+
+
+# ---- C40 ------------------------------------------------------------------------------------------------
+
+def test_C40_cross_validation(report):
+    """On a trajectory not used for the fit, the estimated torque follows the measured one (< 5 % per joint)."""
+    cv = report.summary["crossval"]
+    assert cv["joints"] == [1, 2, 5]
+    assert all(e < 0.05 for e in cv["rel_error"]), cv
+    fig = report.figures["crossval"].plot()
+    assert "Fig. 7" in fig.axes[0].get_title()
+
+
+# ---- the command ----------------------------------------------------------------------------------------
+
+def test_pipeline_s2_command_json(report, capsys, monkeypatch, tmp_path):
+    """`tendyn pipeline s2 --json --report DIR` prints the contract keys and writes the figures (the run
+    itself is the module's, passed through run_s2)."""
+    import tendyn.pipelines.s2 as s2
+    from tendyn.cli import main
+
+    monkeypatch.setattr(s2, "run_s2", lambda dev, quick=False, progress=None: report)
+    code = main(["pipeline", "s2", "--quick", "--json", "--report", str(tmp_path / "rep")])
+    assert code in (0, None)
+    doc = json.loads(capsys.readouterr().out)
+    for key in ("stiffness", "cond_exciting", "params", "table4", "stiffness_motor_Nm_per_rad"):
+        assert key in doc
+    assert {"drive", "K", "rel_stderr_pct"} <= set(doc["stiffness"][0])
+    assert {"name", "paper", "identified", "rel_stderr_pct", "within_3_sigma"} <= set(doc["table4"][0])
+    assert (tmp_path / "rep" / "crossval.png").exists() and (tmp_path / "rep" / "s2.json").exists()
+
+
+def test_pipeline_s2_refuses_a_device_without_drives(capsys):
+    from tendyn.cli import main
+
+    code = main(["pipeline", "s2", "lexos", "--json"])
+    assert code == 2
+    assert "device" in capsys.readouterr().err
+
+
+def test_identify_parameters_option(tmp_path, capsys):
+    """`tendyn identify --parameters` fits the named base parameters only (S2's reduced model); an unknown name
+    is a usage error naming the option."""
+    from tendyn.cli import main
+
+    log = tmp_path / "ex.parquet"
+    assert main(["simulate", "cea_branch", "exciting", "--duration", "8", "--out", str(log), "--quiet"]) == 0
+    capsys.readouterr()
+    names = "ZZ1R,MY1R,FS1,FS2,FS5,MX2R,MX3R,OFFSET2,OFFSET5"
+    assert main(["identify", "cea_branch", str(log), "--parameters", names, "--json", "--quiet"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [p["name"] for p in doc["params"]] == names.split(",")
+    assert main(["identify", "cea_branch", str(log), "--parameters", "ZZ1R,BOGUS", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--parameters" in err and "BOGUS" in err
