@@ -47,14 +47,18 @@ def maps():
 
 @functools.lru_cache(maxsize=None)
 def identified_params():
-    """An identification of the twin from a log it never read the truth of: a 20 s triangular + sinusoidal
-    exciting run (larger amplitudes than the catalogue default, whose identification of axis 1 is poor)."""
+    """An identification of the twin from a log it never read the truth of: S2's protocol (tendyn.pipelines.s2)
+    — a 90 s exciting run designed inside the 0.1–2 Hz identification band, the 16 parameters of Table 4, the
+    pipeline's velocity threshold."""
     from tendyn.ident import IDIM
     from tendyn.io import to_jsonable
-    from tendyn.sim.experiments import exciting_trajectory
+    from tendyn.pipelines.s2 import VELOCITY_THRESHOLD, table4_names
+    from tendyn.sim.experiments import design_exciting, exciting_trajectory
 
-    run = exciting_trajectory(device(), duration=20.0, amplitude=1.0, a_sin=0.2, f_sin=(0.7, 1.3, 2.1), seed=1)
-    return to_jsonable(IDIM(device()).fit(run.log, crossval=False).result_.to_dict())
+    design = design_exciting(device(), band_hz=(0.1, 2.0), seed=0)
+    run = exciting_trajectory(device(), duration=90.0, design=design, seed=1)
+    est = IDIM(device(), parameters=table4_names(), velocity_threshold=VELOCITY_THRESHOLD)
+    return to_jsonable(est.fit(run.log, crossval=False).result_.to_dict())
 
 
 def random_poses(rng, n):

@@ -1,7 +1,8 @@
-"""S2 end to end on the CEA branch twin (issue 10, items 1–5 and 8): capstan stiffness from blocked-link tests
-(C31, C32), the friction protocol (C33–C35, Table 3), exciting trajectories and cond(W) (C37), Table 4 with its
-statistics (C36, C38, C39) and the cross-validation (C40). :func:`run_s2` returns one :class:`S2Report` whose
-``summary`` is the JSON contract of ``tendyn pipeline s2``.
+"""S2 end to end on the CEA branch twin (issue 10): capstan stiffness from blocked-link tests (C31, C32), the
+friction protocol (C33–C35, Table 3), exciting trajectories and cond(W) (C37), Table 4 with its statistics (C36,
+C38, C39), the cross-validation (C40), then from the identified values the operational maps (C41–C45,
+:mod:`tendyn.analysis.operational`) and the compensation (C46, :mod:`tendyn.pipelines.s2_compensation`).
+:func:`run_s2` returns one :class:`S2Report` whose ``summary`` is the JSON contract of ``tendyn pipeline s2``.
 
 Order (S2 §V–VI): the blocked tests give K per drive, K and the "CAD" inertia give the bandwidth (≈ 20 Hz),
 the identification band is a decade below (0.1–2 Hz), and that band sets both the exciting trajectories and
@@ -97,6 +98,14 @@ class S2Report(Result):
                f"removing them moves the Table 4 parameters by at most {s['omitted_perturbation_max_sigma']:.2f} σ",
                "", "cross-validation (trajectory not used for the fit), relative error per joint: " + ", ".join(
                    f"joint {j}: {100 * e:.2f} %" for j, e in zip(s["crossval"]["joints"], s["crossval"]["rel_error"]))]
+        if "maps" in s:
+            m = s["maps"]
+            lo, hi = m["stiffness_range_N_per_m"]
+            out += ["", f"operational maps from the identified values (C41–C45): max apparent mass "
+                        f"{1e3 * m['max_apparent_mass_kg']:.0f} g, stiffness {lo:.0f}–{hi:.0f} N/m, max dry friction "
+                        f"{m['max_dry_friction_N']:.3f} N"]
+        if "compensation" in self.figures:
+            out += ["", self.figures["compensation"].table()]
         return "\n".join(out)
 
 
@@ -309,14 +318,17 @@ def run_s2(device: Any, *, quick: bool = False, seed: int = 0, optimise: bool = 
     summary["crossval"] = cv.to_dict()
     figures["crossval"] = cv
 
-    # ---- C41–C46: operational maps and compensation --------------------------------------------------------
-    # Built in parallel by another helper (tendyn.analysis.operational for C41–C45, a C46 compensation module).
-    # The lead calls them HERE, with (compiled, params, stiffness_motor):
-    #   compiled        the device (tendyn.device.CompiledDevice)
-    #   params          the identified Table 4 model, the identification contract (list of dicts as
-    #                   `tendyn identify --json` prints: name, value, stderr, rel_stderr_pct, unit, expression)
-    #   stiffness_motor identified capstan stiffness per drive [N·m/rad], motor side (S2 Table 2; ERRATA eq. 19)
-    # and stores the result as summary["maps"] (max_apparent_mass_kg, stiffness_range_N_per_m,
-    # max_dry_friction_N) and the C46 result beside it.
+    # ---- C41–C46: operational maps and compensation from the identified values ----------------------------
+    from tendyn.analysis.operational import operational_maps
+
+    from .s2_compensation import compensation_from_identified
+
+    say("operational maps from the identified Table 4 parameters and capstan stiffness")
+    maps = operational_maps(compiled, params, stiffness_motor=stiffness_motor, quick=quick, progress=say)
+    summary["maps"] = maps.to_dict()
+    figures.update({f"maps_{name}": fig for name, fig in maps.figures.items()})
+    comp = compensation_from_identified(compiled, params, quick=quick, progress=say)
+    summary["compensation"] = comp.summary
+    figures["compensation"] = comp
 
     return S2Report(summary, figures, stiffness_motor=stiffness_motor, params=params)
