@@ -94,7 +94,10 @@ def test_batch_refuses_bad_batches(lexos):
         run_batch(m, [d], np.zeros((2, 100, 4)), z, z, z, LOG_EVERY)
     with pytest.raises(ValueError, match="log_every"):
         run_batch(m, [d], z, z, z, z, 7)
-    other = _core.SimData(sim_model(lexos, rate_hz=10_000.0, friction=False))  # fewer sites: not made for m
+    m2 = sim_model(lexos, rate_hz=10_000.0)
+    m2.coulomb_joint = np.full(4, 0.1)  # 4 more friction sites
+    m2.finalize()
+    other = _core.SimData(m2)
     with pytest.raises(ValueError, match="not made for its model"):
         run_batch(m, [other], z, z, z, z, LOG_EVERY)
     bad = z.copy()
