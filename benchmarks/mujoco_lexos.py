@@ -156,10 +156,11 @@ def constant_bound_twin(compiled, rate_hz: float, branch_friction: np.ndarray, j
                              reducer_efficiency=np.ones(m.na))
 
 
-def operating_point_bounds(model, q0: np.ndarray, ff: np.ndarray):
+def operating_point_bounds(model, q0: np.ndarray, ff: np.ndarray, stats: dict | None = None):
     """The twin's friction bounds averaged over a run (its operating point): branch (n, n) [N] and reducer
     (n,) [N·m] (the mean of the driving and back-driven bounds: MuJoCo's box is symmetric). Steps the twin
-    one step at a time (setup, not timed) and reads the tensions friction_bounds uses at each step."""
+    one step at a time (setup, not timed) and reads the tensions friction_bounds uses at each step; `stats`,
+    if given, receives the twin's friction-solver iterations per step (mean, max, share of steps at the cap)."""
     from tendyn import _core
 
     n = model.na
@@ -171,6 +172,7 @@ def operating_point_bounds(model, q0: np.ndarray, ff: np.ndarray):
     branch, joint = np.zeros((n, n)), np.zeros(n)
     z = np.zeros(n)
     back = np.where(eta > 0.5, (1 - eta) / np.maximum(2 * eta - 1, 1e-300), np.inf)
+    iterations = np.empty(ff.shape[0])
     for s in range(ff.shape[0]):
         T, Tm = np.array(d.tension), np.array(d.tension_motor)
         up = np.column_stack([Tm, T[:, :-1]])  # tension on the motor side of branch b
@@ -178,4 +180,8 @@ def operating_point_bounds(model, q0: np.ndarray, ff: np.ndarray):
         out = np.abs(gen * np.diag(T))
         joint += 0.5 * ((1 - eta) * out + back * out)
         _core.step(model, d, z, z, ff[s], z)
+        iterations[s] = d.pgs_iterations
+    if stats is not None:
+        stats.update(mean=float(iterations.mean()), max=int(iterations.max()),
+                     share_at_cap=float(np.mean(iterations >= model.pgs_max_iterations)))
     return branch / ff.shape[0], joint / ff.shape[0]

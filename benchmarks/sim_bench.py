@@ -112,7 +112,8 @@ def bench_simulator(results: list) -> dict:
     ff = test_inputs(compiled, full, steps)
     ctrl = held(ff, full.control_decimation)[None]
     print("[bench] simulator: the twin's friction bounds at the operating point …", file=sys.stderr)
-    B, J = ml.operating_point_bounds(full, Q0, ff)
+    pgs: dict = {}
+    B, J = ml.operating_point_bounds(full, Q0, ff, stats=pgs)
     const = ml.constant_bound_twin(compiled, RATE_HZ, B, J)
     tw_full, tw_const = TendynRunner(full, ff), TendynRunner(const, ff)
     q_full, q_const = tw_full.run(), tw_const.run()
@@ -163,6 +164,9 @@ def bench_simulator(results: list) -> dict:
         timer="thread CPU time, median of rounds, interleaved",
         tendyn_all_rounds_us=times["tendyn"],
         tendyn_constant_bounds_us_per_step=med["tendyn_constant_bounds"],
+        tendyn_friction_solver_iterations_per_step=pgs,
+        tendyn_solver=f"PGS (SOR {full.pgs_relaxation}), tolerance {full.pgs_tolerance:g} relative, "
+                      f"at most {full.pgs_max_iterations} iterations (the twin's defaults)",
         mujoco_us_per_step={name: med[name] for name in mj},
         mujoco_settings={name: describe(*settings[name]) for name in settings} | {
             "no_friction": describe(*settings["tuned0"]) + ", frictionloss"},
