@@ -16,6 +16,7 @@
 #include <Eigen/Dense>
 
 #include "tendyn/c_api.h"
+#include "plain_eigen_statics.hpp"
 #include "tendyn/compensator_file.hpp"  // setup only: the baseline reads its numbers from the same file
 
 namespace {
@@ -23,9 +24,9 @@ namespace {
 /// The same cycle written plainly with Eigen: dynamic matrices, homogeneous transforms, temporaries.
 struct PlainEigenCompensator {
   int n;
+  bench::PlainEigenStatics statics;  // the losses (benchmarks/plain_eigen_statics.hpp)
   Eigen::MatrixXd K, Jm2j, Mt;  // K, K^-1 R_m, R_m K^-T
-  Eigen::VectorXd r_m, r_d, ratio, eta;
-  Eigen::MatrixXd tau0, nu, beta;
+  Eigen::VectorXd r_m;
   std::vector<Eigen::Matrix4d> placement;
   std::vector<Eigen::Vector3d> com;
   Eigen::VectorXd mass;
@@ -34,11 +35,10 @@ struct PlainEigenCompensator {
   Eigen::VectorXd qm_prev, qdm;
   bool first = true;
 
-  explicit PlainEigenCompensator(const tendyn::CompensatorModel& m) {
+  explicit PlainEigenCompensator(const tendyn::CompensatorModel& m) : statics(m.transmission) {
     const auto& t = m.transmission;
     n = t.n;
-    K = t.K; r_m = t.motor_radius; r_d = t.driven_radius; ratio = t.reducer_ratio; eta = t.reducer_efficiency;
-    tau0 = t.tau0; nu = t.nu; beta = t.beta;
+    K = t.K; r_m = t.motor_radius;
     Jm2j = K.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd(r_m.asDiagonal()));
     Mt = r_m.asDiagonal() * K.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n)).transpose();
     for (int j = 0; j < n; ++j) {
@@ -51,13 +51,6 @@ struct PlainEigenCompensator {
     mass = m.chain.mass; g = m.chain.gravity;
     k = m.underestimation; band = m.velocity_band; alpha = m.filter_gain(); rate = m.rate_hz;
     qm_prev = Eigen::VectorXd::Zero(n); qdm = Eigen::VectorXd::Zero(n);
-  }
-
-  static double upstream(double x, double sdot, double a, double b, double nu_) {
-    const double s = sdot > 0 ? 1.0 : -1.0, ax = std::abs(x), sb = s * b, c = x + s * a + nu_ * sdot;
-    if (c < -ax * (1 + sb)) return c / (1 + sb);
-    if (c <= ax * (1 - sb)) return c + sb * ax;
-    return c / (1 - sb);
   }
 
   Eigen::VectorXd cycle(const Eigen::VectorXd& qm, const Eigen::VectorXd& tau_wanted) {
@@ -84,29 +77,7 @@ struct PlainEigenCompensator {
     }
     const Eigen::VectorXd tau = tau_wanted + grav;
     const Eigen::VectorXd c0 = Mt * tau;
-    // statics with losses (S0 eqs. 4, 6, 9-12 corrected)
-    const Eigen::VectorXd qdm_model = (K * qd).cwiseQuotient(r_m);
-    Eigen::MatrixXd Sdot = Eigen::MatrixXd::Zero(n, n), Tn = Eigen::MatrixXd::Zero(n, n);
-    for (int i = 0; i < n; ++i) {
-      Sdot(i, 0) = r_m(i) * qdm_model(i);
-      for (int b = 1; b <= i; ++b) Sdot(i, b) = Sdot(i, b - 1) - K(i, b - 1) * qd(b - 1);
-    }
-    Eigen::VectorXd cff(n);
-    for (int i = n - 1; i >= 0; --i) {
-      double own = tau(i);
-      for (int kk = i + 1; kk < n; ++kk) own -= K(kk, i) * Tn(kk, i);
-      const double p = own * qd(i);
-      double pulley = own / ratio(i);
-      if (p > 0) pulley = own / (eta(i) * ratio(i));
-      else if (p < 0) pulley = eta(i) <= 0.5 ? 0.0 : (2 * eta(i) - 1) / eta(i) * own / ratio(i);
-      double t = pulley / r_d(i);
-      Tn(i, i) = t;
-      for (int b = i; b >= 0; --b) {
-        if (Sdot(i, b) != 0) t = upstream(t, Sdot(i, b), tau0(i, b), beta(i, b), nu(i, b));
-        if (b > 0) Tn(i, b - 1) = t;
-      }
-      cff(i) = r_m(i) * t;
-    }
+    const Eigen::VectorXd cff = statics.feedforward(tau, qd);  // statics with losses
     Eigen::VectorXd out(n);
     for (int i = 0; i < n; ++i) {
       const double w = band > 0 ? std::min(1.0, std::abs(qdm(i)) / band) : 1.0;

@@ -21,8 +21,6 @@ sys.path.insert(0, str(HERE))
 
 from numpy_statics import motor_torque_feedforward as numpy_feedforward  # noqa: E402
 
-from tendyn import _core  # noqa: E402
-from tendyn.sim.model import run_log  # noqa: E402
 from tendyn.device import load_device  # noqa: E402
 from tendyn.devices import bundled  # noqa: E402
 from tendyn.io import atomic_write_text  # noqa: E402
@@ -30,13 +28,17 @@ from tendyn.transmission import Transmission  # noqa: E402
 
 
 def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int = 3000) -> None:
-    """Feedforward motor torques with losses, L-EXOS (4 transmissions): C++ core vs numpy recursion."""
+    """Feedforward motor torques with losses, L-EXOS (4 transmissions): C++ core vs a plain C++ Eigen
+    implementation of the same statics (benchmarks/plain_eigen_statics.hpp, same executable, checked equal to
+    1e-12) and vs the numpy recursion. The mean is batch-timed (`calls` random inputs, one timer around the
+    whole loop, thread CPU time, median of 7 interleaved rounds); median and p99.9 come from per-call timing
+    (two clock reads around each call, their cost included) and are kept for the tail only."""
     dev = load_device(bundled("lexos"))
     tr = Transmission.from_device(dev)
     arr = dev.routing_arrays()
     rng = np.random.default_rng(7)
-    tau = rng.normal(size=(calls, tr.n)) * 5
-    qd = rng.normal(size=(calls, tr.n))
+    tau = rng.normal(size=(baseline_calls, tr.n)) * 5
+    qd = rng.normal(size=(baseline_calls, tr.n))
     # the two implementations agree before anything is timed
     for k in range(50):
         np.testing.assert_allclose(numpy_feedforward(arr, tau[k], qd[k]),
@@ -44,56 +46,46 @@ def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int
     timer = os.environ.get("TENDYN_FEEDFORWARD_TIMER", str(HERE.parent / "build/bench/benchmarks/feedforward_timer"))
     if not Path(timer).exists():
         raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/feedforward_timer.cpp)")
-    print(f"[bench] C++ feedforward, {calls} calls timed one by one ({Path(timer).name}) …", file=sys.stderr)
+    print(f"[bench] C++ feedforward and its Eigen baseline, {calls} calls x 7 rounds ({Path(timer).name}) …",
+          file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
         model_file = Path(tmp) / "lexos.model"
         tr.export(model_file)  # the timer runs exactly this model
-        out = subprocess.run([timer, str(model_file), str(calls), "7"], capture_output=True, text=True, check=True)
+        out = subprocess.run([timer, str(model_file), str(calls), "7", "7"], capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"feedforward_timer failed: {out.stderr.strip()}")
     timed = json.loads(out.stdout)
     print(f"[bench] numpy baseline, {baseline_calls} calls …", file=sys.stderr)
     base = np.empty(baseline_calls)
+    t0 = time.thread_time_ns()
     for k in range(baseline_calls):
-        t0 = time.perf_counter_ns()
+        a = time.perf_counter_ns()
         numpy_feedforward(arr, tau[k], qd[k])
-        base[k] = time.perf_counter_ns() - t0
-    med, p999 = timed["median_ns"], timed["p999_ns"]
+        base[k] = time.perf_counter_ns() - a
+    np_mean = (time.thread_time_ns() - t0) / baseline_calls
+    mean, med, p999 = timed["mean_ns"], timed["median_ns"], timed["p999_ns"]
+    emean, emed, ep999 = timed["eigen_mean_ns"], timed["eigen_median_ns"], timed["eigen_p999_ns"]
     bmed, bp999 = np.median(base), np.percentile(base, 99.9)
+    extra = dict(calls=timed["calls"], rounds=timed["rounds"], mean_wall_us=timed["mean_wall_ns"] / 1e3,
+                 eigen_mean_wall_us=timed["eigen_mean_wall_ns"] / 1e3,
+                 max_rel_diff_eigen=timed["max_rel_diff"], goal_us=0.1,
+                 timer="one thread-CPU timer around 1M calls, median of rounds")
+    results.append(dict(name="lexos_feedforward_mean", value=mean / 1e3, unit="us/call",
+                        baseline="plain C++ Eigen (same statics)", baseline_value=emean / 1e3, ratio=emean / mean,
+                        **extra))
+    results.append(dict(name="lexos_feedforward_mean", value=mean / 1e3, unit="us/call",
+                        baseline="numpy recursion (same physics, timer around the loop)",
+                        baseline_value=np_mean / 1e3, ratio=np_mean / mean))
+    tail = dict(timer="steady_clock pair around each call (included)", timer_overhead_us=timed["timer_overhead_ns"] / 1e3)
+    results.append(dict(name="lexos_feedforward_median", value=med / 1e3, unit="us/call",
+                        baseline="plain C++ Eigen (same statics)", baseline_value=emed / 1e3, ratio=emed / med, **tail))
     results.append(dict(name="lexos_feedforward_median", value=med / 1e3, unit="us/call",
                         baseline="numpy recursion (same physics)", baseline_value=bmed / 1e3, ratio=bmed / med))
     results.append(dict(name="lexos_feedforward_p99.9", value=p999 / 1e3, unit="us/call",
+                        baseline="plain C++ Eigen (same statics)", baseline_value=ep999 / 1e3, ratio=ep999 / p999,
+                        **tail))
+    results.append(dict(name="lexos_feedforward_p99.9", value=p999 / 1e3, unit="us/call",
                         baseline="numpy recursion (same physics)", baseline_value=bp999 / 1e3, ratio=bp999 / p999))
-
-
-def bench_simulator(results: list, seconds: float = 10.0, rate_hz: float = 10_000.0) -> None:
-    """L-EXOS twin, 10 kHz, 10 simulated seconds, friction on: tendyn's C++ loop vs mujoco.rollout of the
-    same 4-DOF chain (fixed tendons for the coupling, friction loss on tendons and joints)."""
-    from mujoco_lexos import rollout_seconds
-
-    from tendyn.sim.model import sim_model
-
-    dev = load_device(bundled("lexos"))
-    m = sim_model(dev, rate_hz=rate_hz, friction=True, sensors=True)
-    n = int(seconds * rate_hz)
-    t = np.arange(n) / rate_hz
-    ff = np.ascontiguousarray(np.column_stack([0.2 * np.sin(2 * np.pi * f * t) for f in (0.7, 1.1, 1.3, 1.7)]))
-    z = np.zeros_like(ff)
-    q0 = np.array([0.0, 0.3, 0.0, 0.8])
-    best = np.inf
-    print(f"[bench] tendyn simulator, {n} steps x 3 …", file=sys.stderr)
-    for _ in range(3):
-        d = _core.SimData(m)
-        d.reset(q0, 1)
-        t0 = time.perf_counter()
-        run_log(m, d, z, z, ff, z, m.control_decimation)
-        best = min(best, time.perf_counter() - t0)
-    print(f"[bench] mujoco.rollout, {n} steps x 3 …", file=sys.stderr)
-    base = rollout_seconds(dev, 1.0 / rate_hz, ff, q0)
-    results.append(dict(name="lexos_sim_step_10kHz", value=best / n * 1e6, unit="us/step",
-                        baseline="mujoco.rollout (same chain, fixed tendons, frictionloss)",
-                        baseline_value=base / n * 1e6, ratio=base / best))
-    results.append(dict(name="lexos_sim_realtime_factor", value=seconds / best, unit="sim s/wall s",
-                        baseline="mujoco.rollout (same chain, fixed tendons, frictionloss)",
-                        baseline_value=seconds / base, ratio=base / best))
 
 
 def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int = 5000) -> None:
@@ -167,9 +159,14 @@ def main() -> int:
     bench_feedforward(results)
     bench_compensator(results)
     try:
-        bench_simulator(results)
-    except ImportError as exc:  # mujoco is a benchmark-only dependency
-        print(f"[bench] simulator benchmark skipped: {exc}", file=sys.stderr)
+        import mujoco  # noqa: F401  (a benchmark-only dependency)
+    except ImportError as exc:
+        print(f"[bench] simulator benchmarks against MuJoCo skipped: {exc}", file=sys.stderr)
+    else:
+        from sim_bench import bench_batch, bench_simulator
+
+        setup = bench_simulator(results)
+        bench_batch(results, setup)
     from s1_bench import bench_dask_sweep, bench_sensitivity_sweep
 
     bench_sensitivity_sweep(results)

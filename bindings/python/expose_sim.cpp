@@ -1,7 +1,12 @@
+#include <algorithm>
+#include <vector>
+
+#include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
 
 #include "common.hpp"
 #include "tendyn/sim.hpp"
+#include "tendyn/sim_batch.hpp"
 
 namespace tendyn::py {
 
@@ -130,6 +135,86 @@ void expose_sim(nb::module_& m) {
       "Run len(ref_q) steps; inputs (steps, na), row-major. Writes the log into the preallocated float64 arrays\n"
       "(time (rows,), the others (rows, na), rows = ceil(steps / log_every)), the fields of C++ SimLog in order.\n"
       "tendyn.sim.model.run_log allocates them and returns a dict.");
+
+  using In3 = nb::ndarray<const double, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
+  using Out2 = nb::ndarray<double, nb::ndim<2>, nb::c_contig, nb::device::cpu>;
+  using Out3 = nb::ndarray<double, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
+  m.def(
+      "run_batch",
+      [](nb::list models, nb::list datas, In3 ref_q, In3 ref_v, In3 ff, In3 ext, int log_every, int threads,
+         Out2 time, Out3 q_motor_meas, Out3 torque_motor_meas, Out3 torque_motor_cmd, Out3 q_joint, Out3 qd_joint,
+         Out3 q_motor, Out3 qd_motor) {
+        const std::size_t B = nb::len(datas);
+        if (B == 0) throw nb::value_error("run_batch: no runs (datas is empty)");
+        if (nb::len(models) != 1 && nb::len(models) != B)
+          throw nb::value_error("run_batch: give one model for every run or one model for all");
+        std::vector<nb::object> keep;  // the list items stay alive while the GIL is released
+        std::vector<const M*> mp(B);
+        std::vector<D*> dp(B);
+        for (std::size_t k = 0; k < B; ++k) {
+          keep.push_back(datas[k]);
+          dp[k] = &nb::cast<D&>(datas[k]);
+          nb::handle mo = models[nb::len(models) == 1 ? 0 : k];
+          keep.push_back(nb::borrow(mo));
+          mp[k] = &nb::cast<const M&>(mo);
+        }
+        std::vector<D*> sorted = dp;
+        std::sort(sorted.begin(), sorted.end());
+        if (std::adjacent_find(sorted.begin(), sorted.end()) != sorted.end())
+          throw nb::value_error("run_batch: every run needs its own SimData (one appears twice in datas)");
+        const long na = mp[0]->na;
+        for (std::size_t k = 0; k < B; ++k) {
+          const M& mo = *mp[k];
+          const D& d = *dp[k];
+          if (mo.na != na) throw nb::value_error("run_batch: every model must have the same number of joints");
+          if (d.q.size() != mo.na || d.M.rows() != mo.nv || d.W.rows() != mo.n_sites)
+            throw nb::value_error("run_batch: a SimData was not made for its model");
+          if (log_every < 1 || log_every % mo.control_decimation != 0)
+            throw nb::value_error("run_batch: log_every must be a positive multiple of every model's control_decimation");
+          if (d.step_count % mo.control_decimation != 0)
+            throw nb::value_error("run_batch: a data is between two control periods (run steps in whole periods)");
+        }
+        const long steps = static_cast<long>(ref_q.shape(1));
+        for (const In3* a : {&ref_q, &ref_v, &ff, &ext})
+          if ((a->shape(0) != 1 && a->shape(0) != B) || static_cast<long>(a->shape(1)) != steps ||
+              static_cast<long>(a->shape(2)) != na)
+            throw nb::value_error("run_batch: inputs must be (runs or 1, steps, na) float64, C order");
+        const long rows = (steps + log_every - 1) / log_every;
+        if (time.shape(0) != B || static_cast<long>(time.shape(1)) != rows)
+          throw nb::value_error("run_batch: time must be (runs, ceil(steps / log_every))");
+        for (const Out3* o : {&q_motor_meas, &torque_motor_meas, &torque_motor_cmd, &q_joint, &qd_joint, &q_motor,
+                              &qd_motor})
+          if (o->shape(0) != B || static_cast<long>(o->shape(1)) != rows || static_cast<long>(o->shape(2)) != na)
+            throw nb::value_error("run_batch: every log array must be (runs, ceil(steps / log_every), na), float64, C order");
+        auto in = [&](const In3& a, std::size_t k) {
+          return Eigen::Map<const RowMat>(a.data() + (a.shape(0) == 1 ? 0 : k * steps * na), steps, na);
+        };
+        auto out = [&](Out3& a, std::size_t k) { return Eigen::Map<RowMat>(a.data() + k * rows * na, rows, na); };
+        std::vector<BatchRun> runs;
+        runs.reserve(B);
+        for (std::size_t k = 0; k < B; ++k)
+          runs.push_back(BatchRun{mp[k], dp[k], in(ref_q, k), in(ref_v, k), in(ff, k), in(ext, k),
+                                  SimLog{Eigen::Map<Eigen::VectorXd>(time.data() + k * rows, rows),
+                                         out(q_motor_meas, k), out(torque_motor_meas, k), out(torque_motor_cmd, k),
+                                         out(q_joint, k), out(qd_joint, k), out(q_motor, k), out(qd_motor, k)}});
+        {
+          nb::gil_scoped_release release;
+          run_batch(runs.data(), static_cast<int>(B), log_every, threads);
+        }
+        for (std::size_t k = 0; k < B; ++k)
+          if (is_error(runs[k].status))
+            throw nb::value_error(("run_batch: run " + std::to_string(k) + ": " + status_message(runs[k].status)).c_str());
+        return batch_threads(threads, static_cast<int>(B));
+      },
+      nb::arg("models"), nb::arg("datas"), nb::arg("ref_q"), nb::arg("ref_v"), nb::arg("ff"), nb::arg("torque_ext"),
+      nb::arg("log_every"), nb::arg("threads"), nb::arg("time").noconvert(), nb::arg("q_motor_meas").noconvert(),
+      nb::arg("torque_motor_meas").noconvert(), nb::arg("torque_motor_cmd").noconvert(),
+      nb::arg("q_joint").noconvert(), nb::arg("qd_joint").noconvert(), nb::arg("q_motor").noconvert(),
+      nb::arg("qd_motor").noconvert(),
+      "Run len(datas) independent runs (C++ tendyn::run_batch) on `threads` threads (< 1: one per hardware\n"
+      "thread), the GIL released. models: one SimModel for all runs or one per run; datas: one SimData per run.\n"
+      "Inputs (runs or 1, steps, na), log arrays (runs, rows, na) and time (runs, rows) as for run(). Returns the\n"
+      "number of threads used. tendyn.sim.model.run_batch allocates the log and returns a dict.");
 }
 
 }  // namespace tendyn::py

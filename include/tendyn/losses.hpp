@@ -99,13 +99,16 @@ inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, 
 
 /// Motor-side tension y of a sliding branch given its joint-side tension x (feedforward step).
 /// Solves y − s·b·max(|x|,|y|) = x + s·a + ν Ṡ, s = sgn(Ṡ) ≠ 0, b < 1 (S0 eq. 11, corrected).
+/// The left side is strictly increasing in y, and its three pieces give y₁ = c/(1 + sb) (y < −|x|),
+/// y₂ = c + sb|x| (|y| ≤ |x|), y₃ = c/(1 − sb) (y > |x|): the solution is the largest of the three for
+/// s > 0 and the smallest for s < 0 (each wrong piece overshoots on the far side of its own range). Taking
+/// it branch-free gives the same value as testing the ranges (no mispredicted branch on random signs).
 inline double branch_tension_upstream(double x, double sdot, BranchFriction f, double nu) {
   const double s = sdot > 0.0 ? 1.0 : -1.0;
   const double ax = std::abs(x), sb = s * f.b;
   const double c = x + s * f.a + nu * sdot;
-  if (c < -ax * (1.0 + sb)) return c / (1.0 + sb);  // y < −|x|
-  if (c <= ax * (1.0 - sb)) return c + sb * ax;     // |y| ≤ |x|
-  return c / (1.0 - sb);                            // y > |x|
+  const double y1 = c / (1.0 + sb), y2 = c + sb * ax, y3 = c / (1.0 - sb);
+  return s * std::max(s * y1, std::max(s * y2, s * y3));  // s = ±1: exact sign flips
 }
 
 /// Joint-side tension x of a sliding branch given its motor-side tension y (forward step).
@@ -120,6 +123,49 @@ inline double branch_tension_downstream(double y, double sdot, BranchFriction f,
 }
 
 // ---- transmission statics with losses ---------------------------------------------------------
+
+namespace detail {
+/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); inputs already checked.
+template <int N, class V1, class V2>
+inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                         const V2& qd) {
+  const int n = N > 0 ? N : m.n;
+  velocities_from_joint_n<N>(m, d, qd);
+  const double* K = m.K.data();
+  double* T = d.tension.data();  // column-major, leading dimension n
+  bool locked_any = false;
+#pragma GCC unroll 8
+  for (int i = n - 1; i >= 0; --i) {
+    double own = torque_joint(i);  // joint equilibrium, S0 eq. 4
+#pragma GCC unroll 8
+    for (int k = i + 1; k < n; ++k) own -= K[k + i * n] * T[k + i * n];
+    // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`: own / (η_d n)
+    // driving (power > 0), η_i own / n back-driven (power < 0; nothing when self-locking), own / n at rest.
+    const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
+    const double power = own * qd(i);
+    const bool locking = reducer_self_locking(eta_d);
+    const double num = power < 0.0 ? reducer_inverse_efficiency(eta_d) * own : own;
+    const double den = power > 0.0 ? eta_d * ratio : ratio;
+    const bool locked = power < 0.0 && locking;
+    const double pulley = locked ? 0.0 : num / den;
+    d.self_locked(i) = locked;
+    locked_any = locked_any || locked;
+    double t = pulley / m.driven_radius(i);
+    T[i + i * n] = t;
+#pragma GCC unroll 8
+    for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
+      const double sdot = d.Sdot(i, b);
+      d.stuck(i, b) = sdot == 0.0;
+      if (sdot != 0.0) t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
+      if (b > 0) T[i + (b - 1) * n] = t;
+    }
+    d.tension_motor(i) = t;
+    d.torque_motor(i) = m.motor_radius(i) * t;
+    d.torque_joint(i) = torque_joint(i);
+  }
+  return locked_any ? Status::SelfLocked : Status::Ok;
+}
+}  // namespace detail
 
 /// Feedforward (a): joint torques wanted + current joint velocity → motor torques to command.
 ///
@@ -140,41 +186,11 @@ inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionD
                                        const V1& torque_joint, const V2& qd) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(torque_joint)) return Status::NonFiniteInput;
-  const Status sv = velocities_from_joint(m, d, qd);
-  if (is_error(sv)) return sv;
-  Status status = Status::Ok;
-  for (int i = m.n - 1; i >= 0; --i) {
-    double own = torque_joint(i);  // joint equilibrium, S0 eq. 4
-    for (int k = i + 1; k < m.n; ++k) own -= m.K(k, i) * d.tension(k, i);
-    // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`.
-    const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
-    const double power = own * qd(i);
-    double pulley = own / ratio;  // at rest: held statically, lossless
-    d.self_locked(i) = 0;
-    if (power > 0.0) {
-      pulley = own / (eta_d * ratio);
-    } else if (power < 0.0) {
-      if (reducer_self_locking(eta_d)) {
-        pulley = 0.0;
-        d.self_locked(i) = 1;
-        status = worst(status, Status::SelfLocked);
-      } else {
-        pulley = reducer_inverse_efficiency(eta_d) * own / ratio;
-      }
-    }
-    double t = pulley / m.driven_radius(i);
-    d.tension(i, i) = t;
-    for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
-      const double sdot = d.Sdot(i, b);
-      d.stuck(i, b) = sdot == 0.0;
-      if (sdot != 0.0) t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
-      if (b > 0) d.tension(i, b - 1) = t;
-    }
-    d.tension_motor(i) = t;
-    d.torque_motor(i) = m.motor_radius(i) * t;
-    d.torque_joint(i) = torque_joint(i);
-  }
-  return status;
+  if (qd.size() != m.n) return Status::SizeMismatch;
+  if (!all_finite(qd)) return Status::NonFiniteInput;
+  return dispatch_size(m.n, [&](auto N) {
+    return detail::motor_torque_feedforward_n<decltype(N)::value>(m, d, torque_joint, qd);
+  });
 }
 
 /// Forward (b): motor torques + current joint velocity → joint torques delivered.

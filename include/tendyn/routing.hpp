@@ -22,6 +22,7 @@
 #include <cstdlib>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -380,25 +381,59 @@ inline void branch_displacements(const TransmissionModel& m, TransmissionData& d
   }
 }
 
+/// Sizes the real-time calls are compiled for with a fixed n (loops unrolled, no loop-bound branches);
+/// any other n takes the same code with a run-time n. Same operations in the same order either way.
+constexpr int kMaxFixedTransmissions = 6;
+
+/// Call f(std::integral_constant<int, N>) with N = m.n when 1 ≤ n ≤ kMaxFixedTransmissions, N = 0 (run-time n)
+/// otherwise.
+template <class F>
+inline auto dispatch_size(int n, F&& f) {
+  switch (n) {
+    case 1: return f(std::integral_constant<int, 1>{});
+    case 2: return f(std::integral_constant<int, 2>{});
+    case 3: return f(std::integral_constant<int, 3>{});
+    case 4: return f(std::integral_constant<int, 4>{});
+    case 5: return f(std::integral_constant<int, 5>{});
+    case 6: return f(std::integral_constant<int, 6>{});
+    default: return f(std::integral_constant<int, 0>{});
+  }
+}
+
+namespace detail {
+/// velocities_from_joint for N transmissions (N = 0: m.n at run time); inputs already checked.
+template <int N, class VecIn>
+inline void velocities_from_joint_n(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
+  const int n = N > 0 ? N : m.n;
+  const double* K = m.K.data();  // column-major, leading dimension n
+#pragma GCC unroll 8
+  for (int i = 0; i < n; ++i) d.qd(i) = qd(i);
+#pragma GCC unroll 8
+  for (int i = 0; i < n; ++i) {
+    double s = 0.0;
+#pragma GCC unroll 8
+    for (int j = 0; j <= i; ++j) s += K[i + j * n] * qd(j);
+    d.qd_motor(i) = s / m.motor_radius(i);
+    // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
+    // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
+#pragma GCC unroll 8
+    for (int b = 0; b <= i; ++b) {
+      double sb = 0.0;
+#pragma GCC unroll 8
+      for (int l = b; l <= i; ++l) sb += K[i + l * n] * qd(l);
+      d.Sdot(i, b) = sb;
+    }
+  }
+}
+}  // namespace detail
+
 /// Joint velocities → motor and branch velocities (same linear maps as positions).
 /// Writes data.qd, data.qd_motor, data.Sdot.
 template <class VecIn>
 inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
   if (qd.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(qd)) return Status::NonFiniteInput;
-  for (int i = 0; i < m.n; ++i) d.qd(i) = qd(i);
-  for (int i = 0; i < m.n; ++i) {
-    double s = 0.0;
-    for (int j = 0; j <= i; ++j) s += m.K(i, j) * qd(j);
-    d.qd_motor(i) = s / m.motor_radius(i);
-    // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
-    // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
-    for (int b = 0; b <= i; ++b) {
-      double sb = 0.0;
-      for (int l = b; l <= i; ++l) sb += m.K(i, l) * qd(l);
-      d.Sdot(i, b) = sb;
-    }
-  }
+  dispatch_size(m.n, [&](auto N) { detail::velocities_from_joint_n<decltype(N)::value>(m, d, qd); });
   return Status::Ok;
 }
 

@@ -107,3 +107,52 @@ def run_log(model: _core.SimModel, data: _core.SimData, ref_q, ref_v, ff, torque
         out[name] = np.empty((rows, na))
     _core.run(model, data, *arrays, int(log_every), *(out[k] for k in LOG_FIELDS))
     return out
+
+
+def run_batch(models, datas, ref_q, ref_v, ff, torque_ext, log_every: int, threads: int = 0) -> dict:
+    """Many independent runs at once (design sweep, Monte Carlo over parameters): C++ ``tendyn::run_batch``.
+
+    Each run is stepped by the same allocation-free loop as :func:`run_log`, on its own ``SimData``; the runs
+    are spread over ``threads`` worker threads (0: one per hardware thread) with the GIL released. A run's
+    result does not depend on the thread that ran it: the batch equals the runs one after the other, bit for
+    bit.
+
+    Parameters
+    ----------
+    models : one ``SimModel`` for every run, or a sequence of one per run (same number of joints)
+    datas : sequence of ``SimData``, one per run (distinct objects), each made for its run's model
+    ref_q, ref_v, ff, torque_ext : (steps, na) shared by every run, or (runs, steps, na) one per run
+        [rad, rad/s, N·m, N·m], as for :func:`run_log`
+    log_every : log one row every this many steps (a multiple of every model's ``control_decimation``)
+    threads : worker threads (0 = one per hardware thread; never more than the runs)
+
+    Returns
+    -------
+    dict
+        the channels of :func:`run_log` with a leading run axis: ``time`` (runs, rows), the others
+        (runs, rows, na); and ``threads``, the number of threads used.
+    """
+    datas = list(datas)
+    models = [models] if isinstance(models, _core.SimModel) else list(models)
+    runs = len(datas)
+    if runs == 0:
+        raise ValueError("run_batch: no runs (datas is empty)")
+    na = models[0].na
+    arrays = []
+    for a in (ref_q, ref_v, ff, torque_ext):
+        a = np.asarray(a, dtype=float)
+        if a.ndim == 2:
+            a = a[None]
+        if a.ndim != 3 or a.shape[0] not in (1, runs) or a.shape[2] != na:
+            raise ValueError(f"run_batch: inputs must be (steps, {na}) or ({runs}, steps, {na}) (got {a.shape})")
+        arrays.append(np.ascontiguousarray(a))
+    steps = arrays[0].shape[1]
+    if int(log_every) < 1:
+        raise ValueError(f"log_every must be >= 1 (got {log_every})")
+    rows = (steps + int(log_every) - 1) // int(log_every)
+    out = {"time": np.empty((runs, rows))}
+    for name in LOG_FIELDS[1:]:
+        out[name] = np.empty((runs, rows, na))
+    out["threads"] = _core.run_batch(models, datas, *arrays, int(log_every), int(threads),
+                                     *(out[k] for k in LOG_FIELDS))
+    return out
