@@ -11,13 +11,18 @@
 //     the joint through ratio N (S2 §V-B); Coulomb/viscous friction on the motor.
 // Friction is solved at the velocity level every step (Moreau–Jean time stepping): each friction
 // site k has a Jacobian row g_k and a box [lo_k, hi_k] for its force; the impulses follow from a
-// projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started. A site whose
+// projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started, run in velocity
+// space: W is never formed; with B = (M + hD)⁻¹ Gᵀ and the diagonal W_kk = g_k B_k, a site update reads
+// its velocity u_k = g_k v (the nonzero range of g_k) and moves v by B_k Δp_k — the same iterates as
+// the sweep on W, at two length-nv products per site instead of one length-n_sites one. A site whose
 // force stays inside its box does not move: true stick, no creep; outside it slides with the
 // bound force (Coulomb). Viscous terms are implicit (D). Reducers get an asymmetric box: the
 // loss (1 − η_d)|n M_p| when the pulley drives the joint, (1 − η_d)/(2η_d − 1)|n M_p| when the joint
 // back-drives it (S0 eq. 10), unbounded when self-locking (η_d ≤ 0.5).
 // Sensors: quantised motor encoders, motor-torque (current) noise, sampling at the log rate.
 // Control: torque mode, joint-space or motor-space PID at a control rate, and a C hook.
+// Rigid body: mass matrix and bias forces in one kinematics pass (tree_dynamics.hpp) for trees of
+// revolute / prismatic joints; Pinocchio's crba + nonLinearEffects for anything else.
 // Model/Data convention; step() and run() allocate nothing; randomness from a seeded splitmix64.
 #pragma once
 
@@ -31,6 +36,7 @@
 
 #include "tendyn/losses.hpp"
 #include "tendyn/rigid_body.hpp"
+#include "tendyn/tree_dynamics.hpp"
 
 namespace tendyn {
 
@@ -120,7 +126,10 @@ struct SimModel {
   Eigen::MatrixXd M_rotor;          ///< constant mass added by the rotors
   Eigen::MatrixXd D;                ///< (nv, nv) implicit viscous damping
   Eigen::MatrixXd G;                ///< (n_sites, nv) site velocity Jacobians
+  Eigen::MatrixXd Gt;               ///< (nv, n_sites) Gᵀ: column k = g_kᵀ, contiguous
+  Eigen::VectorXi site_begin, site_end;  ///< nonzero range [begin, end) of each row g_k
   Eigen::VectorXi site_kind, site_i, site_b;
+  TreeDynamicsModel tree;           ///< the tree for the one-pass dynamics (tree.valid = false: Pinocchio)
 
   /// Size every default, build the site layout and the constant matrices. Allocates.
   Status finalize();
@@ -135,8 +144,9 @@ struct SimData {
   Eigen::VectorXd q, qd;            ///< active joint position [rad] / velocity [rad/s] (truth)
   Eigen::VectorXd q_motor, qd_motor; ///< motor position / velocity (truth) [rad, rad/s]
   Eigen::VectorXd q_tree, v_tree;
-  Eigen::MatrixXd ML, M, Mt, AGt, W;  // Mt: M + hD, then its Cholesky factor; AGt holds Y = L⁻¹ Gᵀ
-  Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
+  TreeDynamicsData tree;            ///< one-pass mass matrix and bias forces of the tree
+  Eigen::MatrixXd ML, M, Mt, Minv, B;  // Mt: M + hD, then its Cholesky factor; Minv = (M + hD)⁻¹; B = Minv Gᵀ
+  Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, sdot, u, p, lo, hi;  // sdot: site speeds at the step start
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
   Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
@@ -244,6 +254,15 @@ inline Status SimModel::finalize() {
       G(k, i) = 1.0;
       site_kind(k) = static_cast<int>(SiteKind::Lock); site_i(k) = i; site_b(k) = 0; ++k;
     }
+  Gt = G.transpose();
+  site_begin.resize(n_sites); site_end.resize(n_sites);
+  for (int s = 0; s < n_sites; ++s) {
+    int b = 0, e = nv;
+    while (b < nv && G(s, b) == 0.0) ++b;
+    while (e > b && G(s, e - 1) == 0.0) --e;
+    site_begin(s) = b; site_end(s) = e;
+  }
+  tree.build(body.pin);
   return Status::Ok;
 }
 
@@ -252,11 +271,12 @@ inline SimData::SimData(const SimModel& m)
       q(Eigen::VectorXd::Zero(m.na)), qd(Eigen::VectorXd::Zero(m.na)),
       q_motor(Eigen::VectorXd::Zero(m.na)), qd_motor(Eigen::VectorXd::Zero(m.na)),
       q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
-      ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
-      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), AGt(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
-      W(Eigen::MatrixXd::Zero(m.n_sites, m.n_sites)),
+      tree(m.tree), ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), Minv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      B(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
       F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
-      vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), u0(Eigen::VectorXd::Zero(m.n_sites)),
+      vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), Wdiag(Eigen::VectorXd::Zero(m.n_sites)),
+      sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
       lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
@@ -386,15 +406,25 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
 /// stuck site keeps is the solver's rounding residue, ~1e-18 m/s).
 constexpr double kRestSpeed = 1e-12;
 
-/// Friction force boxes [lo, hi] of every site from the current tension estimate [N or N·m].
+/// Velocity of friction site k [m/s or rad/s]: g_k v over the nonzero range of g_k, summed from the first
+/// nonzero (for a branch: Ṡ_ib = Σ_{j=b..i} K_ij q̇_j, the order of the statics).
+template <class V>
+inline double site_speed(const SimModel& m, int k, const V& v) {
+  const double* g = m.Gt.col(k).data();
+  double s = 0.0;
+  for (int j = m.site_begin(k); j < m.site_end(k); ++j) s += g[j] * v(j);
+  return s;
+}
+
+/// Friction force boxes [lo, hi] of every site from the current tension estimate and the site speeds
+/// d.sdot at the start of the step [N or N·m].
 inline void friction_bounds(const SimModel& m, SimData& d) {
   for (int k = 0; k < m.n_sites; ++k) {
     const int i = m.site_i(k), b = m.site_b(k);
     double lo = 0.0, hi = 0.0;
     switch (static_cast<SiteKind>(m.site_kind(k))) {
       case SiteKind::Branch: {
-        double sdot = 0.0;
-        for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
+        double sdot = d.sdot(k);
         // A stuck site keeps a PGS residue of ~1e-18 m/s: it is at rest (static threshold α p, S0 eq. 7),
         // not sliding at that speed (β p + h0).
         if (std::abs(sdot) <= kRestSpeed) sdot = 0.0;
@@ -424,7 +454,8 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
 }
 
 /// Tensions along each cable after a step, from the motor torque net of rotor inertia and the
-/// friction forces found on the branches (tension drop Δ = −λ + ν Ṡ, S0 eq. 6).
+/// friction forces found on the branches (tension drop Δ = −λ + ν Ṡ, S0 eq. 6). The branch speeds are
+/// the site speeds d.u at the end of the step (branch sites come first, in this order).
 inline void update_tensions(const SimModel& m, SimData& d) {
   if (m.drive != DriveKind::Tendon) return;
   const double h = m.dt;
@@ -434,36 +465,45 @@ inline void update_tensions(const SimModel& m, SimData& d) {
     double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / m.tendon.motor_radius(i);
     d.tension_motor(i) = t;
     for (int b = 0; b <= i; ++b, ++k) {
-      double sdot = 0.0;
-      for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
-      t -= -d.p(k) / h + m.tendon.nu(i, b) * sdot;
+      t -= -d.p(k) / h + m.tendon.nu(i, b) * d.u(k);
       d.tension(i, b) = t;
     }
   }
 }
 
-/// Projected Gauss–Seidel on the friction impulses p (warm-started). Returns the iterations used.
+/// Projected Gauss–Seidel (SOR) on the friction impulses p, warm-started, in velocity space: d.v starts
+/// at v_free + B p and follows every update (v += B_k Δp_k); u_k = g_k v is the site velocity W p + G v_free
+/// of the sweep on the Delassus matrix without forming it. Needs d.B, d.Wdiag and the boxes already scaled
+/// to impulses (h lo, h hi) with p clamped into them. Returns the sweeps used; leaves v⁺ in d.v.
 inline int solve_friction(const SimModel& m, SimData& d) {
-  const double h = m.dt;
-  bool any = false;
-  for (int k = 0; k < m.n_sites; ++k) {
-    d.lo(k) *= h; d.hi(k) *= h;
-    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
-    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
-  }
-  if (!any) return 0;  // no friction this step
-  d.u0.noalias() = m.G.lazyProduct(d.vfree);
+  const int nv = m.nv, ns = m.n_sites;
+  double* v = d.v.data();
+  const double* vf = d.vfree.data();
+  for (int j = 0; j < nv; ++j) v[j] = vf[j];
+  for (int k = 0; k < ns; ++k)
+    if (d.p(k) != 0.0) {
+      const double* bk = d.B.col(k).data();
+      const double pk = d.p(k);
+      for (int j = 0; j < nv; ++j) v[j] += bk[j] * pk;
+    }
+  const double omega = m.pgs_relaxation;
   int it = 0;
   for (; it < m.pgs_max_iterations; ++it) {
     double change = 0.0, pmax = 0.0;
-    for (int k = 0; k < m.n_sites; ++k) {
-      const double Wkk = d.W(k, k);
+    for (int k = 0; k < ns; ++k) {
+      const double Wkk = d.Wdiag(k);
       if (!(Wkk > 0.0) || (d.lo(k) == 0.0 && d.hi(k) == 0.0)) continue;
-      const double uk = d.u0(k) + d.W.col(k).dot(d.p);  // W symmetric: contiguous column
-      const double pk = std::max(d.lo(k), std::min(d.hi(k), d.p(k) - m.pgs_relaxation * uk / Wkk));
-      change = std::max(change, std::abs(pk - d.p(k)));
+      const double uk = site_speed(m, k, d.v);
+      const double pold = d.p(k);
+      const double pk = std::max(d.lo(k), std::min(d.hi(k), pold - omega * uk / Wkk));
+      const double dp = pk - pold;
+      change = std::max(change, std::abs(dp));
       pmax = std::max(pmax, std::abs(pk));
       d.p(k) = pk;
+      if (dp != 0.0) {
+        const double* bk = d.B.col(k).data();
+        for (int j = 0; j < nv; ++j) v[j] += bk[j] * dp;
+      }
     }
     // converged when the impulses stop changing, relative to the largest one
     if (change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
@@ -471,31 +511,53 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   return it;
 }
 
+/// Mass matrix and bias forces of the tree at (q_tree, v_tree): one pass (tree_dynamics.hpp) when the tree
+/// allows it, else Pinocchio. Returns references to the (both-triangle) mass matrix and the bias forces.
+template <class V1, class V2>
+inline void tree_dynamics(const SimModel& m, SimData& d, const V1& q, const V2& v, const Eigen::MatrixXd*& Mtree,
+                          const Eigen::VectorXd*& nle) {
+  if (m.tree.valid) {
+    tree_mass_and_bias(m.tree, d.tree, q, v);
+    Mtree = &d.tree.M;
+    nle = &d.tree.nle;
+  } else {
+    pinocchio::crba(m.body.pin, d.body.pin, q);
+    d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
+    pinocchio::nonLinearEffects(m.body.pin, d.body.pin, q, v);
+    Mtree = &d.body.pin.M;
+    nle = &d.body.pin.nle;
+  }
+}
+
 /// Advance one step of m.dt. Inputs are those of control() plus the external joint torque.
 template <class V1, class V2, class V3, class V4>
 inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref_v, const V3& ff,
                    const V4& torque_ext) {
-  const int na = m.na;
+  const int na = m.na, nv = m.nv, ns = m.n_sites;
   const double h = m.dt;
   motor_state(m, d);
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
 
   // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
-  d.q_tree.noalias() = m.L.lazyProduct(d.q);
-  d.q_tree += m.c;
-  d.v_tree.noalias() = m.L.lazyProduct(d.qd);
-  pinocchio::crba(m.body.pin, d.body.pin, d.q_tree);
-  d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
-  pinocchio::nonLinearEffects(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
+  const Eigen::MatrixXd* Mtree = nullptr;
+  const Eigen::VectorXd* nle = nullptr;
+  if (m.identity_map) {
+    tree_dynamics(m, d, d.q, d.qd, Mtree, nle);
+  } else {
+    d.q_tree.noalias() = m.L.lazyProduct(d.q);
+    d.q_tree += m.c;
+    d.v_tree.noalias() = m.L.lazyProduct(d.qd);
+    tree_dynamics(m, d, d.q_tree, d.v_tree, Mtree, nle);
+  }
   d.M = m.M_rotor;
   d.F.setZero();
   if (m.identity_map) {  // serial chain: no projection
-    d.M.topLeftCorner(na, na) += d.body.pin.M;
-    d.F.head(na) = -d.body.pin.nle;
+    d.M.topLeftCorner(na, na) += *Mtree;
+    d.F.head(na) = -*nle;
   } else {
-    d.ML.noalias() = d.body.pin.M.lazyProduct(m.L);
+    d.ML.noalias() = Mtree->lazyProduct(m.L);
     d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
-    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(d.body.pin.nle);
+    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(*nle);
   }
   for (int i = 0; i < na; ++i) d.F(i) += torque_ext(i) - m.offset_joint(i);
   if (m.drive == DriveKind::Tendon) {
@@ -512,28 +574,44 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
     if (m.drive == DriveKind::Elastic) d.v(na + i) = d.qd_motor(i);
   }
 
-  // (M + hD) v⁺ = M v + h F + Gᵀ p
+  // (M + hD) v⁺ = M v + h F + Gᵀ p, with (M + hD)⁻¹ formed once from its Cholesky factor
   d.Mt = d.M;
   d.Mt.noalias() += h * m.D;
   if (!cholesky_in_place(d.Mt)) return Status::InvalidModel;  // singular inertia
   d.rhs.noalias() = d.M.lazyProduct(d.v);
   d.rhs += h * d.F;
-  d.vfree = d.rhs;
-  cholesky_solve_in_place(d.Mt, d.vfree);
-  if (m.n_sites > 0) {
-    // Delassus W = G (L Lᵀ)⁻¹ Gᵀ = Yᵀ Y with Y = L⁻¹ Gᵀ (one triangular solve instead of two)
-    d.AGt = m.G.transpose();
-    cholesky_forward_in_place(d.Mt, d.AGt);
-    for (int j = 0; j < m.n_sites; ++j)  // symmetric: lower half, mirrored; columns of Y are contiguous
-      for (int i = j; i < m.n_sites; ++i) d.W(j, i) = d.W(i, j) = d.AGt.col(i).dot(d.AGt.col(j));
-    friction_bounds(m, d);
-    d.pgs_iterations = solve_friction(m, d);
-    d.Dv.noalias() = d.AGt.lazyProduct(d.p);  // v⁺ = v_free + L⁻ᵀ (Y p)
-    cholesky_backward_in_place(d.Mt, d.Dv);
-    d.vfree += d.Dv;
-    d.u.noalias() = m.G.lazyProduct(d.vfree);
-    d.dissipated -= d.u.dot(d.p);
+  d.Minv.setIdentity();
+  cholesky_solve_in_place(d.Mt, d.Minv);
+  d.vfree.noalias() = d.Minv.lazyProduct(d.rhs);
+  for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed(m, k, d.v);  // site speeds at the step start
+  friction_bounds(m, d);
+  bool any = false;
+  for (int k = 0; k < ns; ++k) {
+    d.lo(k) *= h; d.hi(k) *= h;
+    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
+    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
   }
+  if (any) {
+    // B = (M + hD)⁻¹ Gᵀ over the nonzero range of each g_k; W_kk = g_k B_k
+    for (int k = 0; k < ns; ++k) {
+      double* bk = d.B.col(k).data();
+      const double* g = m.Gt.col(k).data();
+      for (int r = 0; r < nv; ++r) bk[r] = 0.0;
+      for (int j = m.site_begin(k); j < m.site_end(k); ++j) {
+        const double gj = g[j];
+        const double* mj = d.Minv.col(j).data();
+        for (int r = 0; r < nv; ++r) bk[r] += mj[r] * gj;
+      }
+      d.Wdiag(k) = site_speed(m, k, d.B.col(k));
+    }
+    d.pgs_iterations = solve_friction(m, d);
+    // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
+    d.vfree.noalias() += d.B.lazyProduct(d.p);
+  } else {
+    d.pgs_iterations = 0;  // no friction this step (p clamped to zero)
+  }
+  for (int k = 0; k < ns; ++k) d.u(k) = site_speed(m, k, d.vfree);
+  if (ns > 0) d.dissipated -= d.u.dot(d.p);
   // viscous dissipation and work done by the motors / external torques over the step
   d.Dv.noalias() = m.D.lazyProduct(d.vfree);
   d.dissipated += h * d.vfree.dot(d.Dv);
