@@ -26,6 +26,7 @@ CMAKE = """cmake_minimum_required(VERSION 3.18)
 project(step_profile CXX)
 set(CMAKE_CXX_STANDARD 17)
 set(CMAKE_BUILD_TYPE Release)
+set(CMAKE_CXX_FLAGS "${CMAKE_CXX_FLAGS} -g")  # line-level profiles; -g does not change the generated code
 find_package(Python 3.9 COMPONENTS Interpreter REQUIRED)
 execute_process(COMMAND "${Python_EXECUTABLE}" -m cmeel cmake OUTPUT_VARIABLE P OUTPUT_STRIP_TRAILING_WHITESPACE)
 list(APPEND CMAKE_PREFIX_PATH "${P}")

@@ -145,8 +145,9 @@ struct SimData {
   Eigen::VectorXd q_motor, qd_motor; ///< motor position / velocity (truth) [rad, rad/s]
   Eigen::VectorXd q_tree, v_tree;
   TreeDynamicsData tree;            ///< one-pass mass matrix and bias forces of the tree
-  Eigen::MatrixXd ML, M, Mt, Minv, B;  // Mt: M + hD, then its Cholesky factor; Minv = (M + hD)⁻¹; B = Minv Gᵀ
+  Eigen::MatrixXd ML, M, Mt, Linv, Minv, B;  // Mt: Cholesky factor L of M + hD; Minv = (M + hD)⁻¹; B = Minv Gᵀ
   Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, sdot, u, p, lo, hi;  // sdot: site speeds at the step start
+  Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
   Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
@@ -272,13 +273,14 @@ inline SimData::SimData(const SimModel& m)
       q_motor(Eigen::VectorXd::Zero(m.na)), qd_motor(Eigen::VectorXd::Zero(m.na)),
       q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
       tree(m.tree), ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
-      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), Minv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), Linv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      Minv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       B(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
       F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
       vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), Wdiag(Eigen::VectorXd::Zero(m.n_sites)),
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
-      lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)),
+      lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
       torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
@@ -288,63 +290,21 @@ inline SimData::SimData(const SimModel& m)
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
       qd_motor_prev(Eigen::VectorXd::Zero(m.na)) {}
 
-/// Cholesky factor of a small SPD matrix in place (lower triangle; plain loops, no allocation).
-/// Returns false if the matrix is not positive definite.
-inline bool cholesky_in_place(Eigen::MatrixXd& A) {
-  const Eigen::Index n = A.rows();
-  for (Eigen::Index j = 0; j < n; ++j) {
-    double diag = A(j, j);
-    for (Eigen::Index k = 0; k < j; ++k) diag -= A(j, k) * A(j, k);
-    if (!(diag > 0.0)) return false;
-    A(j, j) = std::sqrt(diag);
-    for (Eigen::Index i = j + 1; i < n; ++i) {
-      double v = A(i, j);
-      for (Eigen::Index k = 0; k < j; ++k) v -= A(i, k) * A(j, k);
-      A(i, j) = v / A(j, j);
-    }
-  }
-  return true;
-}
-
-/// Forward substitution L Y = B in place, L the lower factor stored in `factor` (small sizes: plain loops,
-/// no blocking, no allocation).
-template <class Mat>
-inline void cholesky_forward_in_place(const Eigen::MatrixXd& factor, Mat& B) {
-  const Eigen::Index n = factor.rows();
-  for (Eigen::Index c = 0; c < B.cols(); ++c)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      double s = B(i, c);
-      for (Eigen::Index k = 0; k < i; ++k) s -= factor(i, k) * B(k, c);
-      B(i, c) = s / factor(i, i);
-    }
-}
-
-/// Back substitution Lᵀ X = Y in place.
-template <class Mat>
-inline void cholesky_backward_in_place(const Eigen::MatrixXd& factor, Mat& B) {
-  const Eigen::Index n = factor.rows();
-  for (Eigen::Index c = 0; c < B.cols(); ++c)
-    for (Eigen::Index i = n - 1; i >= 0; --i) {
-      double s = B(i, c);
-      for (Eigen::Index k = i + 1; k < n; ++k) s -= factor(k, i) * B(k, c);
-      B(i, c) = s / factor(i, i);
-    }
-}
-
-/// Solve (L Lᵀ) X = B in place.
-template <class Mat>
-inline void cholesky_solve_in_place(const Eigen::MatrixXd& factor, Mat& B) {
-  cholesky_forward_in_place(factor, B);
-  cholesky_backward_in_place(factor, B);
-}
-
 // ---- pieces of a step --------------------------------------------------------------------------
 
 /// Motor position from the state (slaved for tendon drives).
 inline void motor_state(const SimModel& m, SimData& d) {
-  if (m.drive == DriveKind::Tendon) {
-    d.q_motor.noalias() = m.Gm.lazyProduct(d.q);
-    d.qd_motor.noalias() = m.Gm.lazyProduct(d.qd);
+  if (m.drive != DriveKind::Tendon) return;
+  const int n = m.na;
+  const double* G = m.Gm.data();
+  for (int i = 0; i < n; ++i) {
+    double a = 0.0, b = 0.0;
+    for (int j = 0; j < n; ++j) {
+      a += G[i + j * n] * d.q(j);
+      b += G[i + j * n] * d.qd(j);
+    }
+    d.q_motor(i) = a;
+    d.qd_motor(i) = b;
   }
 }
 
@@ -406,13 +366,21 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
 /// stuck site keeps is the solver's rounding residue, ~1e-18 m/s).
 constexpr double kRestSpeed = 1e-12;
 
-/// Velocity of friction site k [m/s or rad/s]: g_k v over the nonzero range of g_k, summed from the first
-/// nonzero (for a branch: Ṡ_ib = Σ_{j=b..i} K_ij q̇_j, the order of the statics).
-template <class V>
-inline double site_speed(const SimModel& m, int k, const V& v) {
-  const double* g = m.Gt.col(k).data();
+namespace detail {
+/// Compile-time size N (1 … 8, loops unrolled) or the run-time n (N ≤ 0).
+template <int N>
+constexpr int dim(int n) { return N > 0 ? N : n; }
+}  // namespace detail
+
+/// Velocity of friction site k [m/s or rad/s]: g_k v as a dense ascending sum over the nv entries
+/// (the zeros before the first nonzero add nothing: for a branch this is Ṡ_ib = Σ_{j=b..i} K_ij q̇_j
+/// summed in the order of the statics).
+template <int NV = 0>
+inline double site_speed(const SimModel& m, int k, const double* v) {
+  const int nv = detail::dim<NV>(m.nv);
+  const double* g = m.Gt.data() + static_cast<Eigen::Index>(k) * nv;
   double s = 0.0;
-  for (int j = m.site_begin(k); j < m.site_end(k); ++j) s += g[j] * v(j);
+  for (int j = 0; j < nv; ++j) s += g[j] * v[j];
   return s;
 }
 
@@ -471,39 +439,39 @@ inline void update_tensions(const SimModel& m, SimData& d) {
   }
 }
 
-/// Projected Gauss–Seidel (SOR) on the friction impulses p, warm-started, in velocity space: d.v starts
-/// at v_free + B p and follows every update (v += B_k Δp_k); u_k = g_k v is the site velocity W p + G v_free
-/// of the sweep on the Delassus matrix without forming it. Needs d.B, d.Wdiag and the boxes already scaled
-/// to impulses (h lo, h hi) with p clamped into them. Returns the sweeps used; leaves v⁺ in d.v.
+namespace detail {
+
+/// Projected Gauss–Seidel (SOR) on the friction impulses p, warm-started, in velocity space: v starts at
+/// v_free + B p and follows every update (v += B_k Δp_k); u_k = g_k v is the site velocity G v_free + W p
+/// of the sweep on the Delassus matrix W, which is never formed. Needs d.B, d.Wdiag and the boxes scaled
+/// to impulses (h lo, h hi) with p clamped into them. Returns the sweeps used.
+template <int NV>
 inline int solve_friction(const SimModel& m, SimData& d) {
-  const int nv = m.nv, ns = m.n_sites;
+  const int nv = dim<NV>(m.nv), ns = m.n_sites;
   double* v = d.v.data();
-  const double* vf = d.vfree.data();
-  for (int j = 0; j < nv; ++j) v[j] = vf[j];
+  double* p = d.p.data();
+  const double* B = d.B.data();
+  const double *lo = d.lo.data(), *hi = d.hi.data(), *W = d.Wdiag.data();
+  for (int j = 0; j < nv; ++j) v[j] = d.vfree(j);
   for (int k = 0; k < ns; ++k)
-    if (d.p(k) != 0.0) {
-      const double* bk = d.B.col(k).data();
-      const double pk = d.p(k);
-      for (int j = 0; j < nv; ++j) v[j] += bk[j] * pk;
-    }
+    if (p[k] != 0.0)
+      for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * p[k];
   const double omega = m.pgs_relaxation;
   int it = 0;
   for (; it < m.pgs_max_iterations; ++it) {
     double change = 0.0, pmax = 0.0;
     for (int k = 0; k < ns; ++k) {
-      const double Wkk = d.Wdiag(k);
-      if (!(Wkk > 0.0) || (d.lo(k) == 0.0 && d.hi(k) == 0.0)) continue;
-      const double uk = site_speed(m, k, d.v);
-      const double pold = d.p(k);
-      const double pk = std::max(d.lo(k), std::min(d.hi(k), pold - omega * uk / Wkk));
+      const double Wkk = W[k];
+      if (!(Wkk > 0.0) || (lo[k] == 0.0 && hi[k] == 0.0)) continue;
+      const double uk = site_speed<NV>(m, k, v);
+      const double pold = p[k];
+      const double pk = std::max(lo[k], std::min(hi[k], pold - omega * uk / Wkk));
       const double dp = pk - pold;
       change = std::max(change, std::abs(dp));
       pmax = std::max(pmax, std::abs(pk));
-      d.p(k) = pk;
-      if (dp != 0.0) {
-        const double* bk = d.B.col(k).data();
-        for (int j = 0; j < nv; ++j) v[j] += bk[j] * dp;
-      }
+      p[k] = pk;
+      if (dp != 0.0)
+        for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * dp;
     }
     // converged when the impulses stop changing, relative to the largest one
     if (change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
@@ -511,8 +479,148 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   return it;
 }
 
+/// The part of a step sized by nv, after the tree dynamics: assemble M and F, factor M + hD and invert it,
+/// solve the friction impulses, leave v⁺ in d.vfree and the site speeds at v⁺ in d.u. Plain loops over
+/// column-major storage; NV > 0 fixes nv at compile time. Allocates nothing.
+template <int NV>
+inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mtree, const Eigen::VectorXd& nle) {
+  const int nv = dim<NV>(m.nv), na = m.na, ns = m.n_sites;
+  const double h = m.dt;
+  double* M = d.M.data();
+  double* F = d.F.data();
+  const double* Mr = m.M_rotor.data();
+  for (int t = 0; t < nv * nv; ++t) M[t] = Mr[t];
+  for (int j = 0; j < nv; ++j) F[j] = 0.0;
+  if (m.identity_map) {  // serial chain: no projection
+    const double* Mt = Mtree.data();
+    for (int c = 0; c < na; ++c)
+      for (int r = 0; r < na; ++r) M[r + c * nv] += Mt[r + c * na];
+    for (int i = 0; i < na; ++i) F[i] = -nle(i);
+  } else {  // M_a = Lᵀ M L, b_a = Lᵀ nle
+    d.ML.noalias() = Mtree.lazyProduct(m.L);
+    d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
+    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(nle);
+  }
+  for (int i = 0; i < na; ++i) F[i] += d.ext(i);
+  if (m.drive == DriveKind::Tendon) {  // Kᵀ R_m⁻¹ C_m
+    const double* G = m.Gm.data();
+    for (int j = 0; j < na; ++j) {
+      double s = 0.0;
+      for (int i = 0; i < na; ++i) s += G[i + j * na] * d.torque_motor(i);
+      F[j] += s;
+    }
+  } else {
+    for (int i = 0; i < na; ++i) {
+      const double spring = m.stiffness_motor(i) * (d.q_motor(i) - m.ratio(i) * d.q(i));
+      F[i] += m.ratio(i) * spring;
+      F[na + i] = d.torque_motor(i) - spring;
+    }
+  }
+  double* v = d.v.data();
+  for (int i = 0; i < na; ++i) {
+    v[i] = d.qd(i);
+    if (m.drive == DriveKind::Elastic) v[na + i] = d.qd_motor(i);
+  }
+
+  // (M + hD) v⁺ = M v + h F + Gᵀ p. Cholesky factor L of M + hD (lower triangle of d.Mt), then
+  // (M + hD)⁻¹ = L⁻ᵀ L⁻¹ (L⁻¹ in d.Linv): one inverse serves v_free and every column of B.
+  double* L = d.Mt.data();
+  double* Li = d.Linv.data();
+  double* Mi = d.Minv.data();
+  double* rd = d.Dv.data();  // reciprocal diagonal of L
+  const double* D = m.D.data();
+  for (int c = 0; c < nv; ++c)
+    for (int r = c; r < nv; ++r) L[r + c * nv] = M[r + c * nv] + h * D[r + c * nv];
+  for (int j = 0; j < nv; ++j) {
+    double diag = L[j + j * nv];
+    for (int k = 0; k < j; ++k) diag -= L[j + k * nv] * L[j + k * nv];
+    if (!(diag > 0.0)) return Status::InvalidModel;  // singular inertia
+    const double ljj = std::sqrt(diag);
+    L[j + j * nv] = ljj;
+    rd[j] = 1.0 / ljj;
+    for (int i = j + 1; i < nv; ++i) {
+      double s = L[i + j * nv];
+      for (int k = 0; k < j; ++k) s -= L[i + k * nv] * L[j + k * nv];
+      L[i + j * nv] = s * rd[j];
+    }
+  }
+  for (int j = 0; j < nv; ++j) {  // L⁻¹, column j, rows i ≥ j
+    Li[j + j * nv] = rd[j];
+    for (int i = j + 1; i < nv; ++i) {
+      double s = 0.0;
+      for (int k = j; k < i; ++k) s += L[i + k * nv] * Li[k + j * nv];
+      Li[i + j * nv] = -s * rd[i];
+    }
+  }
+  for (int j = 0; j < nv; ++j)  // (L⁻¹)ᵀ L⁻¹, symmetric
+    for (int i = j; i < nv; ++i) {
+      double s = 0.0;
+      for (int k = i; k < nv; ++k) s += Li[k + i * nv] * Li[k + j * nv];
+      Mi[i + j * nv] = Mi[j + i * nv] = s;
+    }
+  double* vf = d.vfree.data();
+  double* rhs = d.rhs.data();
+  for (int r = 0; r < nv; ++r) {
+    double s = 0.0;
+    for (int c = 0; c < nv; ++c) s += M[r + c * nv] * v[c];
+    rhs[r] = s + h * F[r];
+  }
+  for (int r = 0; r < nv; ++r) {
+    double s = 0.0;
+    for (int c = 0; c < nv; ++c) s += Mi[r + c * nv] * rhs[c];
+    vf[r] = s;
+  }
+  for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed<NV>(m, k, v);  // site speeds at the step start
+  friction_bounds(m, d);
+  bool any = false;
+  for (int k = 0; k < ns; ++k) {
+    d.lo(k) *= h; d.hi(k) *= h;
+    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
+    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
+  }
+  if (any) {
+    // B = (M + hD)⁻¹ Gᵀ over the nonzero range of each g_k; W_kk = g_k B_k
+    double* B = d.B.data();
+    const double* Gt = m.Gt.data();
+    for (int k = 0; k < ns; ++k) {
+      double* bk = B + k * nv;
+      const double* g = Gt + k * nv;
+      for (int r = 0; r < nv; ++r) bk[r] = 0.0;
+      for (int j = m.site_begin(k); j < m.site_end(k); ++j)
+        for (int r = 0; r < nv; ++r) bk[r] += Mi[r + j * nv] * g[j];
+      d.Wdiag(k) = site_speed<NV>(m, k, bk);
+    }
+    d.pgs_iterations = solve_friction<NV>(m, d);
+    // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
+    for (int k = 0; k < ns; ++k) {
+      const double pk = d.p(k);
+      if (pk != 0.0)
+        for (int r = 0; r < nv; ++r) vf[r] += B[k * nv + r] * pk;
+    }
+  } else {
+    d.pgs_iterations = 0;  // no friction this step (p clamped to zero)
+  }
+  double diss = 0.0;
+  for (int k = 0; k < ns; ++k) {
+    d.u(k) = site_speed<NV>(m, k, vf);
+    diss += d.u(k) * d.p(k);
+  }
+  d.dissipated -= diss;
+  // viscous dissipation vᵀ D v over the step
+  double visc = 0.0;
+  for (int c = 0; c < nv; ++c) {
+    double s = 0.0;
+    for (int r = 0; r < nv; ++r) s += D[r + c * nv] * vf[r];
+    visc += vf[c] * s;
+  }
+  d.dissipated += h * visc;
+  return Status::Ok;
+}
+
+}  // namespace detail
+
 /// Mass matrix and bias forces of the tree at (q_tree, v_tree): one pass (tree_dynamics.hpp) when the tree
-/// allows it, else Pinocchio. Returns references to the (both-triangle) mass matrix and the bias forces.
+/// allows it, else Pinocchio. Points Mtree / nle at the (both-triangle) mass matrix and the bias forces.
 template <class V1, class V2>
 inline void tree_dynamics(const SimModel& m, SimData& d, const V1& q, const V2& v, const Eigen::MatrixXd*& Mtree,
                           const Eigen::VectorXd*& nle) {
@@ -533,10 +641,11 @@ inline void tree_dynamics(const SimModel& m, SimData& d, const V1& q, const V2& 
 template <class V1, class V2, class V3, class V4>
 inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref_v, const V3& ff,
                    const V4& torque_ext) {
-  const int na = m.na, nv = m.nv, ns = m.n_sites;
+  const int na = m.na;
   const double h = m.dt;
   motor_state(m, d);
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
+  for (int i = 0; i < na; ++i) d.ext(i) = torque_ext(i) - m.offset_joint(i);
 
   // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
   const Eigen::MatrixXd* Mtree = nullptr;
@@ -549,77 +658,25 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
     d.v_tree.noalias() = m.L.lazyProduct(d.qd);
     tree_dynamics(m, d, d.q_tree, d.v_tree, Mtree, nle);
   }
-  d.M = m.M_rotor;
-  d.F.setZero();
-  if (m.identity_map) {  // serial chain: no projection
-    d.M.topLeftCorner(na, na) += *Mtree;
-    d.F.head(na) = -*nle;
-  } else {
-    d.ML.noalias() = Mtree->lazyProduct(m.L);
-    d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
-    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(*nle);
+  Status st;
+  switch (m.nv) {  // fixed sizes for the small systems (loops unrolled), run-time size above
+    case 1: st = detail::step_core<1>(m, d, *Mtree, *nle); break;
+    case 2: st = detail::step_core<2>(m, d, *Mtree, *nle); break;
+    case 3: st = detail::step_core<3>(m, d, *Mtree, *nle); break;
+    case 4: st = detail::step_core<4>(m, d, *Mtree, *nle); break;
+    case 5: st = detail::step_core<5>(m, d, *Mtree, *nle); break;
+    case 6: st = detail::step_core<6>(m, d, *Mtree, *nle); break;
+    case 7: st = detail::step_core<7>(m, d, *Mtree, *nle); break;
+    case 8: st = detail::step_core<8>(m, d, *Mtree, *nle); break;
+    default: st = detail::step_core<0>(m, d, *Mtree, *nle); break;
   }
-  for (int i = 0; i < na; ++i) d.F(i) += torque_ext(i) - m.offset_joint(i);
-  if (m.drive == DriveKind::Tendon) {
-    d.F.head(na).noalias() += m.Gm.transpose().lazyProduct(d.torque_motor);  // Kᵀ R_m⁻¹ C_m
-  } else {
-    for (int i = 0; i < na; ++i) {
-      const double spring = m.stiffness_motor(i) * (d.q_motor(i) - m.ratio(i) * d.q(i));
-      d.F(i) += m.ratio(i) * spring;
-      d.F(na + i) = d.torque_motor(i) - spring;
-    }
-  }
-  for (int i = 0; i < na; ++i) {
-    d.v(i) = d.qd(i);
-    if (m.drive == DriveKind::Elastic) d.v(na + i) = d.qd_motor(i);
-  }
-
-  // (M + hD) v⁺ = M v + h F + Gᵀ p, with (M + hD)⁻¹ formed once from its Cholesky factor
-  d.Mt = d.M;
-  d.Mt.noalias() += h * m.D;
-  if (!cholesky_in_place(d.Mt)) return Status::InvalidModel;  // singular inertia
-  d.rhs.noalias() = d.M.lazyProduct(d.v);
-  d.rhs += h * d.F;
-  d.Minv.setIdentity();
-  cholesky_solve_in_place(d.Mt, d.Minv);
-  d.vfree.noalias() = d.Minv.lazyProduct(d.rhs);
-  for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed(m, k, d.v);  // site speeds at the step start
-  friction_bounds(m, d);
-  bool any = false;
-  for (int k = 0; k < ns; ++k) {
-    d.lo(k) *= h; d.hi(k) *= h;
-    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
-    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
-  }
-  if (any) {
-    // B = (M + hD)⁻¹ Gᵀ over the nonzero range of each g_k; W_kk = g_k B_k
-    for (int k = 0; k < ns; ++k) {
-      double* bk = d.B.col(k).data();
-      const double* g = m.Gt.col(k).data();
-      for (int r = 0; r < nv; ++r) bk[r] = 0.0;
-      for (int j = m.site_begin(k); j < m.site_end(k); ++j) {
-        const double gj = g[j];
-        const double* mj = d.Minv.col(j).data();
-        for (int r = 0; r < nv; ++r) bk[r] += mj[r] * gj;
-      }
-      d.Wdiag(k) = site_speed(m, k, d.B.col(k));
-    }
-    d.pgs_iterations = solve_friction(m, d);
-    // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
-    d.vfree.noalias() += d.B.lazyProduct(d.p);
-  } else {
-    d.pgs_iterations = 0;  // no friction this step (p clamped to zero)
-  }
-  for (int k = 0; k < ns; ++k) d.u(k) = site_speed(m, k, d.vfree);
-  if (ns > 0) d.dissipated -= d.u.dot(d.p);
-  // viscous dissipation and work done by the motors / external torques over the step
-  d.Dv.noalias() = m.D.lazyProduct(d.vfree);
-  d.dissipated += h * d.vfree.dot(d.Dv);
+  if (is_error(st)) return st;
+  // work done by the motors / external torques over the step
   d.qd_motor_prev = d.qd_motor;
   for (int i = 0; i < na; ++i) {
     d.qd(i) = d.vfree(i);
     d.q(i) += h * d.qd(i);
-    d.work_external += h * (torque_ext(i) - m.offset_joint(i)) * d.qd(i);
+    d.work_external += h * d.ext(i) * d.qd(i);
     if (m.drive == DriveKind::Elastic) {
       d.qd_motor(i) = d.vfree(na + i);
       d.q_motor(i) += h * d.qd_motor(i);
