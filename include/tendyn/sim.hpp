@@ -148,6 +148,7 @@ struct SimData {
   Eigen::MatrixXd ML, M, Mt, Linv, Minv, B;  // Mt: Cholesky factor L of M + hD; Minv = (M + hD)⁻¹; B = Minv Gᵀ
   Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, sdot, u, p, lo, hi;  // sdot: site speeds at the step start
   Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
+  Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
   Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
@@ -281,6 +282,7 @@ inline SimData::SimData(const SimModel& m)
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
       lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
+      active(Eigen::VectorXi::Zero(m.n_sites)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
       torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
@@ -456,13 +458,18 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   for (int k = 0; k < ns; ++k)
     if (p[k] != 0.0)
       for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * p[k];
+  // the sites that take part this step: a nonzero box and a positive W_kk
+  int* active = d.active.data();
+  int na_sites = 0;
+  for (int k = 0; k < ns; ++k)
+    if (W[k] > 0.0 && !(lo[k] == 0.0 && hi[k] == 0.0)) active[na_sites++] = k;
   const double omega = m.pgs_relaxation;
   int it = 0;
   for (; it < m.pgs_max_iterations; ++it) {
     double change = 0.0, pmax = 0.0;
-    for (int k = 0; k < ns; ++k) {
+    for (int a = 0; a < na_sites; ++a) {
+      const int k = active[a];
       const double Wkk = W[k];
-      if (!(Wkk > 0.0) || (lo[k] == 0.0 && hi[k] == 0.0)) continue;
       const double uk = site_speed<NV>(m, k, v);
       const double pold = p[k];
       const double pk = std::max(lo[k], std::min(hi[k], pold - omega * uk / Wkk));
