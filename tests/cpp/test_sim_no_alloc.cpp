@@ -142,7 +142,7 @@ static void tree_dynamics_matches_pinocchio() {
   tendyn::RigidBodyModel body;
   std::srand(7);
   auto rnd = [] { return 2.0 * std::rand() / RAND_MAX - 1.0; };
-  const int parents[6] = {0, 1, 2, 2, 4, 3};  // joint 4 branches off joint 2 beside joint 3
+  const int parents[6] = {0, 1, 2, 3, 2, 5};  // joint 5 branches off joint 2 beside joint 3 (depth-first order)
   for (int j = 0; j < 6; ++j) {
     Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
     T.topLeftCorner<3, 3>() = Eigen::AngleAxisd(rnd() * 3.0, Eigen::Vector3d(rnd(), rnd(), rnd()).normalized())
