@@ -149,6 +149,8 @@ struct SimData {
   Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, sdot, u, p, lo, hi;  // sdot: site speeds at the step start
   Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
   Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
+  Eigen::VectorXd v_end;            ///< v⁺ of the last step (d.u holds the site speeds there)
+  bool v_end_valid = false;
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
   Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
@@ -282,7 +284,7 @@ inline SimData::SimData(const SimModel& m)
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
       lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
-      active(Eigen::VectorXi::Zero(m.n_sites)),
+      active(Eigen::VectorXi::Zero(m.n_sites)), v_end(Eigen::VectorXd::Zero(m.nv)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
       torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
@@ -577,7 +579,14 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
     for (int c = 0; c < nv; ++c) s += Mi[r + c * nv] * rhs[c];
     vf[r] = s;
   }
-  for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed<NV>(m, k, v);  // site speeds at the step start
+  // site speeds at the step start: those found at the end of the last step while v is the same (bit for
+  // bit), else summed afresh (first step, or a state set from outside)
+  bool same_v = d.v_end_valid;
+  for (int j = 0; j < nv && same_v; ++j) same_v = v[j] == d.v_end(j);
+  if (same_v)
+    for (int k = 0; k < ns; ++k) d.sdot(k) = d.u(k);
+  else
+    for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed<NV>(m, k, v);
   friction_bounds(m, d);
   bool any = false;
   for (int k = 0; k < ns; ++k) {
@@ -613,6 +622,8 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
     diss += d.u(k) * d.p(k);
   }
   d.dissipated -= diss;
+  for (int j = 0; j < nv; ++j) d.v_end(j) = vf[j];
+  d.v_end_valid = true;
   // viscous dissipation vᵀ D v over the step
   double visc = 0.0;
   for (int c = 0; c < nv; ++c) {
@@ -732,6 +743,7 @@ inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
   torque_motor.setZero();
   torque_motor_cmd.setZero();
   first_control = true;
+  v_end_valid = false;
   rng = Rng{};
   rng.state = seed;
   work_motor = work_external = dissipated = 0.0;

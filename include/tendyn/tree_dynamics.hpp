@@ -31,6 +31,17 @@
 
 namespace tendyn {
 
+/// sin and cos of one angle: glibc's sincos (one range reduction, the same results as sin and cos; what
+/// Pinocchio's joints call), std::sin / std::cos elsewhere.
+inline void sin_cos(double x, double& s, double& c) {
+#if defined(__GLIBC__)
+  ::sincos(x, &s, &c);
+#else
+  s = std::sin(x);
+  c = std::cos(x);
+#endif
+}
+
 /// The tree as the step needs it, read once from a Pinocchio model (setup time; allocates).
 struct TreeDynamicsModel {
   int n = 0;              ///< joints (= nq = nv of the tree)
@@ -140,14 +151,15 @@ inline void tree_mass_and_bias(const TreeDynamicsModel& m, TreeDynamicsData& d, 
       J.sv = J.z;
       J.sw.setZero();
     } else {
+      double s, c;
+      sin_cos(qj, s, c);
       if (m.axis_z[j]) {  // R0 Rz(q), column by column
-        const double c = std::cos(qj), s = std::sin(qj);
         J.R.col(0) = c * R0.col(0) + s * R0.col(1);
         J.R.col(1) = c * R0.col(1) - s * R0.col(0);
         J.R.col(2) = R0.col(2);
       } else {  // Rodrigues about the unit axis
         const Eigen::Vector3d& a = m.axis[j];
-        const double c = std::cos(qj), s = std::sin(qj), t = 1.0 - c;
+        const double t = 1.0 - c;
         Eigen::Matrix3d r;
         r << c + a.x() * a.x() * t, a.x() * a.y() * t - a.z() * s, a.x() * a.z() * t + a.y() * s,
             a.y() * a.x() * t + a.z() * s, c + a.y() * a.y() * t, a.y() * a.z() * t - a.x() * s,
