@@ -70,6 +70,7 @@ int main(int argc, char** argv) {
   m.current_noise = vec("current_noise");
   m.dt = f.at("dt").at(0).at(0);
   m.control_decimation = static_cast<int>(f.at("control_decimation").at(0).at(0));
+  if (const char* tol = std::getenv("TENDYN_PGS_TOLERANCE")) m.pgs_tolerance = std::atof(tol);  // experiments
   if (tendyn::is_error(m.finalize())) { std::fprintf(stderr, "finalize failed\n"); return 1; }
   const Eigen::VectorXd q0 = vec("q0");
   const int na = m.na;
