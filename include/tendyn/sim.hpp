@@ -11,13 +11,18 @@
 //     the joint through ratio N (S2 §V-B); Coulomb/viscous friction on the motor.
 // Friction is solved at the velocity level every step (Moreau–Jean time stepping): each friction
 // site k has a Jacobian row g_k and a box [lo_k, hi_k] for its force; the impulses follow from a
-// projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started. A site whose
+// projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started, run in velocity
+// space: W is never formed; with B = (M + hD)⁻¹ Gᵀ and the diagonal W_kk = g_k B_k, a site update reads
+// its velocity u_k = g_k v (the nonzero range of g_k) and moves v by B_k Δp_k — the same iterates as
+// the sweep on W, at two length-nv products per site instead of one length-n_sites one. A site whose
 // force stays inside its box does not move: true stick, no creep; outside it slides with the
 // bound force (Coulomb). Viscous terms are implicit (D). Reducers get an asymmetric box: the
 // loss (1 − η_d)|n M_p| when the pulley drives the joint, (1 − η_d)/(2η_d − 1)|n M_p| when the joint
 // back-drives it (S0 eq. 10), unbounded when self-locking (η_d ≤ 0.5).
 // Sensors: quantised motor encoders, motor-torque (current) noise, sampling at the log rate.
 // Control: torque mode, joint-space or motor-space PID at a control rate, and a C hook.
+// Rigid body: mass matrix and bias forces in one kinematics pass (tree_dynamics.hpp) for trees of
+// revolute / prismatic joints; Pinocchio's crba + nonLinearEffects for anything else.
 // Model/Data convention; step() and run() allocate nothing; randomness from a seeded splitmix64.
 #pragma once
 
@@ -31,6 +36,7 @@
 
 #include "tendyn/losses.hpp"
 #include "tendyn/rigid_body.hpp"
+#include "tendyn/tree_dynamics.hpp"
 
 namespace tendyn {
 
@@ -120,7 +126,10 @@ struct SimModel {
   Eigen::MatrixXd M_rotor;          ///< constant mass added by the rotors
   Eigen::MatrixXd D;                ///< (nv, nv) implicit viscous damping
   Eigen::MatrixXd G;                ///< (n_sites, nv) site velocity Jacobians
+  Eigen::MatrixXd Gt;               ///< (nv, n_sites) Gᵀ: column k = g_kᵀ, contiguous
+  Eigen::VectorXi site_begin, site_end;  ///< nonzero range [begin, end) of each row g_k
   Eigen::VectorXi site_kind, site_i, site_b;
+  TreeDynamicsModel tree;           ///< the tree for the one-pass dynamics (tree.valid = false: Pinocchio)
 
   /// Size every default, build the site layout and the constant matrices. Allocates.
   Status finalize();
@@ -135,8 +144,13 @@ struct SimData {
   Eigen::VectorXd q, qd;            ///< active joint position [rad] / velocity [rad/s] (truth)
   Eigen::VectorXd q_motor, qd_motor; ///< motor position / velocity (truth) [rad, rad/s]
   Eigen::VectorXd q_tree, v_tree;
-  Eigen::MatrixXd ML, M, Mt, AGt, W;  // Mt: M + hD, then its Cholesky factor; AGt holds Y = L⁻¹ Gᵀ
-  Eigen::VectorXd F, v, rhs, vfree, Dv, u0, u, p, lo, hi;
+  TreeDynamicsData tree;            ///< one-pass mass matrix and bias forces of the tree
+  Eigen::MatrixXd ML, M, Mt, Linv, Minv, B;  // Mt: Cholesky factor L of M + hD; Minv = (M + hD)⁻¹; B = Minv Gᵀ
+  Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, sdot, u, p, lo, hi;  // sdot: site speeds at the step start
+  Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
+  Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
+  Eigen::VectorXd v_end;            ///< v⁺ of the last step (d.u holds the site speeds there)
+  bool v_end_valid = false;
   // control and sensing
   Eigen::VectorXd q_motor_meas, torque_motor_meas, torque_motor_cmd, torque_motor;
   Eigen::VectorXd q_est, v_est, q_est_prev, integral, v_motor_est, qm_meas_prev, tmp_na;
@@ -244,6 +258,15 @@ inline Status SimModel::finalize() {
       G(k, i) = 1.0;
       site_kind(k) = static_cast<int>(SiteKind::Lock); site_i(k) = i; site_b(k) = 0; ++k;
     }
+  Gt = G.transpose();
+  site_begin.resize(n_sites); site_end.resize(n_sites);
+  for (int s = 0; s < n_sites; ++s) {
+    int b = 0, e = nv;
+    while (b < nv && G(s, b) == 0.0) ++b;
+    while (e > b && G(s, e - 1) == 0.0) --e;
+    site_begin(s) = b; site_end(s) = e;
+  }
+  tree.build(body.pin);
   return Status::Ok;
 }
 
@@ -252,13 +275,16 @@ inline SimData::SimData(const SimModel& m)
       q(Eigen::VectorXd::Zero(m.na)), qd(Eigen::VectorXd::Zero(m.na)),
       q_motor(Eigen::VectorXd::Zero(m.na)), qd_motor(Eigen::VectorXd::Zero(m.na)),
       q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
-      ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
-      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), AGt(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
-      W(Eigen::MatrixXd::Zero(m.n_sites, m.n_sites)),
+      tree(m.tree), ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), Linv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      Minv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      B(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
       F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
-      vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), u0(Eigen::VectorXd::Zero(m.n_sites)),
+      vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), Wdiag(Eigen::VectorXd::Zero(m.n_sites)),
+      sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
-      lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)),
+      lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
+      active(Eigen::VectorXi::Zero(m.n_sites)), v_end(Eigen::VectorXd::Zero(m.nv)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
       torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
@@ -268,63 +294,21 @@ inline SimData::SimData(const SimModel& m)
       tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
       qd_motor_prev(Eigen::VectorXd::Zero(m.na)) {}
 
-/// Cholesky factor of a small SPD matrix in place (lower triangle; plain loops, no allocation).
-/// Returns false if the matrix is not positive definite.
-inline bool cholesky_in_place(Eigen::MatrixXd& A) {
-  const Eigen::Index n = A.rows();
-  for (Eigen::Index j = 0; j < n; ++j) {
-    double diag = A(j, j);
-    for (Eigen::Index k = 0; k < j; ++k) diag -= A(j, k) * A(j, k);
-    if (!(diag > 0.0)) return false;
-    A(j, j) = std::sqrt(diag);
-    for (Eigen::Index i = j + 1; i < n; ++i) {
-      double v = A(i, j);
-      for (Eigen::Index k = 0; k < j; ++k) v -= A(i, k) * A(j, k);
-      A(i, j) = v / A(j, j);
-    }
-  }
-  return true;
-}
-
-/// Forward substitution L Y = B in place, L the lower factor stored in `factor` (small sizes: plain loops,
-/// no blocking, no allocation).
-template <class Mat>
-inline void cholesky_forward_in_place(const Eigen::MatrixXd& factor, Mat& B) {
-  const Eigen::Index n = factor.rows();
-  for (Eigen::Index c = 0; c < B.cols(); ++c)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      double s = B(i, c);
-      for (Eigen::Index k = 0; k < i; ++k) s -= factor(i, k) * B(k, c);
-      B(i, c) = s / factor(i, i);
-    }
-}
-
-/// Back substitution Lᵀ X = Y in place.
-template <class Mat>
-inline void cholesky_backward_in_place(const Eigen::MatrixXd& factor, Mat& B) {
-  const Eigen::Index n = factor.rows();
-  for (Eigen::Index c = 0; c < B.cols(); ++c)
-    for (Eigen::Index i = n - 1; i >= 0; --i) {
-      double s = B(i, c);
-      for (Eigen::Index k = i + 1; k < n; ++k) s -= factor(k, i) * B(k, c);
-      B(i, c) = s / factor(i, i);
-    }
-}
-
-/// Solve (L Lᵀ) X = B in place.
-template <class Mat>
-inline void cholesky_solve_in_place(const Eigen::MatrixXd& factor, Mat& B) {
-  cholesky_forward_in_place(factor, B);
-  cholesky_backward_in_place(factor, B);
-}
-
 // ---- pieces of a step --------------------------------------------------------------------------
 
 /// Motor position from the state (slaved for tendon drives).
 inline void motor_state(const SimModel& m, SimData& d) {
-  if (m.drive == DriveKind::Tendon) {
-    d.q_motor.noalias() = m.Gm.lazyProduct(d.q);
-    d.qd_motor.noalias() = m.Gm.lazyProduct(d.qd);
+  if (m.drive != DriveKind::Tendon) return;
+  const int n = m.na;
+  const double* G = m.Gm.data();
+  for (int i = 0; i < n; ++i) {
+    double a = 0.0, b = 0.0;
+    for (int j = 0; j < n; ++j) {
+      a += G[i + j * n] * d.q(j);
+      b += G[i + j * n] * d.qd(j);
+    }
+    d.q_motor(i) = a;
+    d.qd_motor(i) = b;
   }
 }
 
@@ -386,15 +370,33 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
 /// stuck site keeps is the solver's rounding residue, ~1e-18 m/s).
 constexpr double kRestSpeed = 1e-12;
 
-/// Friction force boxes [lo, hi] of every site from the current tension estimate [N or N·m].
+namespace detail {
+/// Compile-time size N (1 … 8, loops unrolled) or the run-time n (N ≤ 0).
+template <int N>
+constexpr int dim(int n) { return N > 0 ? N : n; }
+}  // namespace detail
+
+/// Velocity of friction site k [m/s or rad/s]: g_k v as a dense ascending sum over the nv entries
+/// (the zeros before the first nonzero add nothing: for a branch this is Ṡ_ib = Σ_{j=b..i} K_ij q̇_j
+/// summed in the order of the statics).
+template <int NV = 0>
+inline double site_speed(const SimModel& m, int k, const double* v) {
+  const int nv = detail::dim<NV>(m.nv);
+  const double* g = m.Gt.data() + static_cast<Eigen::Index>(k) * nv;
+  double s = 0.0;
+  for (int j = 0; j < nv; ++j) s += g[j] * v[j];
+  return s;
+}
+
+/// Friction force boxes [lo, hi] of every site from the current tension estimate and the site speeds
+/// d.sdot at the start of the step [N or N·m].
 inline void friction_bounds(const SimModel& m, SimData& d) {
   for (int k = 0; k < m.n_sites; ++k) {
     const int i = m.site_i(k), b = m.site_b(k);
     double lo = 0.0, hi = 0.0;
     switch (static_cast<SiteKind>(m.site_kind(k))) {
       case SiteKind::Branch: {
-        double sdot = 0.0;
-        for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
+        double sdot = d.sdot(k);
         // A stuck site keeps a PGS residue of ~1e-18 m/s: it is at rest (static threshold α p, S0 eq. 7),
         // not sliding at that speed (β p + h0).
         if (std::abs(sdot) <= kRestSpeed) sdot = 0.0;
@@ -424,7 +426,8 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
 }
 
 /// Tensions along each cable after a step, from the motor torque net of rotor inertia and the
-/// friction forces found on the branches (tension drop Δ = −λ + ν Ṡ, S0 eq. 6).
+/// friction forces found on the branches (tension drop Δ = −λ + ν Ṡ, S0 eq. 6). The branch speeds are
+/// the site speeds d.u at the end of the step (branch sites come first, in this order).
 inline void update_tensions(const SimModel& m, SimData& d) {
   if (m.drive != DriveKind::Tendon) return;
   const double h = m.dt;
@@ -434,41 +437,222 @@ inline void update_tensions(const SimModel& m, SimData& d) {
     double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / m.tendon.motor_radius(i);
     d.tension_motor(i) = t;
     for (int b = 0; b <= i; ++b, ++k) {
-      double sdot = 0.0;
-      for (int j = b; j <= i; ++j) sdot += m.tendon.K(i, j) * d.qd(j);
-      t -= -d.p(k) / h + m.tendon.nu(i, b) * sdot;
+      t -= -d.p(k) / h + m.tendon.nu(i, b) * d.u(k);
       d.tension(i, b) = t;
     }
   }
 }
 
-/// Projected Gauss–Seidel on the friction impulses p (warm-started). Returns the iterations used.
+namespace detail {
+
+/// Projected Gauss–Seidel (SOR) on the friction impulses p, warm-started, in velocity space: v starts at
+/// v_free + B p and follows every update (v += B_k Δp_k); u_k = g_k v is the site velocity G v_free + W p
+/// of the sweep on the Delassus matrix W, which is never formed. Needs d.B, d.Wdiag and the boxes scaled
+/// to impulses (h lo, h hi) with p clamped into them. Returns the sweeps used.
+template <int NV>
 inline int solve_friction(const SimModel& m, SimData& d) {
-  const double h = m.dt;
-  bool any = false;
-  for (int k = 0; k < m.n_sites; ++k) {
-    d.lo(k) *= h; d.hi(k) *= h;
-    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
-    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
-  }
-  if (!any) return 0;  // no friction this step
-  d.u0.noalias() = m.G.lazyProduct(d.vfree);
+  const int nv = dim<NV>(m.nv), ns = m.n_sites;
+  double* v = d.v.data();
+  double* p = d.p.data();
+  const double* B = d.B.data();
+  const double *lo = d.lo.data(), *hi = d.hi.data(), *W = d.Wdiag.data();
+  for (int j = 0; j < nv; ++j) v[j] = d.vfree(j);
+  for (int k = 0; k < ns; ++k)
+    if (p[k] != 0.0)
+      for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * p[k];
+  // the sites that take part this step: a nonzero box and a positive W_kk
+  int* active = d.active.data();
+  int na_sites = 0;
+  for (int k = 0; k < ns; ++k)
+    if (W[k] > 0.0 && !(lo[k] == 0.0 && hi[k] == 0.0)) active[na_sites++] = k;
+  const double omega = m.pgs_relaxation;
   int it = 0;
   for (; it < m.pgs_max_iterations; ++it) {
     double change = 0.0, pmax = 0.0;
-    for (int k = 0; k < m.n_sites; ++k) {
-      const double Wkk = d.W(k, k);
-      if (!(Wkk > 0.0) || (d.lo(k) == 0.0 && d.hi(k) == 0.0)) continue;
-      const double uk = d.u0(k) + d.W.col(k).dot(d.p);  // W symmetric: contiguous column
-      const double pk = std::max(d.lo(k), std::min(d.hi(k), d.p(k) - m.pgs_relaxation * uk / Wkk));
-      change = std::max(change, std::abs(pk - d.p(k)));
+    for (int a = 0; a < na_sites; ++a) {
+      const int k = active[a];
+      const double Wkk = W[k];
+      const double uk = site_speed<NV>(m, k, v);
+      const double pold = p[k];
+      const double pk = std::max(lo[k], std::min(hi[k], pold - omega * uk / Wkk));
+      const double dp = pk - pold;
+      change = std::max(change, std::abs(dp));
       pmax = std::max(pmax, std::abs(pk));
-      d.p(k) = pk;
+      p[k] = pk;
+      if (dp != 0.0)
+        for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * dp;
     }
     // converged when the impulses stop changing, relative to the largest one
     if (change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
   }
   return it;
+}
+
+/// The part of a step sized by nv, after the tree dynamics: assemble M and F, factor M + hD and invert it,
+/// solve the friction impulses, leave v⁺ in d.vfree and the site speeds at v⁺ in d.u. Plain loops over
+/// column-major storage; NV > 0 fixes nv at compile time. Allocates nothing.
+template <int NV>
+inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mtree, const Eigen::VectorXd& nle) {
+  const int nv = dim<NV>(m.nv), na = m.na, ns = m.n_sites;
+  const double h = m.dt;
+  double* M = d.M.data();
+  double* F = d.F.data();
+  const double* Mr = m.M_rotor.data();
+  for (int t = 0; t < nv * nv; ++t) M[t] = Mr[t];
+  for (int j = 0; j < nv; ++j) F[j] = 0.0;
+  if (m.identity_map) {  // serial chain: no projection
+    const double* Mt = Mtree.data();
+    for (int c = 0; c < na; ++c)
+      for (int r = 0; r < na; ++r) M[r + c * nv] += Mt[r + c * na];
+    for (int i = 0; i < na; ++i) F[i] = -nle(i);
+  } else {  // M_a = Lᵀ M L, b_a = Lᵀ nle
+    d.ML.noalias() = Mtree.lazyProduct(m.L);
+    d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
+    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(nle);
+  }
+  for (int i = 0; i < na; ++i) F[i] += d.ext(i);
+  if (m.drive == DriveKind::Tendon) {  // Kᵀ R_m⁻¹ C_m
+    const double* G = m.Gm.data();
+    for (int j = 0; j < na; ++j) {
+      double s = 0.0;
+      for (int i = 0; i < na; ++i) s += G[i + j * na] * d.torque_motor(i);
+      F[j] += s;
+    }
+  } else {
+    for (int i = 0; i < na; ++i) {
+      const double spring = m.stiffness_motor(i) * (d.q_motor(i) - m.ratio(i) * d.q(i));
+      F[i] += m.ratio(i) * spring;
+      F[na + i] = d.torque_motor(i) - spring;
+    }
+  }
+  double* v = d.v.data();
+  for (int i = 0; i < na; ++i) {
+    v[i] = d.qd(i);
+    if (m.drive == DriveKind::Elastic) v[na + i] = d.qd_motor(i);
+  }
+
+  // (M + hD) v⁺ = M v + h F + Gᵀ p. Cholesky factor L of M + hD (lower triangle of d.Mt), then
+  // (M + hD)⁻¹ = L⁻ᵀ L⁻¹ (L⁻¹ in d.Linv): one inverse serves v_free and every column of B.
+  double* L = d.Mt.data();
+  double* Li = d.Linv.data();
+  double* Mi = d.Minv.data();
+  double* rd = d.Dv.data();  // reciprocal diagonal of L
+  const double* D = m.D.data();
+  for (int c = 0; c < nv; ++c)
+    for (int r = c; r < nv; ++r) L[r + c * nv] = M[r + c * nv] + h * D[r + c * nv];
+  for (int j = 0; j < nv; ++j) {
+    double diag = L[j + j * nv];
+    for (int k = 0; k < j; ++k) diag -= L[j + k * nv] * L[j + k * nv];
+    if (!(diag > 0.0)) return Status::InvalidModel;  // singular inertia
+    const double ljj = std::sqrt(diag);
+    L[j + j * nv] = ljj;
+    rd[j] = 1.0 / ljj;
+    for (int i = j + 1; i < nv; ++i) {
+      double s = L[i + j * nv];
+      for (int k = 0; k < j; ++k) s -= L[i + k * nv] * L[j + k * nv];
+      L[i + j * nv] = s * rd[j];
+    }
+  }
+  for (int j = 0; j < nv; ++j) {  // L⁻¹, column j, rows i ≥ j
+    Li[j + j * nv] = rd[j];
+    for (int i = j + 1; i < nv; ++i) {
+      double s = 0.0;
+      for (int k = j; k < i; ++k) s += L[i + k * nv] * Li[k + j * nv];
+      Li[i + j * nv] = -s * rd[i];
+    }
+  }
+  for (int j = 0; j < nv; ++j)  // (L⁻¹)ᵀ L⁻¹, symmetric
+    for (int i = j; i < nv; ++i) {
+      double s = 0.0;
+      for (int k = i; k < nv; ++k) s += Li[k + i * nv] * Li[k + j * nv];
+      Mi[i + j * nv] = Mi[j + i * nv] = s;
+    }
+  double* vf = d.vfree.data();
+  double* rhs = d.rhs.data();
+  for (int r = 0; r < nv; ++r) {
+    double s = 0.0;
+    for (int c = 0; c < nv; ++c) s += M[r + c * nv] * v[c];
+    rhs[r] = s + h * F[r];
+  }
+  for (int r = 0; r < nv; ++r) {
+    double s = 0.0;
+    for (int c = 0; c < nv; ++c) s += Mi[r + c * nv] * rhs[c];
+    vf[r] = s;
+  }
+  // site speeds at the step start: those found at the end of the last step while v is the same (bit for
+  // bit), else summed afresh (first step, or a state set from outside)
+  bool same_v = d.v_end_valid;
+  for (int j = 0; j < nv && same_v; ++j) same_v = v[j] == d.v_end(j);
+  if (same_v)
+    for (int k = 0; k < ns; ++k) d.sdot(k) = d.u(k);
+  else
+    for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed<NV>(m, k, v);
+  friction_bounds(m, d);
+  bool any = false;
+  for (int k = 0; k < ns; ++k) {
+    d.lo(k) *= h; d.hi(k) *= h;
+    any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
+    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
+  }
+  if (any) {
+    // B = (M + hD)⁻¹ Gᵀ over the nonzero range of each g_k; W_kk = g_k B_k
+    double* B = d.B.data();
+    const double* Gt = m.Gt.data();
+    for (int k = 0; k < ns; ++k) {
+      double* bk = B + k * nv;
+      const double* g = Gt + k * nv;
+      for (int r = 0; r < nv; ++r) bk[r] = 0.0;
+      for (int j = m.site_begin(k); j < m.site_end(k); ++j)
+        for (int r = 0; r < nv; ++r) bk[r] += Mi[r + j * nv] * g[j];
+      d.Wdiag(k) = site_speed<NV>(m, k, bk);
+    }
+    d.pgs_iterations = solve_friction<NV>(m, d);
+    // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
+    for (int k = 0; k < ns; ++k) {
+      const double pk = d.p(k);
+      if (pk != 0.0)
+        for (int r = 0; r < nv; ++r) vf[r] += B[k * nv + r] * pk;
+    }
+  } else {
+    d.pgs_iterations = 0;  // no friction this step (p clamped to zero)
+  }
+  double diss = 0.0;
+  for (int k = 0; k < ns; ++k) {
+    d.u(k) = site_speed<NV>(m, k, vf);
+    diss += d.u(k) * d.p(k);
+  }
+  d.dissipated -= diss;
+  for (int j = 0; j < nv; ++j) d.v_end(j) = vf[j];
+  d.v_end_valid = true;
+  // viscous dissipation vᵀ D v over the step
+  double visc = 0.0;
+  for (int c = 0; c < nv; ++c) {
+    double s = 0.0;
+    for (int r = 0; r < nv; ++r) s += D[r + c * nv] * vf[r];
+    visc += vf[c] * s;
+  }
+  d.dissipated += h * visc;
+  return Status::Ok;
+}
+
+}  // namespace detail
+
+/// Mass matrix and bias forces of the tree at (q_tree, v_tree): one pass (tree_dynamics.hpp) when the tree
+/// allows it, else Pinocchio. Points Mtree / nle at the (both-triangle) mass matrix and the bias forces.
+template <class V1, class V2>
+inline void tree_dynamics(const SimModel& m, SimData& d, const V1& q, const V2& v, const Eigen::MatrixXd*& Mtree,
+                          const Eigen::VectorXd*& nle) {
+  if (m.tree.valid) {
+    tree_mass_and_bias(m.tree, d.tree, q, v);
+    Mtree = &d.tree.M;
+    nle = &d.tree.nle;
+  } else {
+    pinocchio::crba(m.body.pin, d.body.pin, q);
+    d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
+    pinocchio::nonLinearEffects(m.body.pin, d.body.pin, q, v);
+    Mtree = &d.body.pin.M;
+    nle = &d.body.pin.nle;
+  }
 }
 
 /// Advance one step of m.dt. Inputs are those of control() plus the external joint torque.
@@ -479,69 +663,38 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   const double h = m.dt;
   motor_state(m, d);
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
+  for (int i = 0; i < na; ++i) d.ext(i) = torque_ext(i) - m.offset_joint(i);
 
   // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
-  d.q_tree.noalias() = m.L.lazyProduct(d.q);
-  d.q_tree += m.c;
-  d.v_tree.noalias() = m.L.lazyProduct(d.qd);
-  pinocchio::crba(m.body.pin, d.body.pin, d.q_tree);
-  d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
-  pinocchio::nonLinearEffects(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
-  d.M = m.M_rotor;
-  d.F.setZero();
-  if (m.identity_map) {  // serial chain: no projection
-    d.M.topLeftCorner(na, na) += d.body.pin.M;
-    d.F.head(na) = -d.body.pin.nle;
+  const Eigen::MatrixXd* Mtree = nullptr;
+  const Eigen::VectorXd* nle = nullptr;
+  if (m.identity_map) {
+    tree_dynamics(m, d, d.q, d.qd, Mtree, nle);
   } else {
-    d.ML.noalias() = d.body.pin.M.lazyProduct(m.L);
-    d.M.topLeftCorner(na, na).noalias() += m.L.transpose().lazyProduct(d.ML);
-    d.F.head(na).noalias() = -m.L.transpose().lazyProduct(d.body.pin.nle);
+    d.q_tree.noalias() = m.L.lazyProduct(d.q);
+    d.q_tree += m.c;
+    d.v_tree.noalias() = m.L.lazyProduct(d.qd);
+    tree_dynamics(m, d, d.q_tree, d.v_tree, Mtree, nle);
   }
-  for (int i = 0; i < na; ++i) d.F(i) += torque_ext(i) - m.offset_joint(i);
-  if (m.drive == DriveKind::Tendon) {
-    d.F.head(na).noalias() += m.Gm.transpose().lazyProduct(d.torque_motor);  // Kᵀ R_m⁻¹ C_m
-  } else {
-    for (int i = 0; i < na; ++i) {
-      const double spring = m.stiffness_motor(i) * (d.q_motor(i) - m.ratio(i) * d.q(i));
-      d.F(i) += m.ratio(i) * spring;
-      d.F(na + i) = d.torque_motor(i) - spring;
-    }
+  Status st;
+  switch (m.nv) {  // fixed sizes for the small systems (loops unrolled), run-time size above
+    case 1: st = detail::step_core<1>(m, d, *Mtree, *nle); break;
+    case 2: st = detail::step_core<2>(m, d, *Mtree, *nle); break;
+    case 3: st = detail::step_core<3>(m, d, *Mtree, *nle); break;
+    case 4: st = detail::step_core<4>(m, d, *Mtree, *nle); break;
+    case 5: st = detail::step_core<5>(m, d, *Mtree, *nle); break;
+    case 6: st = detail::step_core<6>(m, d, *Mtree, *nle); break;
+    case 7: st = detail::step_core<7>(m, d, *Mtree, *nle); break;
+    case 8: st = detail::step_core<8>(m, d, *Mtree, *nle); break;
+    default: st = detail::step_core<0>(m, d, *Mtree, *nle); break;
   }
-  for (int i = 0; i < na; ++i) {
-    d.v(i) = d.qd(i);
-    if (m.drive == DriveKind::Elastic) d.v(na + i) = d.qd_motor(i);
-  }
-
-  // (M + hD) v⁺ = M v + h F + Gᵀ p
-  d.Mt = d.M;
-  d.Mt.noalias() += h * m.D;
-  if (!cholesky_in_place(d.Mt)) return Status::InvalidModel;  // singular inertia
-  d.rhs.noalias() = d.M.lazyProduct(d.v);
-  d.rhs += h * d.F;
-  d.vfree = d.rhs;
-  cholesky_solve_in_place(d.Mt, d.vfree);
-  if (m.n_sites > 0) {
-    // Delassus W = G (L Lᵀ)⁻¹ Gᵀ = Yᵀ Y with Y = L⁻¹ Gᵀ (one triangular solve instead of two)
-    d.AGt = m.G.transpose();
-    cholesky_forward_in_place(d.Mt, d.AGt);
-    for (int j = 0; j < m.n_sites; ++j)  // symmetric: lower half, mirrored; columns of Y are contiguous
-      for (int i = j; i < m.n_sites; ++i) d.W(j, i) = d.W(i, j) = d.AGt.col(i).dot(d.AGt.col(j));
-    friction_bounds(m, d);
-    d.pgs_iterations = solve_friction(m, d);
-    d.Dv.noalias() = d.AGt.lazyProduct(d.p);  // v⁺ = v_free + L⁻ᵀ (Y p)
-    cholesky_backward_in_place(d.Mt, d.Dv);
-    d.vfree += d.Dv;
-    d.u.noalias() = m.G.lazyProduct(d.vfree);
-    d.dissipated -= d.u.dot(d.p);
-  }
-  // viscous dissipation and work done by the motors / external torques over the step
-  d.Dv.noalias() = m.D.lazyProduct(d.vfree);
-  d.dissipated += h * d.vfree.dot(d.Dv);
+  if (is_error(st)) return st;
+  // work done by the motors / external torques over the step
   d.qd_motor_prev = d.qd_motor;
   for (int i = 0; i < na; ++i) {
     d.qd(i) = d.vfree(i);
     d.q(i) += h * d.qd(i);
-    d.work_external += h * (torque_ext(i) - m.offset_joint(i)) * d.qd(i);
+    d.work_external += h * d.ext(i) * d.qd(i);
     if (m.drive == DriveKind::Elastic) {
       d.qd_motor(i) = d.vfree(na + i);
       d.q_motor(i) += h * d.qd_motor(i);
@@ -590,6 +743,7 @@ inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
   torque_motor.setZero();
   torque_motor_cmd.setZero();
   first_control = true;
+  v_end_valid = false;
   rng = Rng{};
   rng.state = seed;
   work_motor = work_external = dissipated = 0.0;
