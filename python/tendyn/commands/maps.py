@@ -4,8 +4,6 @@ and stiffness felt at the handle over a workspace grid, from identified base par
 
 from __future__ import annotations
 
-import json
-
 from tendyn.commands.args import existing_file, number, numbers
 from tendyn.errors import UsageError
 
@@ -30,7 +28,8 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from tendyn.analysis.operational import (DEFAULT_HALF_WIDTH, DEFAULT_POINTS, OperationalModel, ParamsError,
                                              operational_maps)
-    from tendyn.cli import _check_out_folder, _load, _print_json
+    from tendyn.cli import _check_out_folder, _load
+    from tendyn.commands.pipeline import publish
 
     dev = _load(args.device)
     if dev.kind != "serial" or not dev.drives:
@@ -53,20 +52,4 @@ def run(args) -> int:
                             points=points)
     doc = maps.to_dict()
     doc["params_file"] = str(args.params)
-    if out is not None:
-        from tendyn.io import atomic_write_text, save_png, to_jsonable
-        from tendyn.io.files import all_or_none
-
-        with all_or_none(out) as stage:
-            for name, fig in maps.figures.items():
-                save_png(fig.plot(), stage / f"{name}.png")
-            atomic_write_text(stage / "maps.json", json.dumps(to_jsonable(doc), indent=2) + "\n")
-            atomic_write_text(stage / "maps.txt", maps.table() + "\n")
-        doc["report"] = str(out)
-    if args.json:
-        _print_json(doc)
-    else:
-        print(maps.table())
-        if out is not None:
-            print(f"report: {out}")
-    return 0
+    return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")

@@ -67,6 +67,34 @@ def register(subparsers) -> None:
     p.set_defaults(func=_dispatch)
 
 
+def publish(args, doc: dict, table: str, figures: dict, out, json_name: str, text_name: str | None = None) -> int:
+    """Write a command's report into ``out`` (figures as PNG, ``doc`` as ``json_name``, the table as ``text_name``;
+    all files or none) when ``out`` is given, then print ``doc`` (``--json``) or the table. Returns 0.
+
+    ``figures``: name → a :class:`tendyn.results.Result` (``NAME.png``)."""
+    import json
+
+    from tendyn.cli import _print_json
+    from tendyn.io import atomic_write_text, save_png, to_jsonable
+    from tendyn.io.files import all_or_none
+
+    if out is not None:
+        with all_or_none(out) as stage:
+            for name, res in figures.items():
+                save_png(res.plot(), stage / f"{name}.png")
+            atomic_write_text(stage / json_name, json.dumps(to_jsonable(doc), indent=2) + "\n")
+            if text_name:
+                atomic_write_text(stage / text_name, table + "\n")
+        doc["report"] = str(out)
+    if args.json:
+        _print_json(doc)
+    else:
+        print(table)
+        if out is not None:
+            print(f"report: {out}")
+    return 0
+
+
 def say(msg: str) -> None:
     """Progress on stderr."""
     print(f"[pipeline] {msg} …", file=sys.stderr, flush=True)

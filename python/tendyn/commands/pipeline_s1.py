@@ -3,14 +3,12 @@ issue 11 (:func:`tendyn.pipelines.s1.run_s1`). Registers ``s1`` into :mod:`tendy
 
 from __future__ import annotations
 
-import json
-
-from tendyn.commands.pipeline import Pipeline, register_pipeline, say
+from tendyn.commands.pipeline import Pipeline, publish, register_pipeline, say
 from tendyn.errors import UsageError
 
 
 def run(args) -> int:
-    from tendyn.cli import _check_out_folder, _load, _print_json
+    from tendyn.cli import _check_out_folder, _load
     from tendyn.pipelines.s1 import run_s1
 
     dev = _load(args.device)
@@ -18,24 +16,7 @@ def run(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind} device; pipeline s1 needs a tendon bench", "device")
     out = _check_out_folder(args.report) if args.report else None
     report = run_s1(dev, quick=args.quick, progress=say)
-    doc = dict(report.summary)
-    if out is not None:
-        from tendyn.io import atomic_write_text, save_png, to_jsonable
-        from tendyn.io.files import all_or_none
-
-        with all_or_none(out) as stage:
-            save_png(report.plot(), stage / "s1_frf.png")
-            for name, res in report.figures.items():
-                save_png(res.plot(), stage / f"{name}.png")
-            atomic_write_text(stage / "s1.json", json.dumps(to_jsonable(doc)))
-        doc["report"] = str(out)
-    if args.json:
-        _print_json(doc)
-    else:
-        print(report.table())
-        if out is not None:
-            print(f"report: {out}")
-    return 0
+    return publish(args, dict(report.summary), report.table(), {"s1_frf": report, **report.figures}, out, "s1.json")
 
 
 register_pipeline(Pipeline("s1", run, "mcgill_bench", "S1 McGill bench: sensitivities, loops, loop shaping"))
