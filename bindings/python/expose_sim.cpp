@@ -61,6 +61,7 @@ void expose_sim(nb::module_& m) {
       .def_rw("velocity_cutoff_hz", &M::velocity_cutoff_hz)
       .def_rw("pgs_max_iterations", &M::pgs_max_iterations)
       .def_rw("pgs_tolerance", &M::pgs_tolerance)
+      .def_rw("pgs_speed_tolerance", &M::pgs_speed_tolerance)
       .def_rw("pgs_relaxation", &M::pgs_relaxation)
       .def_ro("nv", &M::nv)
       .def_ro("n_sites", &M::n_sites)
@@ -167,7 +168,7 @@ void expose_sim(nb::module_& m) {
           const M& mo = *mp[k];
           const D& d = *dp[k];
           if (mo.na != na) throw nb::value_error("run_batch: every model must have the same number of joints");
-          if (d.q.size() != mo.na || d.M.rows() != mo.nv || d.W.rows() != mo.n_sites)
+          if (d.q.size() != mo.na || d.M.rows() != mo.nv || d.Wdiag.size() != mo.n_sites)
             throw nb::value_error("run_batch: a SimData was not made for its model");
           if (log_every < 1 || log_every % mo.control_decimation != 0)
             throw nb::value_error("run_batch: log_every must be a positive multiple of every model's control_decimation");
