@@ -72,7 +72,9 @@ int main(int argc, char** argv) {
   m.dt = f.at("dt").at(0).at(0);
   m.control_decimation = static_cast<int>(f.at("control_decimation").at(0).at(0));
   if (const char* tol = std::getenv("TENDYN_PGS_TOLERANCE")) m.pgs_tolerance = std::atof(tol);  // experiments
+#ifdef TENDYN_HAS_PGS_SPEED_TOLERANCE  // absent from the headers of older refs
   if (const char* v = std::getenv("TENDYN_PGS_SPEED_TOLERANCE")) m.pgs_speed_tolerance = std::atof(v);
+#endif
   if (const char* w = std::getenv("TENDYN_PGS_RELAXATION")) m.pgs_relaxation = std::atof(w);
   if (const char* c = std::getenv("TENDYN_PGS_MAX_ITERATIONS")) m.pgs_max_iterations = std::atoi(c);
   if (tendyn::is_error(m.finalize())) { std::fprintf(stderr, "finalize failed\n"); return 1; }
@@ -109,6 +111,13 @@ int main(int argc, char** argv) {
       pgs_total += d.pgs_iterations;
       pgs_cap += d.pgs_iterations >= m.pgs_max_iterations;
       pgs_max = std::max(pgs_max, d.pgs_iterations);
+      if (std::getenv("TENDYN_PROFILE_DEBUG") && r == 0 && d.pgs_iterations >= m.pgs_max_iterations) {
+        std::fprintf(stderr, "step %ld:", s);
+        for (int k = 0; k < m.n_sites; ++k)
+          std::fprintf(stderr, " [%c u=%.1e p=%.2f]", d.p(k) <= d.lo(k) ? 'L' : d.p(k) >= d.hi(k) ? 'H' : 'i', d.u(k),
+                       d.p(k) / std::max(d.hi(k), -d.lo(k)));
+        std::fprintf(stderr, "\n");
+      }
     }
     const double t1 = thread_seconds();
     std::printf("%.6f\n", (t1 - t0) / n * 1e6);

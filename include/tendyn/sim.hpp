@@ -38,6 +38,9 @@
 #include "tendyn/rigid_body.hpp"
 #include "tendyn/tree_dynamics.hpp"
 
+/// SimModel has pgs_speed_tolerance (tools built against several versions of this header test it).
+#define TENDYN_HAS_PGS_SPEED_TOLERANCE 1
+
 namespace tendyn {
 
 enum class DriveKind : int { Tendon = 0, Elastic = 1 };
@@ -116,9 +119,12 @@ struct SimModel {
   double pgs_relaxation = 1.3;      ///< projected SOR factor in (0, 2); 1.3 cut the sweeps by ~30 % on stuck chains
   double pgs_tolerance = 1e-13;     ///< on the impulse change, relative to the largest impulse
   /// Physically scaled stop [rad/s] (0 = off): a sweep converges when the velocity it moved every site by,
-  /// |Δp_k| W_kk, is at most pgs_speed_tolerance · ‖g_k‖ (a joint-velocity change of about that size).
-  /// Either test stops the sweeps.
-  double pgs_speed_tolerance = 0.0;
+  /// |Δp_k| W_kk, is at most pgs_speed_tolerance · ‖g_k‖ (a joint-velocity change of about that size; on a
+  /// cable branch, ‖g_k‖ ~ 0.01–0.05 m, about kRestSpeed = 1e-12 m/s). Either test stops the sweeps.
+  /// 1e-10 rad/s is 2e-10 rad over 2 s, 1e-5 of an encoder count: on the stick–slip test of
+  /// benchmarks/sim_bench.py it cuts the sweeps from 15.1 to 6.9 per step and moves the 2 s trajectory by
+  /// 4e-12 rad (tests/python/test_sim_pgs.py).
+  double pgs_speed_tolerance = 1e-10;
 
   // ---- derived at finalize() ----
   int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
