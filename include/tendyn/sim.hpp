@@ -482,7 +482,9 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   const double vtol = m.pgs_speed_tolerance;
   const double* gn = m.site_norm.data();
   int it = 0;
+  bool polish = false;  // the last sweep, plain Gauss–Seidel (ω = 1), after the speed test was met
   for (; it < m.pgs_max_iterations; ++it) {
+    const double w = polish ? 1.0 : omega;
     double change = 0.0, pmax = 0.0;
     bool slow = vtol > 0.0;  // every site moved by at most vtol ‖g_k‖ in this sweep
     for (int a = 0; a < na_sites; ++a) {
@@ -490,7 +492,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
       const double Wkk = W[k];
       const double uk = site_speed<NV>(m, k, v);
       const double pold = p[k];
-      const double pk = std::max(lo[k], std::min(hi[k], pold - omega * uk / Wkk));
+      const double pk = std::max(lo[k], std::min(hi[k], pold - w * uk / Wkk));
       const double dp = pk - pold;
       change = std::max(change, std::abs(dp));
       pmax = std::max(pmax, std::abs(pk));
@@ -500,7 +502,11 @@ inline int solve_friction(const SimModel& m, SimData& d) {
         for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * dp;
     }
     // converged when the impulses stop changing, relative to the largest one
-    if (change <= m.pgs_tolerance * pmax || change == 0.0 || slow) { ++it; break; }
+    if (polish || change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
+    // speed test met: one plain sweep more, which brings a stuck site on its own (or parallel to others, a
+    // branch and its reducer) to rest to rounding — true stick, no creep — where an over-relaxed sweep
+    // leaves −(ω − 1) of the last correction
+    polish = slow;
   }
   return it;
 }

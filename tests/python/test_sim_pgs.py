@@ -1,13 +1,24 @@
 """The friction solver's stopping test (issue 12): the physically scaled tolerance of the projected
-Gauss–Seidel (SimModel.pgs_speed_tolerance) against a tight reference, on the stick–slip test of
-benchmarks/sim_bench.py (L-EXOS twin, 10 kHz, q0 = (0.2, −0.8, 0.2, 0.6) rad at rest, open-loop motor
+Gauss–Seidel (SimModel.pgs_speed_tolerance, default 1e-10 rad/s) against tight references, on the stick–slip
+test of benchmarks/sim_bench.py (L-EXOS twin, 10 kHz, q0 = (0.2, −0.8, 0.2, 0.6) rad at rest, open-loop motor
 torques = lossless gravity hold at q0 + 0.02 N·m sines at 0.7, 1.1, 1.3, 1.7 Hz, 2 s: every joint sticks and
 slips, the solver's hard case).
 
-Bound: the largest joint-position difference over the 2 s (every control period) between the default solver
-and the reference (relative impulse change 1e-13, speed test off, 1000 sweeps at most) is below
-TRAJECTORY_BOUND_RAD = 1e-9 rad, four orders of magnitude under one motor-encoder count seen at a joint
-(2π/counts · r_m/K_jj ≈ 9.6e-6 rad on L-EXOS joints 1–2, the finest): no sensor of the device can see it.
+What a sensor can see: one motor-encoder count at a joint, 2π/counts · r_m/K_jj ≈ 9.6e-6 rad on L-EXOS
+joints 1–2 (the finest).
+
+Bounds (largest joint-position difference over the 2 s, every control period):
+* the stopping test alone — the default against the same solver with the speed test off (the relative
+  impulse change 1e-13 that landed, same 200-sweep cap): ≤ CRITERION_BOUND_RAD = 1e-9 rad, 1e-4 of a count
+  (measured 4.4e-12 rad). A speed change of 1e-10 rad/s per sweep left in a step moves a joint by at most
+  h · 1e-10 rad per step: 2e-10 rad over the 20 000 steps if nothing amplified it.
+* against a tight reference — relative 1e-13, speed test off, 1000 sweeps at most: ≤ REFERENCE_BOUND_RAD =
+  3e-6 rad, a third of a count (measured 1.24e-6 rad, the same as the landed default's). On 0.6–0.9 % of the
+  steps (a control update while the chain barely slides, ~1e-9 m/s) the sweeps reach no tolerance below
+  200 — nor 1000, nor all of them at 3000 — and the impulses shared by the redundant sites (14 sites on 4
+  joints) depend on where they stop; the tensions, hence the next bounds, follow. The reference itself moves
+  by 3.9e-7 rad between 1000 and 3000 sweeps: the 2 s trajectory of this test is defined to ~1e-6 rad by
+  any stopping rule, below what the encoders resolve.
 """
 import numpy as np
 import pytest
@@ -21,7 +32,8 @@ RATE_HZ = 10_000.0
 Q0 = np.array([0.2, -0.8, 0.2, 0.6])
 SINE_HZ = (0.7, 1.1, 1.3, 1.7)
 SINE_NM = 0.02
-TRAJECTORY_BOUND_RAD = 1e-9
+CRITERION_BOUND_RAD = 1e-9
+REFERENCE_BOUND_RAD = 3e-6
 
 
 @pytest.fixture(scope="module")
@@ -59,30 +71,43 @@ def encoder_count_at_joint(dev):
 
 
 REFERENCE = dict(pgs_tolerance=1e-13, pgs_speed_tolerance=0.0, pgs_max_iterations=1000)
+LANDED = dict(pgs_tolerance=1e-13, pgs_speed_tolerance=0.0)  # the stopping test before issue 12's change
 
 
-def test_stick_slip_default_solver_within_bound_of_tight_reference(lexos):
-    """Default stopping test vs the tight reference: |Δq| ≤ 1e-9 rad over 2 s of stick–slip, below what one
-    encoder count (≈ 1e-5 rad at the joint) can resolve; the stick phases still hold (the joints are at rest
-    for a share of the run in both)."""
+def max_dq(a, b):
+    return np.abs(a["q_joint"] - b["q_joint"]).max()
+
+
+def test_stick_slip_speed_tolerance_moves_trajectory_below_bound(lexos):
+    """The physically scaled stop vs the landed relative 1e-13 (same cap): |Δq| ≤ 1e-9 rad over 2 s of
+    stick–slip (1e-4 of an encoder count), while the joints still stick (exactly at rest over some control
+    periods) in both runs."""
     dev, compiled = lexos
     count = encoder_count_at_joint(dev)
-    assert TRAJECTORY_BOUND_RAD < 1e-3 * count.min()
-    ref, q_ref = run_stick_slip(compiled, **REFERENCE)
+    assert CRITERION_BOUND_RAD <= 1.1e-4 * count.min()  # about 1e-4 of a count
+    landed, q_landed = run_stick_slip(compiled, **LANDED)
     new, q_new = run_stick_slip(compiled)
-    dq = np.abs(new["q_joint"] - ref["q_joint"]).max()
-    assert np.abs(q_new - q_ref).max() <= TRAJECTORY_BOUND_RAD
-    assert dq <= TRAJECTORY_BOUND_RAD, dq
-    # the run is stick–slip in both: some control periods with a joint exactly at rest
-    for log in (ref, new):
+    assert np.abs(q_new - q_landed).max() <= CRITERION_BOUND_RAD
+    assert max_dq(new, landed) <= CRITERION_BOUND_RAD, max_dq(new, landed)
+    for log in (landed, new):
         at_rest = np.diff(log["q_joint"], axis=0) == 0.0
         assert at_rest.any(axis=0).all()
 
 
-def test_stick_slip_bound_can_fail(lexos):
-    """The test above can fail: a stopping tolerance far looser than the physics allows (1e-4 rad/s, sweeps
-    capped at 3) leaves the trajectory more than the bound away from the reference."""
-    _, compiled = lexos
+def test_stick_slip_default_solver_within_bound_of_tight_reference(lexos):
+    """Default solver vs the tight reference (1e-13 relative, 1000 sweeps): |Δq| ≤ 3e-6 rad over 2 s, a
+    third of one encoder count (see the module docstring for why the reference is itself defined to ~1e-6)."""
+    dev, compiled = lexos
+    assert REFERENCE_BOUND_RAD <= 0.35 * encoder_count_at_joint(dev).min()
     ref, _ = run_stick_slip(compiled, **REFERENCE)
+    new, _ = run_stick_slip(compiled)
+    assert max_dq(new, ref) <= REFERENCE_BOUND_RAD, max_dq(new, ref)
+
+
+def test_stick_slip_bound_can_fail(lexos):
+    """The bounds above can fail: a stop far looser than the physics allows (1e-4 rad/s, at most 3 sweeps)
+    moves the trajectory by more than both."""
+    _, compiled = lexos
+    landed, _ = run_stick_slip(compiled, **LANDED)
     loose, _ = run_stick_slip(compiled, pgs_speed_tolerance=1e-4, pgs_max_iterations=3)
-    assert np.abs(loose["q_joint"] - ref["q_joint"]).max() > TRAJECTORY_BOUND_RAD
+    assert max_dq(loose, landed) > REFERENCE_BOUND_RAD
