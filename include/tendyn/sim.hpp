@@ -121,9 +121,10 @@ struct SimModel {
   /// Physically scaled stop [rad/s] (0 = off): a sweep converges when the velocity it moved every site by,
   /// |Δp_k| W_kk, is at most pgs_speed_tolerance · ‖g_k‖ (a joint-velocity change of about that size; on a
   /// cable branch, ‖g_k‖ ~ 0.01–0.05 m, about kRestSpeed = 1e-12 m/s). Either test stops the sweeps.
-  /// 1e-10 rad/s is 2e-10 rad over 2 s, 1e-5 of an encoder count: on the stick–slip test of
-  /// benchmarks/sim_bench.py it cuts the sweeps from 15.1 to 6.9 per step and moves the 2 s trajectory by
-  /// 4e-12 rad (tests/python/test_sim_pgs.py).
+  /// 1e-10 rad/s is 2e-10 rad over 2 s, 1e-5 of an encoder count. Once met, one plain (ω = 1) sweep more
+  /// brings stuck sites to rest to rounding (holds stay bit-identical). On the stick–slip test of
+  /// benchmarks/sim_bench.py the sweeps fall from 15.1 to 7.9 per step and the 2 s trajectory moves by
+  /// 4.1e-13 rad (tests/python/test_sim_pgs.py bounds it by 1e-9 rad; docs/simulator.md).
   double pgs_speed_tolerance = 1e-10;
 
   // ---- derived at finalize() ----
