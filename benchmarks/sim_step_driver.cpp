@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -71,6 +72,11 @@ int main(int argc, char** argv) {
   m.dt = f.at("dt").at(0).at(0);
   m.control_decimation = static_cast<int>(f.at("control_decimation").at(0).at(0));
   if (const char* tol = std::getenv("TENDYN_PGS_TOLERANCE")) m.pgs_tolerance = std::atof(tol);  // experiments
+#ifdef TENDYN_HAS_PGS_SPEED_TOLERANCE  // absent from the headers of older refs
+  if (const char* v = std::getenv("TENDYN_PGS_SPEED_TOLERANCE")) m.pgs_speed_tolerance = std::atof(v);
+#endif
+  if (const char* w = std::getenv("TENDYN_PGS_RELAXATION")) m.pgs_relaxation = std::atof(w);
+  if (const char* c = std::getenv("TENDYN_PGS_MAX_ITERATIONS")) m.pgs_max_iterations = std::atoi(c);
   if (tendyn::is_error(m.finalize())) { std::fprintf(stderr, "finalize failed\n"); return 1; }
   const Eigen::VectorXd q0 = vec("q0");
   const int na = m.na;
@@ -78,16 +84,21 @@ int main(int argc, char** argv) {
   const long n = std::lround((secs ? std::atof(secs) : 10.0) / m.dt);
   Eigen::MatrixXd ff(n, na);
   const double fr[4] = {0.7, 1.1, 1.3, 1.7};
+  // optional "hold" line: constant motor torques added to the sines (the stick-slip test of sim_bench.py)
+  const Eigen::VectorXd hold = f.count("hold") ? vec("hold") : Eigen::VectorXd::Zero(na);
+  const double amp = f.count("amplitude") ? f.at("amplitude").at(0).at(0) : 0.2;
   for (long s = 0; s < n; ++s)
-    for (int i = 0; i < na; ++i) ff(s, i) = 0.2 * std::sin(2 * M_PI * fr[i % 4] * (s * m.dt));
+    for (int i = 0; i < na; ++i) ff(s, i) = hold(i) + amp * std::sin(2 * M_PI * fr[i % 4] * (s * m.dt));
   const Eigen::VectorXd z = Eigen::VectorXd::Zero(na);
   const int repeats = std::atoi(argv[3]);
   FILE* traj = argc > 4 ? std::fopen(argv[4], "w") : nullptr;
   tendyn::SimData d(m);
-  long pgs_total = 0;
+  long pgs_total = 0, pgs_cap = 0;
+  int pgs_max = 0;
   for (int r = 0; r < repeats; ++r) {
     d.reset(q0, 1);
-    pgs_total = 0;
+    pgs_total = pgs_cap = 0;
+    pgs_max = 0;
     const double t0 = thread_seconds();
     for (long s = 0; s < n; ++s) {
       if (traj && r == 0 && s % m.control_decimation == 0) {
@@ -98,13 +109,22 @@ int main(int argc, char** argv) {
       }
       if (tendyn::is_error(tendyn::step(m, d, z, z, ff.row(s).transpose(), z))) { std::fprintf(stderr, "step failed\n"); return 1; }
       pgs_total += d.pgs_iterations;
+      pgs_cap += d.pgs_iterations >= m.pgs_max_iterations;
+      pgs_max = std::max(pgs_max, d.pgs_iterations);
+      if (std::getenv("TENDYN_PROFILE_DEBUG") && r == 0 && d.pgs_iterations >= m.pgs_max_iterations) {
+        std::fprintf(stderr, "step %ld:", s);
+        for (int k = 0; k < m.n_sites; ++k)
+          std::fprintf(stderr, " [%c u=%.1e p=%.2f]", d.p(k) <= d.lo(k) ? 'L' : d.p(k) >= d.hi(k) ? 'H' : 'i', d.u(k),
+                       d.p(k) / std::max(d.hi(k), -d.lo(k)));
+        std::fprintf(stderr, "\n");
+      }
     }
     const double t1 = thread_seconds();
     std::printf("%.6f\n", (t1 - t0) / n * 1e6);
     std::fflush(stdout);
   }
   if (traj) std::fclose(traj);
-  std::fprintf(stderr, "sites %d, mean PGS sweeps %.3f, q(T) %.17g %.17g %.17g %.17g, dissipated %.17g, work %.17g\n",
-               m.n_sites, double(pgs_total) / n, d.q(0), d.q(1 % na), d.q(2 % na), d.q(3 % na), d.dissipated, d.work_motor);
+  std::fprintf(stderr, "sites %d, PGS sweeps: mean %.3f max %d at-cap share %.4f, q(T) %.17g %.17g %.17g %.17g, dissipated %.17g, work %.17g\n",
+               m.n_sites, double(pgs_total) / n, pgs_max, double(pgs_cap) / n, d.q(0), d.q(1 % na), d.q(2 % na), d.q(3 % na), d.dissipated, d.work_motor);
   return 0;
 }

@@ -41,7 +41,7 @@ target_link_libraries(driver_new PRIVATE Eigen3::Eigen pinocchio::pinocchio)
 """
 
 
-def dump(device: str, rate_hz: float) -> tuple[Path, Path]:
+def dump(device: str, rate_hz: float, scenario: str = "default") -> tuple[Path, Path]:
     from tendyn.device import compile_device, load_device
     from tendyn.devices import bundled
     from tendyn.sim.model import sim_model
@@ -63,10 +63,19 @@ def dump(device: str, rate_hz: float) -> tuple[Path, Path]:
         lines.append(k + " " + " ".join(repr(float(x)) for x in np.asarray(getattr(m, k))))
     lines.append(f"dt {m.dt!r}")
     lines.append(f"control_decimation {m.control_decimation}")
-    q0 = np.array([0.0, 0.3, 0.0, 0.8])[: m.na]
+    if scenario == "stickslip":  # benchmarks/sim_bench.py's test: gravity hold at Q0 + 0.02 N·m sines
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+        import sim_bench
+
+        q0 = sim_bench.Q0
+        hold = sim_bench.test_inputs(cd, m, 1)[0]  # at t = 0 the sines are zero: the hold torques
+        lines.append("hold " + " ".join(repr(float(x)) for x in hold))
+        lines.append(f"amplitude {sim_bench.SINE_NM!r}")
+    else:
+        q0 = np.array([0.0, 0.3, 0.0, 0.8])[: m.na]
     lines.append("q0 " + " ".join(repr(float(x)) for x in q0))
     BUILD.mkdir(parents=True, exist_ok=True)
-    model_txt, tr_path = BUILD / f"{device}.sim.txt", BUILD / f"{device}.model"
+    model_txt, tr_path = BUILD / f"{device}.{scenario}.sim.txt", BUILD / f"{device}.model"
     model_txt.write_text("\n".join(lines) + "\n")
     _core.save_transmission_model(m.tendon, str(tr_path))
     return model_txt, tr_path
@@ -97,9 +106,12 @@ def main() -> int:
     ap.add_argument("--device", default="lexos")
     ap.add_argument("--rate", type=float, default=10_000.0)
     ap.add_argument("--callgrind", action="store_true")
+    ap.add_argument("--scenario", choices=("default", "stickslip"), default="default",
+                    help="stickslip: sim_bench.py's test (q0, gravity hold + 0.02 N·m sines); "
+                         "set TENDYN_PROFILE_SECONDS=2 for its length")
     ap.add_argument("--no-build", action="store_true")
     a = ap.parse_args()
-    model_txt, tr = dump(a.device, a.rate)
+    model_txt, tr = dump(a.device, a.rate, a.scenario)
     if a.no_build:
         old, new = BUILD / "bin" / "driver_old", BUILD / "bin" / "driver_new"
     else:

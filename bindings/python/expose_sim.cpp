@@ -61,6 +61,7 @@ void expose_sim(nb::module_& m) {
       .def_rw("velocity_cutoff_hz", &M::velocity_cutoff_hz)
       .def_rw("pgs_max_iterations", &M::pgs_max_iterations)
       .def_rw("pgs_tolerance", &M::pgs_tolerance)
+      .def_rw("pgs_speed_tolerance", &M::pgs_speed_tolerance)
       .def_rw("pgs_relaxation", &M::pgs_relaxation)
       .def_ro("nv", &M::nv)
       .def_ro("n_sites", &M::n_sites)

@@ -38,6 +38,9 @@
 #include "tendyn/rigid_body.hpp"
 #include "tendyn/tree_dynamics.hpp"
 
+/// SimModel has pgs_speed_tolerance (tools built against several versions of this header test it).
+#define TENDYN_HAS_PGS_SPEED_TOLERANCE 1
+
 namespace tendyn {
 
 enum class DriveKind : int { Tendon = 0, Elastic = 1 };
@@ -115,6 +118,14 @@ struct SimModel {
   int pgs_max_iterations = 200;
   double pgs_relaxation = 1.3;      ///< projected SOR factor in (0, 2); 1.3 cut the sweeps by ~30 % on stuck chains
   double pgs_tolerance = 1e-13;     ///< on the impulse change, relative to the largest impulse
+  /// Physically scaled stop [rad/s] (0 = off): a sweep converges when the velocity it moved every site by,
+  /// |Δp_k| W_kk, is at most pgs_speed_tolerance · ‖g_k‖ (a joint-velocity change of about that size; on a
+  /// cable branch, ‖g_k‖ ~ 0.01–0.05 m, about kRestSpeed = 1e-12 m/s). Either test stops the sweeps.
+  /// 1e-10 rad/s is 2e-10 rad over 2 s, 1e-5 of an encoder count. Once met, one plain (ω = 1) sweep more
+  /// brings stuck sites to rest to rounding (holds stay bit-identical). On the stick–slip test of
+  /// benchmarks/sim_bench.py the sweeps fall from 15.1 to 7.9 per step and the 2 s trajectory moves by
+  /// 4.1e-13 rad (tests/python/test_sim_pgs.py bounds it by 1e-9 rad; docs/simulator.md).
+  double pgs_speed_tolerance = 1e-10;
 
   // ---- derived at finalize() ----
   int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
@@ -128,6 +139,7 @@ struct SimModel {
   Eigen::MatrixXd G;                ///< (n_sites, nv) site velocity Jacobians
   Eigen::MatrixXd Gt;               ///< (nv, n_sites) Gᵀ: column k = g_kᵀ, contiguous
   Eigen::VectorXi site_begin, site_end;  ///< nonzero range [begin, end) of each row g_k
+  Eigen::VectorXd site_norm;        ///< ‖g_k‖₂ (scale of the speed tolerance)
   Eigen::VectorXi site_kind, site_i, site_b;
   TreeDynamicsModel tree;           ///< the tree for the one-pass dynamics (tree.valid = false: Pinocchio)
 
@@ -260,6 +272,8 @@ inline Status SimModel::finalize() {
     }
   Gt = G.transpose();
   site_begin.resize(n_sites); site_end.resize(n_sites);
+  site_norm = G.rowwise().norm();
+  if (!(pgs_speed_tolerance >= 0.0)) return Status::InvalidModel;
   for (int s = 0; s < n_sites; ++s) {
     int b = 0, e = nv;
     while (b < nv && G(s, b) == 0.0) ++b;
@@ -466,24 +480,34 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   for (int k = 0; k < ns; ++k)
     if (W[k] > 0.0 && !(lo[k] == 0.0 && hi[k] == 0.0)) active[na_sites++] = k;
   const double omega = m.pgs_relaxation;
+  const double vtol = m.pgs_speed_tolerance;
+  const double* gn = m.site_norm.data();
   int it = 0;
+  bool polish = false;  // the last sweep, plain Gauss–Seidel (ω = 1), after the speed test was met
   for (; it < m.pgs_max_iterations; ++it) {
+    const double w = polish ? 1.0 : omega;
     double change = 0.0, pmax = 0.0;
+    bool slow = vtol > 0.0;  // every site moved by at most vtol ‖g_k‖ in this sweep
     for (int a = 0; a < na_sites; ++a) {
       const int k = active[a];
       const double Wkk = W[k];
       const double uk = site_speed<NV>(m, k, v);
       const double pold = p[k];
-      const double pk = std::max(lo[k], std::min(hi[k], pold - omega * uk / Wkk));
+      const double pk = std::max(lo[k], std::min(hi[k], pold - w * uk / Wkk));
       const double dp = pk - pold;
       change = std::max(change, std::abs(dp));
       pmax = std::max(pmax, std::abs(pk));
+      slow = slow && std::abs(dp) * Wkk <= vtol * gn[k];
       p[k] = pk;
       if (dp != 0.0)
         for (int j = 0; j < nv; ++j) v[j] += B[k * nv + j] * dp;
     }
     // converged when the impulses stop changing, relative to the largest one
-    if (change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
+    if (polish || change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
+    // speed test met: one plain sweep more, which brings a stuck site on its own (or parallel to others, a
+    // branch and its reducer) to rest to rounding — true stick, no creep — where an over-relaxed sweep
+    // leaves −(ω − 1) of the last correction
+    polish = slow;
   }
   return it;
 }
