@@ -47,6 +47,17 @@ void copy_message(const std::string& text, char* message, unsigned long size) {
   message[k] = '\0';
 }
 
+/// The end of a *_load call: the message (and last_error) from the loader, then the handle owning the model.
+template <class Handle, class Model>
+tendyn_status finish_load(bool loaded, const std::string& error, Model&& m, Handle** out, char* message,
+                          unsigned long message_size) {
+  last_error = loaded ? std::string() : error;
+  copy_message(last_error, message, message_size);
+  if (!loaded) return TENDYN_INVALID_MODEL;
+  *out = new (std::nothrow) Handle(std::move(m));
+  return *out ? TENDYN_OK : TENDYN_INVALID_MODEL;
+}
+
 }  // namespace
 
 extern "C" {
@@ -83,15 +94,8 @@ tendyn_status tendyn_transmission_load(const char* path, tendyn_transmission** o
   *out = nullptr;
   tendyn::TransmissionModel m;
   std::string error;
-  if (!tendyn::load_transmission_model(path, &m, &error)) {
-    last_error = error;
-    copy_message(error, message, message_size);
-    return TENDYN_INVALID_MODEL;
-  }
-  last_error.clear();
-  copy_message("", message, message_size);
-  *out = new (std::nothrow) tendyn_transmission(std::move(m));
-  return *out ? TENDYN_OK : TENDYN_INVALID_MODEL;
+  const bool loaded = tendyn::load_transmission_model(path, &m, &error);
+  return finish_load(loaded, error, std::move(m), out, message, message_size);
 }
 
 const char* tendyn_last_error(void) { return last_error.c_str(); }
@@ -142,15 +146,8 @@ tendyn_status tendyn_compensator_load(const char* path, const char* expected_dev
   *out = nullptr;
   tendyn::CompensatorModel m;
   std::string error;
-  if (!tendyn::load_compensator_model(path, expected_device ? expected_device : "", &m, &error)) {
-    last_error = error;
-    copy_message(error, message, message_size);
-    return TENDYN_INVALID_MODEL;
-  }
-  last_error.clear();
-  copy_message("", message, message_size);
-  *out = new (std::nothrow) tendyn_compensator(std::move(m));
-  return *out ? TENDYN_OK : TENDYN_INVALID_MODEL;
+  const bool loaded = tendyn::load_compensator_model(path, expected_device ? expected_device : "", &m, &error);
+  return finish_load(loaded, error, std::move(m), out, message, message_size);
 }
 
 void tendyn_compensator_destroy(tendyn_compensator* c) { delete c; }

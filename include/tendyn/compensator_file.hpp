@@ -256,16 +256,9 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
 /// `error` (file, line, field, what is wrong) on failure.
 inline bool load_compensator_model(const std::string& path, const std::string& expected_device, CompensatorModel* m,
                                    std::string* error) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) {
-    if (error) *error = path + ": cannot open the compensator model file";
-    return false;
-  }
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const auto slash = path.find_last_of("/\\");
-  return parse_compensator_model(ss.str(), slash == std::string::npos ? path : path.substr(slash + 1),
-                                 expected_device, m, error);
+  std::string text, name;
+  if (!read_model_file(path, "compensator model file", &text, &name, error)) return false;
+  return parse_compensator_model(text, name, expected_device, m, error);
 }
 
 }  // namespace tendyn

@@ -102,6 +102,23 @@ inline std::string read_numbers(std::istringstream& ls, std::vector<double>* val
   return std::string();
 }
 
+/// Read a whole model file into `text`; `name` gets its file name (without folders) for the messages.
+/// Returns false and sets `error` ("PATH: cannot open the <what>") if it cannot be opened.
+inline bool read_model_file(const std::string& path, const char* what, std::string* text, std::string* name,
+                            std::string* error) {
+  std::ifstream f(path, std::ios::binary);
+  if (!f) {
+    if (error) *error = path + ": cannot open the " + what;
+    return false;
+  }
+  std::stringstream ss;
+  ss << f.rdbuf();
+  *text = ss.str();
+  const auto slash = path.find_last_of("/\\");
+  *name = slash == std::string::npos ? path : path.substr(slash + 1);
+  return true;
+}
+
 /// Parse model-file text into `m` (validated, matrices computed). `name` prefixes the messages.
 inline bool parse_transmission_model(const std::string& text, const std::string& name, TransmissionModel* m,
                                      std::string* error) {
@@ -181,15 +198,9 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
 /// Read a model file (format above) into `m`. Returns false and sets `error` (file, line, field, what is
 /// wrong) on failure; `m` is unchanged then.
 inline bool load_transmission_model(const std::string& path, TransmissionModel* m, std::string* error) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) {
-    if (error) *error = path + ": cannot open the model file";
-    return false;
-  }
-  std::stringstream ss;
-  ss << f.rdbuf();
-  const auto slash = path.find_last_of("/\\");
-  return parse_transmission_model(ss.str(), slash == std::string::npos ? path : path.substr(slash + 1), m, error);
+  std::string text, name;
+  if (!read_model_file(path, "model file", &text, &name, error)) return false;
+  return parse_transmission_model(text, name, m, error);
 }
 
 }  // namespace tendyn
