@@ -70,6 +70,7 @@ def test_butterworth_is_minus_3db_at_cutoff(rate_hz, cutoff_hz):
 
 
 def test_sigma2_uses_the_squared_norm():
+    """C29: σ̂² = ‖Y − W x̂‖² / (r − b) and σ(x̂) from σ̂² (WᵀW)⁻¹, on data with a known noise level."""
     rng = np.random.default_rng(3)
     W = rng.normal(size=(4000, 5))
     Y = W @ np.arange(1.0, 6.0) + 0.1 * rng.normal(size=4000)
