@@ -63,6 +63,7 @@ void expose_sim(nb::module_& m) {
       .def_rw("pgs_tolerance", &M::pgs_tolerance)
       .def_rw("pgs_speed_tolerance", &M::pgs_speed_tolerance)
       .def_rw("pgs_relaxation", &M::pgs_relaxation)
+      .def_rw("pgs_exact_finish", &M::pgs_exact_finish)
       .def_ro("nv", &M::nv)
       .def_ro("n_sites", &M::n_sites)
       .def_ro("G", &M::G)
@@ -88,7 +89,10 @@ void expose_sim(nb::module_& m) {
       .def_ro("tension", &D::tension)
       .def_ro("tension_motor", &D::tension_motor)
       .def_ro("p", &D::p)
+      .def_ro("impulse_lo", &D::lo)  // the boxes of the last step, scaled to impulses [N·s or N·m·s]
+      .def_ro("impulse_hi", &D::hi)
       .def_ro("pgs_iterations", &D::pgs_iterations)
+      .def_ro("pgs_finished", &D::pgs_finished)
       .def_ro("work_motor", &D::work_motor)
       .def_ro("work_external", &D::work_external)
       .def_ro("dissipated", &D::dissipated)

@@ -126,6 +126,11 @@ struct SimModel {
   /// benchmarks/sim_bench.py the sweeps fall from 15.1 to 7.9 per step and the 2 s trajectory moves by
   /// 4.1e-13 rad (tests/python/test_sim_pgs.py bounds it by 1e-9 rad; docs/simulator.md).
   double pgs_speed_tolerance = 1e-10;
+  /// Finish the sweeps exactly (detail::finish_friction): once a sweep leaves the classification of the
+  /// sites (stuck inside its box / at its lower / at its upper bound) as the sweep before it did, project v
+  /// onto the velocities that keep every stuck site at rest, with the sliding sites at their bounds; keep
+  /// it when it satisfies the friction laws to pgs_speed_tolerance. Needs pgs_speed_tolerance > 0.
+  bool pgs_exact_finish = true;
 
   // ---- derived at finalize() ----
   int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
@@ -158,9 +163,14 @@ struct SimData {
   Eigen::VectorXd q_tree, v_tree;
   TreeDynamicsData tree;            ///< one-pass mass matrix and bias forces of the tree
   Eigen::MatrixXd ML, M, Mt, Linv, Minv, B;  // Mt: Cholesky factor L of M + hD; Minv = (M + hD)⁻¹; B = Minv Gᵀ
-  Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, sdot, u, p, lo, hi;  // sdot: site speeds at the step start
+  Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, Wrecip, sdot, u, p, lo, hi;  // sdot: site speeds at the step start; Wrecip = 1/W_kk
   Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
   Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
+  // exact finish (detail::finish_friction): ≤ nv kept stuck sites, A-orthogonal directions, coefficients
+  Eigen::MatrixXd fin_e, fin_f, fin_c;  ///< (nv, nv) columns: velocity e_i, force f_i, impulse coefficients c_i
+  Eigen::VectorXd fin_piv, fin_v, fin_vb, fin_p;  ///< f_i·e_i; projected v; v at fin_p; impulses tried
+  Eigen::VectorXi fin_site;             ///< site of kept slot j
+  int pgs_finished = 0;                 ///< 1 when this step's solve ended with an accepted exact finish
   Eigen::VectorXd v_end;            ///< v⁺ of the last step (d.u holds the site speeds there)
   bool v_end_valid = false;
   // control and sensing
@@ -295,10 +305,16 @@ inline SimData::SimData(const SimModel& m)
       B(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
       F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
       vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), Wdiag(Eigen::VectorXd::Zero(m.n_sites)),
+      Wrecip(Eigen::VectorXd::Zero(m.n_sites)),
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
       lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
-      active(Eigen::VectorXi::Zero(m.n_sites)), v_end(Eigen::VectorXd::Zero(m.nv)),
+      active(Eigen::VectorXi::Zero(m.n_sites)),
+      fin_e(Eigen::MatrixXd::Zero(m.nv, m.nv)), fin_f(Eigen::MatrixXd::Zero(m.nv, m.nv)),
+      fin_c(Eigen::MatrixXd::Zero(m.nv, m.nv)), fin_piv(Eigen::VectorXd::Zero(m.nv)),
+      fin_v(Eigen::VectorXd::Zero(m.nv)), fin_vb(Eigen::VectorXd::Zero(m.nv)),
+      fin_p(Eigen::VectorXd::Zero(m.n_sites)), fin_site(Eigen::VectorXi::Zero(m.nv)),
+      v_end(Eigen::VectorXd::Zero(m.nv)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
       torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
@@ -459,6 +475,95 @@ inline void update_tensions(const SimModel& m, SimData& d) {
 
 namespace detail {
 
+/// Exact finish of the friction solve for the classification of the current iterate (issue 12): the sites
+/// at a bound slide with that bound's force, the sites inside their box (S) stick. The velocity of that
+/// case is the (M + hD)-orthogonal projection of v onto {v : g_k v = 0, k ∈ S}: with b_k = (M + hD)⁻¹ g_kᵀ
+/// and ⟨b_j, b_k⟩ = g_j b_k = W_jk, a Gram–Schmidt over S (site order) keeps at most nv independent sites
+/// (velocity directions e_i, force directions f_i = Σ c_ij g_j, f_i e_j = 0 for i ≠ j); a site whose pivot
+/// f e is below 1e-9 W_kk is a combination of kept ones (the last branch of a cable and its reducer, or the
+/// redundant sites of a stuck chain) and keeps its impulse. Then v⁺ = v − Σ_i e_i (f_i v)/(f_i e_i) and the
+/// kept impulses move by Σ_i α_i c_i. A kept impulse that leaves its box is held at the bound it crossed
+/// and the projection is made again without it (an active-set step: another of the redundant sites takes
+/// the share, or the site slides), at most n_active times. Accepted only if the result satisfies the
+/// friction laws: every stuck site at rest and every sliding site moving against its force, to tol_k =
+/// pgs_speed_tolerance ‖g_k‖; else p and v are left as they were. Returns true if accepted.
+template <int NV>
+inline bool finish_friction(const SimModel& m, SimData& d, const int* active, int n_active, int max_holds) {
+  const int nv = dim<NV>(m.nv);
+  if (NV <= 0 && nv > 64) return false;
+  const double *B = d.B.data(), *Gt = m.Gt.data(), *W = d.Wdiag.data();
+  const double *lo = d.lo.data(), *hi = d.hi.data(), *gn = m.site_norm.data();
+  double* pw = d.fin_p.data();  // the impulses of this attempt (held sites at their bounds)
+  for (int a = 0; a < n_active; ++a) pw[active[a]] = d.p(active[a]);
+  double* vb = d.fin_vb.data();  // v at the impulses pw
+  for (int j = 0; j < nv; ++j) vb[j] = d.v(j);
+  double *E = d.fin_e.data(), *Fd = d.fin_f.data(), *C = d.fin_c.data(), *piv = d.fin_piv.data();
+  double* v = d.fin_v.data();
+  int* kept = d.fin_site.data();
+  double alpha[NV > 0 ? NV : 64], dp[NV > 0 ? NV : 64];
+  int r = 0;
+  for (int attempt = 0;; ++attempt) {
+    if (attempt > max_holds) return false;
+    r = 0;
+    for (int a = 0; a < n_active && r < nv; ++a) {
+      const int k = active[a];
+      if (pw[k] <= lo[k] || pw[k] >= hi[k]) continue;  // sliding (or held at its bound)
+      double* e = E + r * nv;
+      double* f = Fd + r * nv;
+      double* c = C + r * nv;
+      for (int j = 0; j < nv; ++j) { e[j] = B[k * nv + j]; f[j] = Gt[k * nv + j]; c[j] = 0.0; }
+      c[r] = 1.0;
+      for (int i = 0; i < r; ++i) {  // modified Gram–Schmidt in the (M + hD) inner product
+        double fe = 0.0;
+        for (int j = 0; j < nv; ++j) fe += Fd[i * nv + j] * e[j];
+        const double t = fe / piv[i];
+        for (int j = 0; j < nv; ++j) {
+          e[j] -= t * E[i * nv + j];
+          f[j] -= t * Fd[i * nv + j];
+          c[j] -= t * C[i * nv + j];
+        }
+      }
+      double pv = 0.0;
+      for (int j = 0; j < nv; ++j) pv += f[j] * e[j];
+      if (!(pv > 1e-9 * W[k])) continue;  // dependent on the kept sites
+      piv[r] = pv;
+      kept[r++] = k;
+    }
+    for (int j = 0; j < nv; ++j) v[j] = vb[j];
+    for (int i = 0; i < r; ++i) {
+      double fv = 0.0;
+      for (int j = 0; j < nv; ++j) fv += Fd[i * nv + j] * v[j];
+      alpha[i] = -fv / piv[i];
+      for (int j = 0; j < nv; ++j) v[j] += alpha[i] * E[i * nv + j];
+    }
+    int out = -1;  // the first kept site whose impulse leaves its box
+    for (int j = 0; j < r && out < 0; ++j) {
+      dp[j] = 0.0;
+      for (int i = j; i < r; ++i) dp[j] += alpha[i] * C[i * nv + j];
+      const double pk = pw[kept[j]] + dp[j];
+      if (!(pk >= lo[kept[j]] && pk <= hi[kept[j]])) out = j;
+    }
+    if (out < 0) break;
+    const int k = kept[out];  // hold it at the bound it crossed
+    const double bound = pw[k] + dp[out] < lo[k] ? lo[k] : hi[k];
+    const double step = bound - pw[k];
+    pw[k] = bound;
+    for (int j = 0; j < nv; ++j) vb[j] += B[k * nv + j] * step;
+  }
+  // every site obeys its law at the projected velocity (the kept impulses only change v through e_i)
+  const double vtol = m.pgs_speed_tolerance;
+  for (int a = 0; a < n_active; ++a) {
+    const int k = active[a];
+    const double uk = site_speed<NV>(m, k, v), tk = vtol * gn[k];
+    const bool at_lo = pw[k] <= lo[k], at_hi = pw[k] >= hi[k];
+    if (at_lo ? uk < -tk : at_hi ? uk > tk : std::abs(uk) > tk) return false;
+  }
+  for (int j = 0; j < r; ++j) pw[kept[j]] += dp[j];
+  for (int a = 0; a < n_active; ++a) d.p(active[a]) = pw[active[a]];
+  for (int j = 0; j < nv; ++j) d.v(j) = v[j];
+  return true;
+}
+
 /// Projected Gauss–Seidel (SOR) on the friction impulses p, warm-started, in velocity space: v starts at
 /// v_free + B p and follows every update (v += B_k Δp_k); u_k = g_k v is the site velocity G v_free + W p
 /// of the sweep on the Delassus matrix W, which is never formed. Needs d.B, d.Wdiag and the boxes scaled
@@ -469,7 +574,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   double* v = d.v.data();
   double* p = d.p.data();
   const double* B = d.B.data();
-  const double *lo = d.lo.data(), *hi = d.hi.data(), *W = d.Wdiag.data();
+  const double *lo = d.lo.data(), *hi = d.hi.data(), *W = d.Wdiag.data(), *rW = d.Wrecip.data();
   for (int j = 0; j < nv; ++j) v[j] = d.vfree(j);
   for (int k = 0; k < ns; ++k)
     if (p[k] != 0.0)
@@ -482,6 +587,23 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   const double omega = m.pgs_relaxation;
   const double vtol = m.pgs_speed_tolerance;
   const double* gn = m.site_norm.data();
+  const bool finish = m.pgs_exact_finish && vtol > 0.0;
+  // classification of the iterate, site by site: 0 inside its box, 1 at lo, 2 at hi (hashed)
+  auto classify = [&]() {
+    std::uint64_t h = 1469598103934665603ull;
+    for (int a = 0; a < na_sites; ++a) {
+      const int k = active[a];
+      h = (h ^ static_cast<std::uint64_t>((p[k] <= lo[k]) + 2 * (p[k] >= hi[k]))) * 1099511628211ull;
+    }
+    return h;
+  };
+  d.pgs_finished = 0;
+  // the warm start's classification first (no hold): in a step that sticks or slides as the last one, no sweep
+  std::uint64_t tried = 0;  // the classification tried last
+  if (finish) {
+    if (finish_friction<NV>(m, d, active, na_sites, 0)) { d.pgs_finished = 1; return 1; }
+    tried = classify();
+  }
   int it = 0;
   bool polish = false;  // the last sweep, plain Gauss–Seidel (ω = 1), after the speed test was met
   for (; it < m.pgs_max_iterations; ++it) {
@@ -493,7 +615,8 @@ inline int solve_friction(const SimModel& m, SimData& d) {
       const double Wkk = W[k];
       const double uk = site_speed<NV>(m, k, v);
       const double pold = p[k];
-      const double pk = std::max(lo[k], std::min(hi[k], pold - w * uk / Wkk));
+      // 1/W_kk from the set-up of B: no division on the chain of dependent site updates
+      const double pk = std::max(lo[k], std::min(hi[k], pold - uk * (w * rW[k])));
       const double dp = pk - pold;
       change = std::max(change, std::abs(dp));
       pmax = std::max(pmax, std::abs(pk));
@@ -504,6 +627,13 @@ inline int solve_friction(const SimModel& m, SimData& d) {
     }
     // converged when the impulses stop changing, relative to the largest one
     if (polish || change <= m.pgs_tolerance * pmax || change == 0.0) { ++it; break; }
+    if (finish) {  // a classification not tried yet in this step: try it exactly (nv holds at most)
+      const std::uint64_t now = classify();
+      if (now != tried) {
+        if (finish_friction<NV>(m, d, active, na_sites, nv)) { d.pgs_finished = 1; ++it; break; }
+        tried = now;
+      }
+    }
     // speed test met: one plain sweep more, which brings a stuck site on its own (or parallel to others, a
     // branch and its reducer) to rest to rounding — true stick, no creep — where an over-relaxed sweep
     // leaves −(ω − 1) of the last correction
@@ -629,6 +759,7 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
       for (int j = m.site_begin(k); j < m.site_end(k); ++j)
         for (int r = 0; r < nv; ++r) bk[r] += Mi[r + j * nv] * g[j];
       d.Wdiag(k) = site_speed<NV>(m, k, bk);
+      d.Wrecip(k) = d.Wdiag(k) > 0.0 ? 1.0 / d.Wdiag(k) : 0.0;
     }
     d.pgs_iterations = solve_friction<NV>(m, d);
     // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
