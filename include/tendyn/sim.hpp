@@ -166,10 +166,12 @@ struct SimData {
   Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, Wrecip, sdot, u, p, lo, hi;  // sdot: site speeds at the step start; Wrecip = 1/W_kk
   Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
   Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
+  Eigen::VectorXi site_state;       ///< where each site ended the last step: 0 inside its box, 1 at lo, 2 at hi
   // exact finish (detail::finish_friction): ≤ nv kept stuck sites, A-orthogonal directions, coefficients
   Eigen::MatrixXd fin_e, fin_f, fin_c;  ///< (nv, nv) columns: velocity e_i, force f_i, impulse coefficients c_i
-  Eigen::VectorXd fin_piv, fin_v, fin_vb, fin_p;  ///< f_i·e_i; projected v; v at fin_p; impulses tried
+  Eigen::VectorXd fin_piv, fin_v, fin_vb, fin_p;  ///< 1/(f_i·e_i); projected v; v at fin_p; impulses tried
   Eigen::VectorXi fin_site;             ///< site of kept slot j
+  Eigen::VectorXi fin_state;            ///< per site: 0 sticks, 1 slides at lo, 2 slides at hi
   int pgs_finished = 0;                 ///< 1 when this step's solve ended with an accepted exact finish
   Eigen::VectorXd v_end;            ///< v⁺ of the last step (d.u holds the site speeds there)
   bool v_end_valid = false;
@@ -182,7 +184,7 @@ struct SimData {
   Rng rng;
   bool first_control = true;
   // diagnostics
-  int pgs_iterations = 0;
+  int pgs_iterations = 0;          ///< sweeps of the last step (0: no friction, or the warm start finished exactly)
   double work_motor = 0.0;          ///< ∫ C_mᵀ q̇_m dt [J]
   double work_external = 0.0;       ///< ∫ τ_extᵀ q̇_a dt [J]
   double dissipated = 0.0;          ///< energy taken by friction and damping [J]
@@ -309,11 +311,12 @@ inline SimData::SimData(const SimModel& m)
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
       lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
-      active(Eigen::VectorXi::Zero(m.n_sites)),
+      active(Eigen::VectorXi::Zero(m.n_sites)), site_state(Eigen::VectorXi::Zero(m.n_sites)),
       fin_e(Eigen::MatrixXd::Zero(m.nv, m.nv)), fin_f(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       fin_c(Eigen::MatrixXd::Zero(m.nv, m.nv)), fin_piv(Eigen::VectorXd::Zero(m.nv)),
       fin_v(Eigen::VectorXd::Zero(m.nv)), fin_vb(Eigen::VectorXd::Zero(m.nv)),
       fin_p(Eigen::VectorXd::Zero(m.n_sites)), fin_site(Eigen::VectorXi::Zero(m.nv)),
+      fin_state(Eigen::VectorXi::Zero(m.n_sites)),
       v_end(Eigen::VectorXd::Zero(m.nv)),
       q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
       torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
@@ -475,88 +478,108 @@ inline void update_tensions(const SimModel& m, SimData& d) {
 
 namespace detail {
 
-/// Exact finish of the friction solve for the classification of the current iterate (issue 12): the sites
-/// at a bound slide with that bound's force, the sites inside their box (S) stick. The velocity of that
-/// case is the (M + hD)-orthogonal projection of v onto {v : g_k v = 0, k ∈ S}: with b_k = (M + hD)⁻¹ g_kᵀ
-/// and ⟨b_j, b_k⟩ = g_j b_k = W_jk, a Gram–Schmidt over S (site order) keeps at most nv independent sites
-/// (velocity directions e_i, force directions f_i = Σ c_ij g_j, f_i e_j = 0 for i ≠ j); a site whose pivot
-/// f e is below 1e-9 W_kk is a combination of kept ones (the last branch of a cable and its reducer, or the
-/// redundant sites of a stuck chain) and keeps its impulse. Then v⁺ = v − Σ_i e_i (f_i v)/(f_i e_i) and the
-/// kept impulses move by Σ_i α_i c_i. A kept impulse that leaves its box is held at the bound it crossed
-/// and the projection is made again without it (an active-set step: another of the redundant sites takes
-/// the share, or the site slides), at most n_active times. Accepted only if the result satisfies the
-/// friction laws: every stuck site at rest and every sliding site moving against its force, to tol_k =
-/// pgs_speed_tolerance ‖g_k‖; else p and v are left as they were. Returns true if accepted.
+/// Exact finish of the friction solve for a classification of the sites (issue 12), starting from the
+/// current iterate's: a site at a bound slides with that bound's force, a site inside its box sticks (the
+/// set S). The velocity of that case is the (M + hD)-orthogonal projection of v onto {v : g_k v = 0, k ∈ S}:
+/// with b_k = (M + hD)⁻¹ g_kᵀ and ⟨b_j, b_k⟩ = g_j b_k = W_jk, a Gram–Schmidt over S (site order) keeps at
+/// most nv independent sites (velocity directions e_i, force directions f_i = Σ c_ij g_j, f_i e_j = 0 for
+/// i ≠ j); a site whose pivot f e is below 1e-9 W_kk is a combination of kept ones (the last branch of a
+/// cable and its reducer, the redundant sites of a stuck chain) and keeps its impulse. Then
+/// v⁺ = v − Σ_i e_i (f_i v)/(f_i e_i) and the kept impulses move by Σ_i α_i c_i. Active-set changes, at most
+/// max_changes: a kept impulse that leaves its box is held at the bound it crossed (another redundant site
+/// takes the share, or the site slides); a site at a bound that moves the way its force pushes is released
+/// into S (it sticks). Accepted only when the result satisfies the friction laws — kept impulses inside
+/// their boxes, every stuck site at rest and every sliding site moving against its force, to
+/// tol_k = pgs_speed_tolerance ‖g_k‖; else p and v are left as they were. Returns true if accepted.
 template <int NV>
-inline bool finish_friction(const SimModel& m, SimData& d, const int* active, int n_active, int max_holds) {
+inline bool finish_friction(const SimModel& m, SimData& d, const int* active, int n_active, int max_changes) {
   const int nv = dim<NV>(m.nv);
   if (NV <= 0 && nv > 64) return false;
   const double *B = d.B.data(), *Gt = m.Gt.data(), *W = d.Wdiag.data();
   const double *lo = d.lo.data(), *hi = d.hi.data(), *gn = m.site_norm.data();
-  double* pw = d.fin_p.data();  // the impulses of this attempt (held sites at their bounds)
-  for (int a = 0; a < n_active; ++a) pw[active[a]] = d.p(active[a]);
+  const double vtol = m.pgs_speed_tolerance;
+  double* pw = d.fin_p.data();  // the impulses of this attempt
+  int* state = d.fin_state.data();  // 0 sticks (in S), 1 slides at lo, 2 slides at hi
+  for (int a = 0; a < n_active; ++a) {
+    const int k = active[a];
+    pw[k] = d.p(k);
+    state[k] = pw[k] <= lo[k] ? 1 : pw[k] >= hi[k] ? 2 : 0;
+  }
   double* vb = d.fin_vb.data();  // v at the impulses pw
   for (int j = 0; j < nv; ++j) vb[j] = d.v(j);
-  double *E = d.fin_e.data(), *Fd = d.fin_f.data(), *C = d.fin_c.data(), *piv = d.fin_piv.data();
+  double *E = d.fin_e.data(), *Fd = d.fin_f.data(), *C = d.fin_c.data();
+  double* piv = d.fin_piv.data();  // 1 / (f_i e_i)
   double* v = d.fin_v.data();
   int* kept = d.fin_site.data();
   double alpha[NV > 0 ? NV : 64], dp[NV > 0 ? NV : 64];
   int r = 0;
-  for (int attempt = 0;; ++attempt) {
-    if (attempt > max_holds) return false;
-    r = 0;
-    for (int a = 0; a < n_active && r < nv; ++a) {
-      const int k = active[a];
-      if (pw[k] <= lo[k] || pw[k] >= hi[k]) continue;  // sliding (or held at its bound)
-      double* e = E + r * nv;
-      double* f = Fd + r * nv;
-      double* c = C + r * nv;
-      for (int j = 0; j < nv; ++j) { e[j] = B[k * nv + j]; f[j] = Gt[k * nv + j]; c[j] = 0.0; }
-      c[r] = 1.0;
-      for (int i = 0; i < r; ++i) {  // modified Gram–Schmidt in the (M + hD) inner product
-        double fe = 0.0;
-        for (int j = 0; j < nv; ++j) fe += Fd[i * nv + j] * e[j];
-        const double t = fe / piv[i];
-        for (int j = 0; j < nv; ++j) {
-          e[j] -= t * E[i * nv + j];
-          f[j] -= t * Fd[i * nv + j];
-          c[j] -= t * C[i * nv + j];
-        }
+  // orthogonalise site k against the kept slots and keep it as slot r if independent; v moves by its share
+  auto append = [&](int k) {
+    double* e = E + r * nv;
+    double* f = Fd + r * nv;
+    double* c = C + r * nv;
+    for (int j = 0; j < nv; ++j) { e[j] = B[k * nv + j]; f[j] = Gt[k * nv + j]; c[j] = 0.0; }
+    c[r] = 1.0;
+    for (int i = 0; i < r; ++i) {  // modified Gram–Schmidt in the (M + hD) inner product
+      double fe = 0.0;
+      for (int j = 0; j < nv; ++j) fe += Fd[i * nv + j] * e[j];
+      const double t = fe * piv[i];
+      for (int j = 0; j < nv; ++j) {
+        e[j] -= t * E[i * nv + j];
+        f[j] -= t * Fd[i * nv + j];
+        c[j] -= t * C[i * nv + j];
       }
-      double pv = 0.0;
-      for (int j = 0; j < nv; ++j) pv += f[j] * e[j];
-      if (!(pv > 1e-9 * W[k])) continue;  // dependent on the kept sites
-      piv[r] = pv;
-      kept[r++] = k;
     }
-    for (int j = 0; j < nv; ++j) v[j] = vb[j];
-    for (int i = 0; i < r; ++i) {
-      double fv = 0.0;
-      for (int j = 0; j < nv; ++j) fv += Fd[i * nv + j] * v[j];
-      alpha[i] = -fv / piv[i];
-      for (int j = 0; j < nv; ++j) v[j] += alpha[i] * E[i * nv + j];
+    double pv = 0.0;
+    for (int j = 0; j < nv; ++j) pv += f[j] * e[j];
+    if (!(pv > 1e-9 * W[k])) return false;  // dependent on the kept sites
+    piv[r] = 1.0 / pv;
+    double fv = 0.0;
+    for (int j = 0; j < nv; ++j) fv += f[j] * v[j];
+    alpha[r] = -fv * piv[r];
+    for (int j = 0; j < nv; ++j) v[j] += alpha[r] * e[j];
+    kept[r++] = k;
+    return true;
+  };
+  bool rebuild = true;
+  for (int change = 0;; ++change) {
+    if (change > max_changes) return false;
+    if (rebuild) {  // the projection from vb over S in site order
+      for (int j = 0; j < nv; ++j) v[j] = vb[j];
+      r = 0;
+      for (int a = 0; a < n_active && r < nv; ++a)
+        if (state[active[a]] == 0) append(active[a]);
+      rebuild = false;
     }
-    int out = -1;  // the first kept site whose impulse leaves its box
+    int out = -1;  // the first kept site whose impulse leaves its box: hold it at the bound it crossed
     for (int j = 0; j < r && out < 0; ++j) {
       dp[j] = 0.0;
       for (int i = j; i < r; ++i) dp[j] += alpha[i] * C[i * nv + j];
       const double pk = pw[kept[j]] + dp[j];
       if (!(pk >= lo[kept[j]] && pk <= hi[kept[j]])) out = j;
     }
-    if (out < 0) break;
-    const int k = kept[out];  // hold it at the bound it crossed
-    const double bound = pw[k] + dp[out] < lo[k] ? lo[k] : hi[k];
-    const double step = bound - pw[k];
-    pw[k] = bound;
-    for (int j = 0; j < nv; ++j) vb[j] += B[k * nv + j] * step;
-  }
-  // every site obeys its law at the projected velocity (the kept impulses only change v through e_i)
-  const double vtol = m.pgs_speed_tolerance;
-  for (int a = 0; a < n_active; ++a) {
-    const int k = active[a];
-    const double uk = site_speed<NV>(m, k, v), tk = vtol * gn[k];
-    const bool at_lo = pw[k] <= lo[k], at_hi = pw[k] >= hi[k];
-    if (at_lo ? uk < -tk : at_hi ? uk > tk : std::abs(uk) > tk) return false;
+    if (out >= 0) {
+      const int k = kept[out];
+      const bool low = pw[k] + dp[out] < lo[k];
+      const double step = (low ? lo[k] : hi[k]) - pw[k];
+      pw[k] += step;
+      state[k] = low ? 1 : 2;
+      for (int j = 0; j < nv; ++j) vb[j] += B[k * nv + j] * step;
+      rebuild = true;
+      continue;
+    }
+    // every site obeys its law at the projected velocity (the kept impulses only change v through e_i)
+    int wrong = -1;
+    for (int a = 0; a < n_active && wrong < 0; ++a) {
+      const int k = active[a];
+      const double uk = site_speed<NV>(m, k, v), tk = vtol * gn[k];
+      if (state[k] == 1 ? uk < -tk : state[k] == 2 ? uk > tk : std::abs(uk) > tk) wrong = k;
+    }
+    if (wrong < 0) break;
+    // a stuck site not at rest (dependent, but not exactly), or one that cannot join S: give up
+    if (state[wrong] == 0 || r == nv) return false;
+    state[wrong] = 0;  // pushed the way its force acts: it sticks (its impulse moves inside the box)
+    if (!append(wrong)) return false;
   }
   for (int j = 0; j < r; ++j) pw[kept[j]] += dp[j];
   for (int a = 0; a < n_active; ++a) d.p(active[a]) = pw[active[a]];
@@ -601,7 +624,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
   // the warm start's classification first (no hold): in a step that sticks or slides as the last one, no sweep
   std::uint64_t tried = 0;  // the classification tried last
   if (finish) {
-    if (finish_friction<NV>(m, d, active, na_sites, 0)) { d.pgs_finished = 1; return 1; }
+    if (finish_friction<NV>(m, d, active, na_sites, na_sites)) { d.pgs_finished = 1; return 0; }
     tried = classify();
   }
   int it = 0;
@@ -630,7 +653,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
     if (finish) {  // a classification not tried yet in this step: try it exactly (nv holds at most)
       const std::uint64_t now = classify();
       if (now != tried) {
-        if (finish_friction<NV>(m, d, active, na_sites, nv)) { d.pgs_finished = 1; ++it; break; }
+        if (finish_friction<NV>(m, d, active, na_sites, na_sites)) { d.pgs_finished = 1; ++it; break; }
         tried = now;
       }
     }
@@ -742,11 +765,15 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
   else
     for (int k = 0; k < ns; ++k) d.sdot(k) = site_speed<NV>(m, k, v);
   friction_bounds(m, d);
+  const bool finish = m.pgs_exact_finish && m.pgs_speed_tolerance > 0.0;
   bool any = false;
   for (int k = 0; k < ns; ++k) {
     d.lo(k) *= h; d.hi(k) *= h;
     any = any || d.lo(k) != 0.0 || d.hi(k) != 0.0;
-    d.p(k) = std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
+    // warm start: with the exact finish, a site that slid at the end of the last step starts at its new
+    // bound (it slides on unless the solve says otherwise); the others at their impulse clamped into the box
+    const int st = finish ? d.site_state(k) : 0;
+    d.p(k) = st == 1 ? d.lo(k) : st == 2 ? d.hi(k) : std::max(d.lo(k), std::min(d.hi(k), d.p(k)));
   }
   if (any) {
     // B = (M + hD)⁻¹ Gᵀ over the nonzero range of each g_k; W_kk = g_k B_k
@@ -762,6 +789,10 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
       d.Wrecip(k) = d.Wdiag(k) > 0.0 ? 1.0 / d.Wdiag(k) : 0.0;
     }
     d.pgs_iterations = solve_friction<NV>(m, d);
+    for (int k = 0; k < ns; ++k) {  // where each site ended: inside its box, at lo, at hi
+      const double pk = d.p(k), lk = d.lo(k), hk = d.hi(k);
+      d.site_state(k) = lk == hk ? 0 : pk <= lk ? 1 : pk >= hk ? 2 : 0;
+    }
     // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
     for (int k = 0; k < ns; ++k) {
       const double pk = d.p(k);
@@ -770,6 +801,7 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
     }
   } else {
     d.pgs_iterations = 0;  // no friction this step (p clamped to zero)
+    d.site_state.setZero();
   }
   double diss = 0.0;
   for (int k = 0; k < ns; ++k) {
@@ -890,6 +922,7 @@ inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
   time = 0.0;
   step_count = 0;
   p.setZero();
+  site_state.setZero();
   integral.setZero();
   v_est.setZero();
   v_motor_est.setZero();
