@@ -97,18 +97,38 @@ inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, 
   return f;
 }
 
+namespace detail {
+/// y·sgn(s) (s ≠ 0; s = ±0 counts by its sign bit): y with its sign bit flipped where s is negative. Exact. On
+/// x86-64 one xorpd on the sign bit (a multiplication by ±1 would cost four cycles on the chain of the statics).
+inline double flip(double y, double s) {
+#if defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
+  const double sign = std::copysign(0.0, s);  // only the sign bit of s
+  __asm__("xorpd %1, %0" : "+x"(y) : "x"(sign));
+  return y;
+#else
+  return y * std::copysign(1.0, s);
+#endif
+}
+/// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
+inline double larger(double a, double b) { return a < b ? b : a; }
+/// branch_tension_upstream given κ = a + ν|Ṡ| and the reciprocals q₊ = 1/(1 + b), q₋ = 1/(1 − b): no division.
+inline double branch_tension_upstream_q(double x, double sdot, double kappa, double b, double q_plus,
+                                        double q_minus) {
+  const double z = flip(x, sdot), c = z + kappa;  // in the frame of the motion
+  return flip(larger(larger(c * q_plus, c * q_minus), c + b * std::abs(z)), sdot);
+}
+}  // namespace detail
+
 /// Motor-side tension y of a sliding branch given its joint-side tension x (feedforward step).
 /// Solves y − s·b·max(|x|,|y|) = x + s·a + ν Ṡ, s = sgn(Ṡ) ≠ 0, b < 1 (S0 eq. 11, corrected).
-/// The left side is strictly increasing in y, and its three pieces give y₁ = c/(1 + sb) (y < −|x|),
-/// y₂ = c + sb|x| (|y| ≤ |x|), y₃ = c/(1 − sb) (y > |x|): the solution is the largest of the three for
-/// s > 0 and the smallest for s < 0 (each wrong piece overshoots on the far side of its own range). Taking
-/// it branch-free gives the same value as testing the ranges (no mispredicted branch on random signs).
+/// In the frame of the motion (z = s x, y' = s y: the same law times s) it reads y' − b·max(|z|,|y'|) = c,
+/// c = z + a + ν|Ṡ|. The left side is strictly increasing in y', and its three pieces give y'₁ = c/(1 + b)
+/// (y' < −|z|), y'₂ = c + b|z| (|y'| ≤ |z|), y'₃ = c/(1 − b) (y' > |z|): the solution is the largest of the three
+/// (each wrong piece overshoots on the far side of its own range). Taking the maximum gives the same value
+/// as testing the ranges, without a branch (random signs would mispredict it); y = s y'.
 inline double branch_tension_upstream(double x, double sdot, BranchFriction f, double nu) {
-  const double s = sdot > 0.0 ? 1.0 : -1.0;
-  const double ax = std::abs(x), sb = s * f.b;
-  const double c = x + s * f.a + nu * sdot;
-  const double y1 = c / (1.0 + sb), y2 = c + sb * ax, y3 = c / (1.0 - sb);
-  return s * std::max(s * y1, std::max(s * y2, s * y3));  // s = ±1: exact sign flips
+  return detail::branch_tension_upstream_q(x, sdot, f.a + nu * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
+                                           1.0 / (1.0 - f.b));
 }
 
 /// Joint-side tension x of a sliding branch given its motor-side tension y (forward step).
@@ -125,43 +145,116 @@ inline double branch_tension_downstream(double y, double sdot, BranchFriction f,
 // ---- transmission statics with losses ---------------------------------------------------------
 
 namespace detail {
-/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); inputs already checked.
+/// True when every entry of v is finite (fixed N: one test on Σ (v_i − v_i), 0 unless an entry is inf or NaN).
+template <int N, class V>
+inline bool all_finite_n(const V& v) {
+  if constexpr (N == 0) {
+    return all_finite(v);
+  } else {
+    double z = 0.0;
+#pragma GCC unroll 8
+    for (int i = 0; i < N; ++i) z += v(i) - v(i);
+    return z == 0.0;
+  }
+}
+
+/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); sizes already checked.
+/// Arranged for the chain of dependent operations (cable i waits for the tensions of the distal cables at
+/// joint i): no division and no branch on a sign along it (the reciprocals of the reducer and branch
+/// constants are taken first, independent of each other; the choices of piece are maxima with exact sign
+/// flips), the tension that arrives last subtracted last; for a fixed N the inputs and tensions are kept in
+/// local arrays (registers) and the outputs written once.
 template <int N, class V1, class V2>
 inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
                                          const V2& qd) {
   const int n = N > 0 ? N : m.n;
-  velocities_from_joint_n<N>(m, d, qd);
-  const double* K = m.K.data();
-  double* T = d.tension.data();  // column-major, leading dimension n
+  if (!all_finite_n<N>(torque_joint)) return Status::NonFiniteInput;
+  if (!all_finite_n<N>(qd)) return Status::NonFiniteInput;
+  constexpr int NF = N > 0 ? N : 1;
+  double tj_l[NF], qd_l[NF];
+  if constexpr (N > 0) {
+#pragma GCC unroll 8
+    for (int i = 0; i < N; ++i) {
+      tj_l[i] = torque_joint(i);
+      qd_l[i] = qd(i);
+    }
+    velocities_from_joint_n<N>(m, d, Eigen::Map<const Eigen::Matrix<double, NF, 1>>(qd_l));
+  } else {
+    velocities_from_joint_n<N>(m, d, qd);
+  }
+  const auto tau = [&](int i) { return N > 0 ? tj_l[i] : torque_joint(i); };
+  const auto qdot = [&](int i) { return N > 0 ? qd_l[i] : qd(i); };
+  // column-major, leading dimension n: K, the loss matrices and the (n, n) outputs
+  const double *K = m.K.data(), *Sdot = d.Sdot.data();
+  const double *eta_d = m.reducer_efficiency.data(), *ratio = m.reducer_ratio.data(), *r_d = m.driven_radius.data();
+  const double *beta = m.beta.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *count = m.bearing_count.data();
+  int *stuck = d.stuck.data(), *self_locked = d.self_locked.data();
+  // Reciprocals, all independent (fixed N; at run time n each is taken where it is used, same arithmetic):
+  // per transmission the gain g = 1/(η_d n r_d), per branch 1/(1 + β), 1/(1 − β) [i + b n].
+  double gain[NF], q_plus[NF * NF], q_minus[NF * NF];
+  if constexpr (N > 0) {
+    for (int i = 0; i < N; ++i) gain[i] = 1.0 / (eta_d[i] * ratio[i] * r_d[i]);
+    for (int k = 0; k < N * N; ++k) {
+      q_plus[k] = 1.0 / (1.0 + beta[k]);
+      q_minus[k] = 1.0 / (1.0 - beta[k]);
+    }
+  }
+  double Tl[NF * NF], tm[NF];
+  double* T = N > 0 ? Tl : d.tension.data();  // [i + b n], tension at joint b after branch b of cable i
   bool locked_any = false;
 #pragma GCC unroll 8
   for (int i = n - 1; i >= 0; --i) {
-    double own = torque_joint(i);  // joint equilibrium, S0 eq. 4
+    double own = tau(i);  // joint equilibrium, S0 eq. 4; the last tension to arrive (k = i+1) comes last
 #pragma GCC unroll 8
-    for (int k = i + 1; k < n; ++k) own -= K[k + i * n] * T[k + i * n];
-    // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`: own / (η_d n)
-    // driving (power > 0), η_i own / n back-driven (power < 0; nothing when self-locking), own / n at rest.
-    const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
-    const double power = own * qd(i);
-    const bool locking = reducer_self_locking(eta_d);
-    const double num = power < 0.0 ? reducer_inverse_efficiency(eta_d) * own : own;
-    const double den = power > 0.0 ? eta_d * ratio : ratio;
-    const bool locked = power < 0.0 && locking;
-    const double pulley = locked ? 0.0 : num / den;
-    d.self_locked(i) = locked;
-    locked_any = locked_any || locked;
-    double t = pulley / m.driven_radius(i);
+    for (int k = n - 1; k > i; --k) own -= K[k + i * n] * T[k + i * n];
+    // Reducer in the driven pulley, S0 eq. 9: pulley torque own / (η_d n) when the joint is driven (power
+    // own·q̇ > 0), η_i own / n, η_i = (2η_d − 1)/η_d, when it back-drives (power < 0; nothing when
+    // self-locking), own / n at rest; the tension is that over r_d. With g = 1/(η_d n r_d): own·g driven,
+    // own·(2η_d − 1)g back-driven. Both gains are ≥ 0 and g_driven ≥ g_back, so for q̇ > 0 the tension is the
+    // larger of own·g_driven and own·g_back, for q̇ < 0 the smaller (the sign of own picks the case); at
+    // rest (q̇ = 0) both are own·η_d g. (The sign of the power is that of own times that of q̇.)
+    const double e = eta_d[i], v = qdot(i);
+    const double g = N > 0 ? gain[i] : 1.0 / (e * ratio[i] * r_d[i]);
+    const bool locking = reducer_self_locking(e), rest = v == 0.0;
+    const double g_drive = rest ? e * g : g, g_back = rest ? e * g : (locking ? 0.0 : (2.0 * e - 1.0) * g);
+    const double u = flip(own, v);  // in the frame of the joint motion
+    double t = flip(larger(u * g_drive, u * g_back), v);
+    const bool locked = locking & (own * v < 0.0);  // & : no branch on the sign
+    self_locked[i] = locked;
+    locked_any = locked_any | locked;
     T[i + i * n] = t;
 #pragma GCC unroll 8
     for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
-      const double sdot = d.Sdot(i, b);
-      d.stuck(i, b) = sdot == 0.0;
-      if (sdot != 0.0) t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
+      const int ib = i + b * n;
+      const double sdot = Sdot[ib];
+      stuck[ib] = sdot == 0.0;
+      if (sdot != 0.0) {
+        if (count[ib] > 0.0) {  // speed-dependent bearing terms (S0 eqs. 7–8)
+          t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
+        } else {
+          const double qp = N > 0 ? q_plus[ib] : 1.0 / (1.0 + beta[ib]), qm = N > 0 ? q_minus[ib] : 1.0 / (1.0 - beta[ib]);
+          t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], qp, qm);
+        }
+      }
       if (b > 0) T[i + (b - 1) * n] = t;
     }
-    d.tension_motor(i) = t;
-    d.torque_motor(i) = m.motor_radius(i) * t;
-    d.torque_joint(i) = torque_joint(i);
+    if constexpr (N > 0) {
+      tm[i] = t;
+    } else {
+      d.tension_motor(i) = t;
+      d.torque_motor(i) = m.motor_radius(i) * t;
+      d.torque_joint(i) = torque_joint(i);
+    }
+  }
+  if constexpr (N > 0) {
+    double* tension = d.tension.data();
+    for (int i = 0; i < N; ++i) {
+      d.tension_motor(i) = tm[i];
+      d.torque_motor(i) = m.motor_radius(i) * tm[i];
+      d.torque_joint(i) = tj_l[i];
+    }
+    for (int j = 0; j < N; ++j)
+      for (int i = j; i < N; ++i) tension[i + j * N] = Tl[i + j * N];
   }
   return locked_any ? Status::SelfLocked : Status::Ok;
 }
@@ -185,9 +278,7 @@ template <class V1, class V2>
 inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionData& d,
                                        const V1& torque_joint, const V2& qd) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
-  if (!all_finite(torque_joint)) return Status::NonFiniteInput;
-  if (qd.size() != m.n) return Status::SizeMismatch;
-  if (!all_finite(qd)) return Status::NonFiniteInput;
+  if (qd.size() != m.n) return all_finite(torque_joint) ? Status::SizeMismatch : Status::NonFiniteInput;
   return dispatch_size(m.n, [&](auto N) {
     return detail::motor_torque_feedforward_n<decltype(N)::value>(m, d, torque_joint, qd);
   });

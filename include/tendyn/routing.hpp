@@ -405,24 +405,22 @@ namespace detail {
 template <int N, class VecIn>
 inline void velocities_from_joint_n(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
   const int n = N > 0 ? N : m.n;
-  const double* K = m.K.data();  // column-major, leading dimension n
+  const double* K = m.K.data();  // column-major, leading dimension n, as Sdot
+  double* Sdot = d.Sdot.data();
 #pragma GCC unroll 8
   for (int i = 0; i < n; ++i) d.qd(i) = qd(i);
 #pragma GCC unroll 8
   for (int i = 0; i < n; ++i) {
+    // Ṡ_b = Σ_{l≥b} K_il q̇_l, summed from the driven joint toward the motor (Ṡ_b = K_ib q̇_b + Ṡ_{b+1}), not
+    // Ṡ_{b−1} − K_i,b−1 q̇_{b−1} from the motor: a branch beyond every moving joint comes out exactly 0, or the
+    // statics would treat it as sliding (stuck test Ṡ = 0). Ṡ_0 = r_m q̇_m (S0 eq. 1).
     double s = 0.0;
 #pragma GCC unroll 8
-    for (int j = 0; j <= i; ++j) s += K[i + j * n] * qd(j);
-    d.qd_motor(i) = s / m.motor_radius(i);
-    // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
-    // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
-#pragma GCC unroll 8
-    for (int b = 0; b <= i; ++b) {
-      double sb = 0.0;
-#pragma GCC unroll 8
-      for (int l = b; l <= i; ++l) sb += K[i + l * n] * qd(l);
-      d.Sdot(i, b) = sb;
+    for (int b = i; b >= 0; --b) {
+      s += K[i + b * n] * qd(b);
+      Sdot[i + b * n] = s;
     }
+    d.qd_motor(i) = s / m.motor_radius(i);
   }
 }
 }  // namespace detail
