@@ -98,15 +98,16 @@ inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, 
 }
 
 namespace detail {
-/// y·sgn(s) (s ≠ 0; s = ±0 counts by its sign bit): y with its sign bit flipped where s is negative. Exact. On
-/// x86-64 one xorpd on the sign bit (a multiplication by ±1 would cost four cycles on the chain of the statics).
-inline double flip(double y, double s) {
+/// The sign bit of s alone (+0.0 or −0.0), for flip.
+inline double sign_bit(double s) { return std::copysign(0.0, s); }
+/// y·sgn(s) given sign = sign_bit(s): y with its sign bit flipped where s is negative (s = ±0 counts by its sign
+/// bit). Exact. On x86-64 one xorpd (a multiplication by ±1 would cost four cycles on the chain of the statics).
+inline double flip(double y, double sign) {
 #if defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
-  const double sign = std::copysign(0.0, s);  // only the sign bit of s
   __asm__("xorpd %1, %0" : "+x"(y) : "x"(sign));
   return y;
 #else
-  return y * std::copysign(1.0, s);
+  return y * std::copysign(1.0, sign);
 #endif
 }
 /// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
@@ -114,8 +115,8 @@ inline double larger(double a, double b) { return a < b ? b : a; }
 /// branch_tension_upstream given κ = a + ν|Ṡ| and the reciprocals q₊ = 1/(1 + b), q₋ = 1/(1 − b): no division.
 inline double branch_tension_upstream_q(double x, double sdot, double kappa, double b, double q_plus,
                                         double q_minus) {
-  const double z = flip(x, sdot), c = z + kappa;  // in the frame of the motion
-  return flip(larger(larger(c * q_plus, c * q_minus), c + b * std::abs(z)), sdot);
+  const double sign = sign_bit(sdot), z = flip(x, sign), c = z + kappa;  // in the frame of the motion
+  return flip(larger(larger(c * q_plus, c * q_minus), c + b * std::abs(z)), sign);
 }
 }  // namespace detail
 
@@ -190,17 +191,20 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
   const double *beta = m.beta.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *count = m.bearing_count.data();
   int *stuck = d.stuck.data(), *self_locked = d.self_locked.data();
   // Reciprocals, all independent (fixed N; at run time n each is taken where it is used, same arithmetic):
-  // per transmission the gain g = 1/(η_d n r_d), per branch 1/(1 + β), 1/(1 − β) [i + b n].
-  double gain[NF], q_plus[NF * NF], q_minus[NF * NF];
+  // per transmission the gains 1/(η_d n r_d) and (2η_d − 1)/(η_d n r_d) (0 if self-locking), per branch
+  // 1/(1 + β), 1/(1 − β) [i + b n].
+  double gain[NF], gain_back[NF], q_plus[NF * NF], q_minus[NF * NF];
   if constexpr (N > 0) {
     for (int i = 0; i < N; ++i) gain[i] = 1.0 / (eta_d[i] * ratio[i] * r_d[i]);
+    for (int i = 0; i < N; ++i) gain_back[i] = reducer_self_locking(eta_d[i]) ? 0.0 : (2.0 * eta_d[i] - 1.0) * gain[i];
     for (int k = 0; k < N * N; ++k) {
       q_plus[k] = 1.0 / (1.0 + beta[k]);
       q_minus[k] = 1.0 / (1.0 - beta[k]);
     }
   }
   double Tl[NF * NF], tm[NF];
-  double* T = N > 0 ? Tl : d.tension.data();  // [i + b n], tension at joint b after branch b of cable i
+  double* tension = d.tension.data();  // [i + b n], tension at joint b after branch b of cable i
+  double* T = N > 0 ? Tl : tension;    // the copy the recursion reads
   bool locked_any = false;
 #pragma GCC unroll 8
   for (int i = n - 1; i >= 0; --i) {
@@ -214,21 +218,31 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
     // larger of own·g_driven and own·g_back, for q̇ < 0 the smaller (the sign of own picks the case); at
     // rest (q̇ = 0) both are own·η_d g. (The sign of the power is that of own times that of q̇.)
     const double e = eta_d[i], v = qdot(i);
-    const double g = N > 0 ? gain[i] : 1.0 / (e * ratio[i] * r_d[i]);
-    const bool locking = reducer_self_locking(e), rest = v == 0.0;
-    const double g_drive = rest ? e * g : g, g_back = rest ? e * g : (locking ? 0.0 : (2.0 * e - 1.0) * g);
-    const double u = flip(own, v);  // in the frame of the joint motion
-    double t = flip(larger(u * g_drive, u * g_back), v);
+    const bool locking = reducer_self_locking(e);
+    double g_drive, g_back;
+    if constexpr (N > 0) {
+      g_drive = gain[i];
+      g_back = gain_back[i];
+    } else {
+      g_drive = 1.0 / (e * ratio[i] * r_d[i]);
+      g_back = locking ? 0.0 : (2.0 * e - 1.0) * g_drive;
+    }
+    if (v == 0.0) g_drive = g_back = e * g_drive;  // at rest: own / n
+    const double sign = sign_bit(v), u = flip(own, sign);  // in the frame of the joint motion
+    double t = flip(larger(u * g_drive, u * g_back), sign);
     const bool locked = locking & (own * v < 0.0);  // & : no branch on the sign
     self_locked[i] = locked;
     locked_any = locked_any | locked;
     T[i + i * n] = t;
+    if constexpr (N > 0) tension[i + i * n] = t;
 #pragma GCC unroll 8
     for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
       const int ib = i + b * n;
       const double sdot = Sdot[ib];
-      stuck[ib] = sdot == 0.0;
-      if (sdot != 0.0) {
+      if (sdot == 0.0) {
+        stuck[ib] = 1;
+      } else {
+        stuck[ib] = 0;
         if (count[ib] > 0.0) {  // speed-dependent bearing terms (S0 eqs. 7–8)
           t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
         } else {
@@ -236,7 +250,10 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
           t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], qp, qm);
         }
       }
-      if (b > 0) T[i + (b - 1) * n] = t;
+      if (b > 0) {
+        T[i + (b - 1) * n] = t;
+        if constexpr (N > 0) tension[i + (b - 1) * n] = t;
+      }
     }
     if constexpr (N > 0) {
       tm[i] = t;
@@ -247,14 +264,11 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
     }
   }
   if constexpr (N > 0) {
-    double* tension = d.tension.data();
     for (int i = 0; i < N; ++i) {
       d.tension_motor(i) = tm[i];
       d.torque_motor(i) = m.motor_radius(i) * tm[i];
       d.torque_joint(i) = tj_l[i];
     }
-    for (int j = 0; j < N; ++j)
-      for (int i = j; i < N; ++i) tension[i + j * N] = Tl[i + j * N];
   }
   return locked_any ? Status::SelfLocked : Status::Ok;
 }
