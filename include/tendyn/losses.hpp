@@ -159,18 +159,36 @@ inline bool all_finite_n(const V& v) {
   }
 }
 
-/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); sizes already checked.
+/// Take the constants of the feedforward from model m into d.statics (no allocation; d was made for m.n).
+inline void take_statics_constants(const TransmissionModel& m, TransmissionData& d) {
+  auto& c = d.statics;
+  for (int i = 0; i < m.n; ++i) {
+    const double e = m.reducer_efficiency(i);
+    c.gain_driving(i) = 1.0 / (e * m.reducer_ratio(i) * m.driven_radius(i));
+    c.gain_backdriven(i) = reducer_self_locking(e) ? 0.0 : (2.0 * e - 1.0) * c.gain_driving(i);
+  }
+  c.bearings = false;
+  for (int b = 0; b < m.n; ++b)
+    for (int i = b; i < m.n; ++i) {
+      c.inv_one_plus_beta(i, b) = 1.0 / (1.0 + m.beta(i, b));
+      c.inv_one_minus_beta(i, b) = 1.0 / (1.0 - m.beta(i, b));
+      c.bearings = c.bearings || m.bearing_count(i, b) > 0.0;
+    }
+  c.model = &m;
+}
+
+/// The recursion of motor_torque_feedforward for N transmissions (N = 0: m.n at run time), inputs checked.
 /// Arranged for the chain of dependent operations (cable i waits for the tensions of the distal cables at
 /// joint i): no division and no branch on a sign along it (the reciprocals of the reducer and branch
-/// constants are taken first, independent of each other; the choices of piece are maxima with exact sign
-/// flips), the tension that arrives last subtracted last; for a fixed N the inputs and tensions are kept in
-/// local arrays (registers) and the outputs written once.
-template <int N, class V1, class V2>
-inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
-                                         const V2& qd) {
+/// constants are taken once per model, TransmissionData::statics; the choices of piece are maxima with exact
+/// sign flips), the tension that arrives last subtracted last; for a fixed N the inputs and tensions are kept
+/// in local arrays (registers) and the outputs written once.
+/// Bearings: some branch has bearings (their speed-dependent terms are taken in the call; without any, the
+/// recursion has no call in it and stays in registers).
+template <int N, bool Bearings, class V1, class V2>
+inline Status feedforward_recursion(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                    const V2& qd) {
   const int n = N > 0 ? N : m.n;
-  if (!all_finite_n<N>(torque_joint)) return Status::NonFiniteInput;
-  if (!all_finite_n<N>(qd)) return Status::NonFiniteInput;
   constexpr int NF = N > 0 ? N : 1;
   double tj_l[NF], qd_l[NF];
   if constexpr (N > 0) {
@@ -185,26 +203,15 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
   }
   const auto tau = [&](int i) { return N > 0 ? tj_l[i] : torque_joint(i); };
   const auto qdot = [&](int i) { return N > 0 ? qd_l[i] : qd(i); };
-  // column-major, leading dimension n: K, the loss matrices and the (n, n) outputs
-  const double *K = m.K.data(), *Sdot = d.Sdot.data();
-  const double *eta_d = m.reducer_efficiency.data(), *ratio = m.reducer_ratio.data(), *r_d = m.driven_radius.data();
+  // column-major, leading dimension n: K, the loss matrices, the constants and the (n, n) outputs
+  const double *K = m.K.data(), *Sdot = d.Sdot.data(), *eta_d = m.reducer_efficiency.data();
   const double *beta = m.beta.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *count = m.bearing_count.data();
+  const double *gain = d.statics.gain_driving.data(), *gain_back = d.statics.gain_backdriven.data();
+  const double *q_plus = d.statics.inv_one_plus_beta.data(), *q_minus = d.statics.inv_one_minus_beta.data();
   int *stuck = d.stuck.data(), *self_locked = d.self_locked.data();
-  // Reciprocals, all independent (fixed N; at run time n each is taken where it is used, same arithmetic):
-  // per transmission the gains 1/(η_d n r_d) and (2η_d − 1)/(η_d n r_d) (0 if self-locking), per branch
-  // 1/(1 + β), 1/(1 − β) [i + b n].
-  double gain[NF], gain_back[NF], q_plus[NF * NF], q_minus[NF * NF];
-  if constexpr (N > 0) {
-    for (int i = 0; i < N; ++i) gain[i] = 1.0 / (eta_d[i] * ratio[i] * r_d[i]);
-    for (int i = 0; i < N; ++i) gain_back[i] = reducer_self_locking(eta_d[i]) ? 0.0 : (2.0 * eta_d[i] - 1.0) * gain[i];
-    for (int k = 0; k < N * N; ++k) {
-      q_plus[k] = 1.0 / (1.0 + beta[k]);
-      q_minus[k] = 1.0 / (1.0 - beta[k]);
-    }
-  }
-  double Tl[NF * NF], tm[NF];
   double* tension = d.tension.data();  // [i + b n], tension at joint b after branch b of cable i
-  double* T = N > 0 ? Tl : tension;    // the copy the recursion reads
+  double Tl[NF * NF], tm[NF];
+  double* T = N > 0 ? Tl : tension;  // the copy the recursion reads
   bool locked_any = false;
 #pragma GCC unroll 8
   for (int i = n - 1; i >= 0; --i) {
@@ -218,19 +225,11 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
     // larger of own·g_driven and own·g_back, for q̇ < 0 the smaller (the sign of own picks the case); at
     // rest (q̇ = 0) both are own·η_d g. (The sign of the power is that of own times that of q̇.)
     const double e = eta_d[i], v = qdot(i);
-    const bool locking = reducer_self_locking(e);
-    double g_drive, g_back;
-    if constexpr (N > 0) {
-      g_drive = gain[i];
-      g_back = gain_back[i];
-    } else {
-      g_drive = 1.0 / (e * ratio[i] * r_d[i]);
-      g_back = locking ? 0.0 : (2.0 * e - 1.0) * g_drive;
-    }
+    double g_drive = gain[i], g_back = gain_back[i];
     if (v == 0.0) g_drive = g_back = e * g_drive;  // at rest: own / n
     const double sign = sign_bit(v), u = flip(own, sign);  // in the frame of the joint motion
     double t = flip(larger(u * g_drive, u * g_back), sign);
-    const bool locked = locking & (own * v < 0.0);  // & : no branch on the sign
+    const bool locked = reducer_self_locking(e) & (own * v < 0.0);  // & : no branch on the sign
     self_locked[i] = locked;
     locked_any = locked_any | locked;
     T[i + i * n] = t;
@@ -239,16 +238,15 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
     for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
       const int ib = i + b * n;
       const double sdot = Sdot[ib];
-      if (sdot == 0.0) {
+      if (sdot == 0.0) {  // stuck: static friction passes the tension unchanged
         stuck[ib] = 1;
       } else {
         stuck[ib] = 0;
-        if (count[ib] > 0.0) {  // speed-dependent bearing terms (S0 eqs. 7–8)
+        if (Bearings && count[ib] > 0.0)  // speed-dependent bearing terms (S0 eqs. 7–8)
           t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
-        } else {
-          const double qp = N > 0 ? q_plus[ib] : 1.0 / (1.0 + beta[ib]), qm = N > 0 ? q_minus[ib] : 1.0 / (1.0 - beta[ib]);
-          t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], qp, qm);
-        }
+        else
+          t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], q_plus[ib],
+                                        q_minus[ib]);
       }
       if (b > 0) {
         T[i + (b - 1) * n] = t;
@@ -271,6 +269,17 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
     }
   }
   return locked_any ? Status::SelfLocked : Status::Ok;
+}
+
+/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); sizes already checked.
+template <int N, class V1, class V2>
+inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                         const V2& qd) {
+  if (!all_finite_n<N>(torque_joint)) return Status::NonFiniteInput;
+  if (!all_finite_n<N>(qd)) return Status::NonFiniteInput;
+  if (d.statics.model != &m) take_statics_constants(m, d);
+  return d.statics.bearings ? feedforward_recursion<N, true>(m, d, torque_joint, qd)
+                            : feedforward_recursion<N, false>(m, d, torque_joint, qd);
 }
 }  // namespace detail
 
