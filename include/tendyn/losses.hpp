@@ -295,7 +295,8 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
 /// @param torque_joint  τ_J [N·m], (n)
 /// @param qd          joint velocity [rad/s], (n)
 /// Writes data.qd, qd_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
-/// self_locked. Returns SelfLocked when a self-locking reducer holds a back-driving load (the
+/// self_locked; takes the model's constants into data.statics at the first call with that model object
+/// (reciprocals: nothing is divided per call after that). Returns SelfLocked when a self-locking reducer holds a back-driving load (the
 /// motor is then asked for nothing at that pulley), an error on bad input.
 template <class V1, class V2>
 inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionData& d,
