@@ -103,7 +103,10 @@ inline double sign_bit(double s) { return std::copysign(0.0, s); }
 /// y·sgn(s) given sign = sign_bit(s): y with its sign bit flipped where s is negative (s = ±0 counts by its sign
 /// bit). Exact. On x86-64 one xorpd (a multiplication by ±1 would cost four cycles on the chain of the statics).
 inline double flip(double y, double sign) {
-#if defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
+#if defined(__AVX__) && (defined(__GNUC__) || defined(__clang__))
+  __asm__("vxorpd %1, %0, %0" : "+x"(y) : "x"(sign));  // VEX form: no SSE/AVX transition in AVX code
+  return y;
+#elif defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
   __asm__("xorpd %1, %0" : "+x"(y) : "x"(sign));
   return y;
 #else
