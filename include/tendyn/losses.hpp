@@ -97,18 +97,42 @@ inline BranchFriction branch_friction(const TransmissionModel& m, int i, int b, 
   return f;
 }
 
+namespace detail {
+/// The sign bit of s alone (+0.0 or −0.0), for flip.
+inline double sign_bit(double s) { return std::copysign(0.0, s); }
+/// y·sgn(s) given sign = sign_bit(s): y with its sign bit flipped where s is negative (s = ±0 counts by its sign
+/// bit). Exact. On x86-64 one xorpd (a multiplication by ±1 would cost four cycles on the chain of the statics).
+inline double flip(double y, double sign) {
+#if defined(__AVX__) && (defined(__GNUC__) || defined(__clang__))
+  __asm__("vxorpd %1, %0, %0" : "+x"(y) : "x"(sign));  // VEX form: no SSE/AVX transition in AVX code
+  return y;
+#elif defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
+  __asm__("xorpd %1, %0" : "+x"(y) : "x"(sign));
+  return y;
+#else
+  return y * std::copysign(1.0, sign);
+#endif
+}
+/// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
+inline double larger(double a, double b) { return a < b ? b : a; }
+/// branch_tension_upstream given κ = a + ν|Ṡ| and the reciprocals q₊ = 1/(1 + b), q₋ = 1/(1 − b): no division.
+inline double branch_tension_upstream_q(double x, double sdot, double kappa, double b, double q_plus,
+                                        double q_minus) {
+  const double sign = sign_bit(sdot), z = flip(x, sign), c = z + kappa;  // in the frame of the motion
+  return flip(larger(larger(c * q_plus, c * q_minus), c + b * std::abs(z)), sign);
+}
+}  // namespace detail
+
 /// Motor-side tension y of a sliding branch given its joint-side tension x (feedforward step).
 /// Solves y − s·b·max(|x|,|y|) = x + s·a + ν Ṡ, s = sgn(Ṡ) ≠ 0, b < 1 (S0 eq. 11, corrected).
-/// The left side is strictly increasing in y, and its three pieces give y₁ = c/(1 + sb) (y < −|x|),
-/// y₂ = c + sb|x| (|y| ≤ |x|), y₃ = c/(1 − sb) (y > |x|): the solution is the largest of the three for
-/// s > 0 and the smallest for s < 0 (each wrong piece overshoots on the far side of its own range). Taking
-/// it branch-free gives the same value as testing the ranges (no mispredicted branch on random signs).
+/// In the frame of the motion (z = s x, y' = s y: the same law times s) it reads y' − b·max(|z|,|y'|) = c,
+/// c = z + a + ν|Ṡ|. The left side is strictly increasing in y', and its three pieces give y'₁ = c/(1 + b)
+/// (y' < −|z|), y'₂ = c + b|z| (|y'| ≤ |z|), y'₃ = c/(1 − b) (y' > |z|): the solution is the largest of the three
+/// (each wrong piece overshoots on the far side of its own range). Taking the maximum gives the same value
+/// as testing the ranges, without a branch (random signs would mispredict it); y = s y'.
 inline double branch_tension_upstream(double x, double sdot, BranchFriction f, double nu) {
-  const double s = sdot > 0.0 ? 1.0 : -1.0;
-  const double ax = std::abs(x), sb = s * f.b;
-  const double c = x + s * f.a + nu * sdot;
-  const double y1 = c / (1.0 + sb), y2 = c + sb * ax, y3 = c / (1.0 - sb);
-  return s * std::max(s * y1, std::max(s * y2, s * y3));  // s = ±1: exact sign flips
+  return detail::branch_tension_upstream_q(x, sdot, f.a + nu * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
+                                           1.0 / (1.0 - f.b));
 }
 
 /// Joint-side tension x of a sliding branch given its motor-side tension y (forward step).
@@ -125,45 +149,140 @@ inline double branch_tension_downstream(double y, double sdot, BranchFriction f,
 // ---- transmission statics with losses ---------------------------------------------------------
 
 namespace detail {
-/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); inputs already checked.
-template <int N, class V1, class V2>
-inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
-                                         const V2& qd) {
+/// True when every entry of v is finite (fixed N: one test on Σ (v_i − v_i), 0 unless an entry is inf or NaN).
+template <int N, class V>
+inline bool all_finite_n(const V& v) {
+  if constexpr (N == 0) {
+    return all_finite(v);
+  } else {
+    double z = 0.0;
+#pragma GCC unroll 8
+    for (int i = 0; i < N; ++i) z += v(i) - v(i);
+    return z == 0.0;
+  }
+}
+
+/// Take the constants of the feedforward from model m into d.statics (no allocation; d was made for m.n).
+inline void take_statics_constants(const TransmissionModel& m, TransmissionData& d) {
+  auto& c = d.statics;
+  for (int i = 0; i < m.n; ++i) {
+    const double e = m.reducer_efficiency(i);
+    c.gain_driving(i) = 1.0 / (e * m.reducer_ratio(i) * m.driven_radius(i));
+    c.gain_backdriven(i) = reducer_self_locking(e) ? 0.0 : (2.0 * e - 1.0) * c.gain_driving(i);
+  }
+  c.bearings = false;
+  for (int b = 0; b < m.n; ++b)
+    for (int i = b; i < m.n; ++i) {
+      c.inv_one_plus_beta(i, b) = 1.0 / (1.0 + m.beta(i, b));
+      c.inv_one_minus_beta(i, b) = 1.0 / (1.0 - m.beta(i, b));
+      c.bearings = c.bearings || m.bearing_count(i, b) > 0.0;
+    }
+  c.model = &m;
+}
+
+/// The recursion of motor_torque_feedforward for N transmissions (N = 0: m.n at run time), inputs checked.
+/// Arranged for the chain of dependent operations (cable i waits for the tensions of the distal cables at
+/// joint i): no division and no branch on a sign along it (the reciprocals of the reducer and branch
+/// constants are taken once per model, TransmissionData::statics; the choices of piece are maxima with exact
+/// sign flips), the tension that arrives last subtracted last; for a fixed N the inputs and tensions are kept
+/// in local arrays (registers) and the outputs written once.
+/// Bearings: some branch has bearings (their speed-dependent terms are taken in the call; without any, the
+/// recursion has no call in it and stays in registers).
+template <int N, bool Bearings, class V1, class V2>
+inline Status feedforward_recursion(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                    const V2& qd) {
   const int n = N > 0 ? N : m.n;
-  velocities_from_joint_n<N>(m, d, qd);
-  const double* K = m.K.data();
-  double* T = d.tension.data();  // column-major, leading dimension n
+  constexpr int NF = N > 0 ? N : 1;
+  double tj_l[NF], qd_l[NF];
+  if constexpr (N > 0) {
+#pragma GCC unroll 8
+    for (int i = 0; i < N; ++i) {
+      tj_l[i] = torque_joint(i);
+      qd_l[i] = qd(i);
+    }
+    velocities_from_joint_n<N>(m, d, Eigen::Map<const Eigen::Matrix<double, NF, 1>>(qd_l));
+  } else {
+    velocities_from_joint_n<N>(m, d, qd);
+  }
+  const auto tau = [&](int i) { return N > 0 ? tj_l[i] : torque_joint(i); };
+  const auto qdot = [&](int i) { return N > 0 ? qd_l[i] : qd(i); };
+  // column-major, leading dimension n: K, the loss matrices, the constants and the (n, n) outputs
+  const double *K = m.K.data(), *Sdot = d.Sdot.data(), *eta_d = m.reducer_efficiency.data();
+  const double *beta = m.beta.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *count = m.bearing_count.data();
+  const double *gain = d.statics.gain_driving.data(), *gain_back = d.statics.gain_backdriven.data();
+  const double *q_plus = d.statics.inv_one_plus_beta.data(), *q_minus = d.statics.inv_one_minus_beta.data();
+  int *stuck = d.stuck.data(), *self_locked = d.self_locked.data();
+  double* tension = d.tension.data();  // [i + b n], tension at joint b after branch b of cable i
+  double Tl[NF * NF], tm[NF];
+  double* T = N > 0 ? Tl : tension;  // the copy the recursion reads
   bool locked_any = false;
 #pragma GCC unroll 8
   for (int i = n - 1; i >= 0; --i) {
-    double own = torque_joint(i);  // joint equilibrium, S0 eq. 4
+    double own = tau(i);  // joint equilibrium, S0 eq. 4; the last tension to arrive (k = i+1) comes last
 #pragma GCC unroll 8
-    for (int k = i + 1; k < n; ++k) own -= K[k + i * n] * T[k + i * n];
-    // Reducer in the driven pulley, S0 eq. 9: pulley torque for the joint torque `own`: own / (η_d n)
-    // driving (power > 0), η_i own / n back-driven (power < 0; nothing when self-locking), own / n at rest.
-    const double ratio = m.reducer_ratio(i), eta_d = m.reducer_efficiency(i);
-    const double power = own * qd(i);
-    const bool locking = reducer_self_locking(eta_d);
-    const double num = power < 0.0 ? reducer_inverse_efficiency(eta_d) * own : own;
-    const double den = power > 0.0 ? eta_d * ratio : ratio;
-    const bool locked = power < 0.0 && locking;
-    const double pulley = locked ? 0.0 : num / den;
-    d.self_locked(i) = locked;
-    locked_any = locked_any || locked;
-    double t = pulley / m.driven_radius(i);
+    for (int k = n - 1; k > i; --k) own -= K[k + i * n] * T[k + i * n];
+    // Reducer in the driven pulley, S0 eq. 9: pulley torque own / (η_d n) when the joint is driven (power
+    // own·q̇ > 0), η_i own / n, η_i = (2η_d − 1)/η_d, when it back-drives (power < 0; nothing when
+    // self-locking), own / n at rest; the tension is that over r_d. With g = 1/(η_d n r_d): own·g driven,
+    // own·(2η_d − 1)g back-driven. Both gains are ≥ 0 and g_driven ≥ g_back, so for q̇ > 0 the tension is the
+    // larger of own·g_driven and own·g_back, for q̇ < 0 the smaller (the sign of own picks the case); at
+    // rest (q̇ = 0) both are own·η_d g. (The sign of the power is that of own times that of q̇.)
+    const double e = eta_d[i], v = qdot(i);
+    double g_drive = gain[i], g_back = gain_back[i];
+    if (v == 0.0) g_drive = g_back = e * g_drive;  // at rest: own / n
+    const double sign = sign_bit(v), u = flip(own, sign);  // in the frame of the joint motion
+    double t = flip(larger(u * g_drive, u * g_back), sign);
+    const bool locked = reducer_self_locking(e) & (own * v < 0.0);  // & : no branch on the sign
+    self_locked[i] = locked;
+    locked_any = locked_any | locked;
     T[i + i * n] = t;
+    if constexpr (N > 0) tension[i + i * n] = t;
 #pragma GCC unroll 8
     for (int b = i; b >= 0; --b) {  // climb to the motor, S0 eq. 6
-      const double sdot = d.Sdot(i, b);
-      d.stuck(i, b) = sdot == 0.0;
-      if (sdot != 0.0) t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
-      if (b > 0) T[i + (b - 1) * n] = t;
+      const int ib = i + b * n;
+      const double sdot = Sdot[ib];
+      if (sdot == 0.0) {  // stuck: static friction passes the tension unchanged
+        stuck[ib] = 1;
+      } else {
+        stuck[ib] = 0;
+        if (Bearings && count[ib] > 0.0)  // speed-dependent bearing terms (S0 eqs. 7–8)
+          t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
+        else
+          t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], q_plus[ib],
+                                        q_minus[ib]);
+      }
+      if (b > 0) {
+        T[i + (b - 1) * n] = t;
+        if constexpr (N > 0) tension[i + (b - 1) * n] = t;
+      }
     }
-    d.tension_motor(i) = t;
-    d.torque_motor(i) = m.motor_radius(i) * t;
-    d.torque_joint(i) = torque_joint(i);
+    if constexpr (N > 0) {
+      tm[i] = t;
+    } else {
+      d.tension_motor(i) = t;
+      d.torque_motor(i) = m.motor_radius(i) * t;
+      d.torque_joint(i) = torque_joint(i);
+    }
+  }
+  if constexpr (N > 0) {
+    for (int i = 0; i < N; ++i) {
+      d.tension_motor(i) = tm[i];
+      d.torque_motor(i) = m.motor_radius(i) * tm[i];
+      d.torque_joint(i) = tj_l[i];
+    }
   }
   return locked_any ? Status::SelfLocked : Status::Ok;
+}
+
+/// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); sizes already checked.
+template <int N, class V1, class V2>
+inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                         const V2& qd) {
+  if (!all_finite_n<N>(torque_joint)) return Status::NonFiniteInput;
+  if (!all_finite_n<N>(qd)) return Status::NonFiniteInput;
+  if (d.statics.model != &m) take_statics_constants(m, d);
+  return d.statics.bearings ? feedforward_recursion<N, true>(m, d, torque_joint, qd)
+                            : feedforward_recursion<N, false>(m, d, torque_joint, qd);
 }
 }  // namespace detail
 
@@ -179,15 +298,14 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
 /// @param torque_joint  τ_J [N·m], (n)
 /// @param qd          joint velocity [rad/s], (n)
 /// Writes data.qd, qd_motor, Sdot, tension, tension_motor, torque_motor, torque_joint, stuck,
-/// self_locked. Returns SelfLocked when a self-locking reducer holds a back-driving load (the
+/// self_locked; takes the model's constants into data.statics at the first call with that model object
+/// (reciprocals: nothing is divided per call after that). Returns SelfLocked when a self-locking reducer holds a back-driving load (the
 /// motor is then asked for nothing at that pulley), an error on bad input.
 template <class V1, class V2>
 inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionData& d,
                                        const V1& torque_joint, const V2& qd) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
-  if (!all_finite(torque_joint)) return Status::NonFiniteInput;
-  if (qd.size() != m.n) return Status::SizeMismatch;
-  if (!all_finite(qd)) return Status::NonFiniteInput;
+  if (qd.size() != m.n) return all_finite(torque_joint) ? Status::SizeMismatch : Status::NonFiniteInput;
   return dispatch_size(m.n, [&](auto N) {
     return detail::motor_torque_feedforward_n<decltype(N)::value>(m, d, torque_joint, qd);
   });

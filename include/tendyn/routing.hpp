@@ -251,13 +251,33 @@ struct TransmissionData {
   Eigen::MatrixXi stuck;              ///< 1 where a branch does not slide (Ṡ = 0) [i, b]
   Eigen::VectorXi self_locked;        ///< 1 where a self-locking reducer holds the load
 
+  /// Constants motor_torque_feedforward derives from the model, so that the call divides nothing (losses.hpp):
+  /// taken by the first call with a model object and again whenever a call gets another one (sized here, no
+  /// allocation). Models are not changed once built (bindings, C ABI, model files); code that changes one in
+  /// place after it ran calls forget_model().
+  struct StaticsConstants {
+    const TransmissionModel* model = nullptr;  ///< the model they were taken from (nullptr: none yet)
+    Eigen::VectorXd gain_driving;              ///< 1/(η_d n r_d) [1/m]: tension per joint torque, joint driven
+    Eigen::VectorXd gain_backdriven;           ///< (2η_d − 1)/(η_d n r_d) [1/m], 0 when self-locking
+    Eigen::MatrixXd inv_one_plus_beta, inv_one_minus_beta;  ///< 1/(1 + β), 1/(1 − β) [-], [i, b]
+    bool bearings = false;                     ///< some branch has bearings (speed-dependent terms)
+  } statics;
+
+  /// The model changed in place: take the constants again at the next call.
+  void forget_model() { statics.model = nullptr; }
+
   explicit TransmissionData(const TransmissionModel& m)
       : q(Eigen::VectorXd::Zero(m.n)), qd(Eigen::VectorXd::Zero(m.n)),
         q_motor(Eigen::VectorXd::Zero(m.n)), qd_motor(Eigen::VectorXd::Zero(m.n)),
         S(Eigen::MatrixXd::Zero(m.n, m.n)), Sdot(Eigen::MatrixXd::Zero(m.n, m.n)),
         tension(Eigen::MatrixXd::Zero(m.n, m.n)), tension_motor(Eigen::VectorXd::Zero(m.n)),
         torque_motor(Eigen::VectorXd::Zero(m.n)), torque_joint(Eigen::VectorXd::Zero(m.n)),
-        stuck(Eigen::MatrixXi::Zero(m.n, m.n)), self_locked(Eigen::VectorXi::Zero(m.n)) {}
+        stuck(Eigen::MatrixXi::Zero(m.n, m.n)), self_locked(Eigen::VectorXi::Zero(m.n)) {
+    statics.gain_driving.setZero(m.n);
+    statics.gain_backdriven.setZero(m.n);
+    statics.inv_one_plus_beta.setZero(m.n, m.n);
+    statics.inv_one_minus_beta.setZero(m.n, m.n);
+  }
 };
 
 template <class Sink>
@@ -405,24 +425,22 @@ namespace detail {
 template <int N, class VecIn>
 inline void velocities_from_joint_n(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
   const int n = N > 0 ? N : m.n;
-  const double* K = m.K.data();  // column-major, leading dimension n
+  const double* K = m.K.data();  // column-major, leading dimension n, as Sdot
+  double* Sdot = d.Sdot.data();
 #pragma GCC unroll 8
   for (int i = 0; i < n; ++i) d.qd(i) = qd(i);
 #pragma GCC unroll 8
   for (int i = 0; i < n; ++i) {
+    // Ṡ_b = Σ_{l≥b} K_il q̇_l, summed from the driven joint toward the motor (Ṡ_b = K_ib q̇_b + Ṡ_{b+1}), not
+    // Ṡ_{b−1} − K_i,b−1 q̇_{b−1} from the motor: a branch beyond every moving joint comes out exactly 0, or the
+    // statics would treat it as sliding (stuck test Ṡ = 0). Ṡ_0 = r_m q̇_m (S0 eq. 1).
     double s = 0.0;
 #pragma GCC unroll 8
-    for (int j = 0; j <= i; ++j) s += K[i + j * n] * qd(j);
-    d.qd_motor(i) = s / m.motor_radius(i);
-    // Ṡ_b = Σ_{l≥b} K_il q̇_l summed directly (not Ṡ_{b−1} − K_i,b−1 q̇_{b−1}): a branch beyond every
-    // moving joint must come out exactly 0, or the statics would treat it as sliding (stuck test Ṡ = 0).
-#pragma GCC unroll 8
-    for (int b = 0; b <= i; ++b) {
-      double sb = 0.0;
-#pragma GCC unroll 8
-      for (int l = b; l <= i; ++l) sb += K[i + l * n] * qd(l);
-      d.Sdot(i, b) = sb;
+    for (int b = i; b >= 0; --b) {
+      s += K[i + b * n] * qd(b);
+      Sdot[i + b * n] = s;
     }
+    d.qd_motor(i) = s / m.motor_radius(i);
   }
 }
 }  // namespace detail

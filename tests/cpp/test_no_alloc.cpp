@@ -66,10 +66,41 @@ static void stuck_chain() {
   expect_near("stuck chain tau_2", d.torque_joint(1), -0.176);
 }
 
+// The constants the feedforward takes from the model (TransmissionData::statics: reciprocals of the reducer
+// and branch constants) follow the model it is called with: one data run with a second model, or with a model
+// changed in place after forget_model(), gives what a fresh data gives (bit for bit).
+static void constants_follow_the_model() {
+  Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(2, 2);
+  idle(1, 0) = 0.02;
+  auto make = [&](double beta, double eta) {
+    tendyn::TransmissionModel m(Eigen::VectorXd::Constant(2, 0.01), idle, (Eigen::VectorXd(2) << 0.05, 0.04).finished(),
+                                Eigen::VectorXd::Constant(2, 4.0));
+    m.beta.setConstant(beta); m.tau0.setConstant(0.5); m.reducer_efficiency.setConstant(eta);
+    return m;
+  };
+  tendyn::TransmissionModel m1 = make(0.02, 0.9), m2 = make(0.3, 0.6);
+  Eigen::VectorXd tau(2), qd(2);
+  tau << 1.0, -0.7; qd << 0.4, 0.9;
+  auto fresh = [&](const tendyn::TransmissionModel& m) {
+    tendyn::TransmissionData d(m);
+    tendyn::motor_torque_feedforward(m, d, tau, qd);
+    return Eigen::VectorXd(d.torque_motor);
+  };
+  tendyn::TransmissionData d(m1);
+  tendyn::motor_torque_feedforward(m1, d, tau, qd);
+  tendyn::motor_torque_feedforward(m2, d, tau, qd);  // another model object: its constants are taken
+  for (int i = 0; i < 2; ++i) expect_near("data reused with another model", d.torque_motor(i), fresh(m2)(i), 0.0);
+  m2.reducer_efficiency(1) = 0.8;  // changed in place: forget_model() says so
+  d.forget_model();
+  tendyn::motor_torque_feedforward(m2, d, tau, qd);
+  for (int i = 0; i < 2; ++i) expect_near("model changed in place, forget_model", d.torque_motor(i), fresh(m2)(i), 0.0);
+}
+
 int main(int argc, char** argv) {
   const long calls = argc > 1 ? std::atol(argv[1]) : 100000;
   bearing_statics();
   stuck_chain();
+  constants_follow_the_model();
   if (physics_failures) return 1;
   const int n = 4;
   Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(n, n);
