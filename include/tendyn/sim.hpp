@@ -14,7 +14,10 @@
 // projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started, run in velocity
 // space: W is never formed; with B = (M + hD)⁻¹ Gᵀ and the diagonal W_kk = g_k B_k, a site update reads
 // its velocity u_k = g_k v (the nonzero range of g_k) and moves v by B_k Δp_k — the same iterates as
-// the sweep on W, at two length-nv products per site instead of one length-n_sites one. A site whose
+// the sweep on W, at two length-nv products per site instead of one length-n_sites one. The solve ends
+// exactly (detail::finish_friction): for the classification the warm start or a sweep reaches (stuck /
+// sliding at a bound) v is projected onto the stuck sites' rest, active-set changes as the friction laws
+// ask, kept only if Coulomb's law then holds at every site. A site whose
 // force stays inside its box does not move: true stick, no creep; outside it slides with the
 // bound force (Coulomb). Viscous terms are implicit (D). Reducers get an asymmetric box: the
 // loss (1 − η_d)|n M_p| when the pulley drives the joint, (1 − η_d)/(2η_d − 1)|n M_p| when the joint
