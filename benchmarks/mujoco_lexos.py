@@ -172,7 +172,7 @@ def operating_point_bounds(model, q0: np.ndarray, ff: np.ndarray, stats: dict | 
     branch, joint = np.zeros((n, n)), np.zeros(n)
     z = np.zeros(n)
     back = np.where(eta > 0.5, (1 - eta) / np.maximum(2 * eta - 1, 1e-300), np.inf)
-    iterations = np.empty(ff.shape[0])
+    iterations, finished = np.empty(ff.shape[0]), np.empty(ff.shape[0])
     for s in range(ff.shape[0]):
         T, Tm = np.array(d.tension), np.array(d.tension_motor)
         up = np.column_stack([Tm, T[:, :-1]])  # tension on the motor side of branch b
@@ -180,8 +180,9 @@ def operating_point_bounds(model, q0: np.ndarray, ff: np.ndarray, stats: dict | 
         out = np.abs(gen * np.diag(T))
         joint += 0.5 * ((1 - eta) * out + back * out)
         _core.step(model, d, z, z, ff[s], z)
-        iterations[s] = d.pgs_iterations
+        iterations[s], finished[s] = d.pgs_iterations, d.pgs_finished
     if stats is not None:
         stats.update(mean=float(iterations.mean()), max=int(iterations.max()),
-                     share_at_cap=float(np.mean(iterations >= model.pgs_max_iterations)))
+                     share_at_cap=float(np.mean(iterations >= model.pgs_max_iterations)),
+                     share_exact_finish=float(finished.mean()))
     return branch / ff.shape[0], joint / ff.shape[0]

@@ -165,7 +165,9 @@ def bench_simulator(results: list) -> dict:
         tendyn_all_rounds_us=times["tendyn"],
         tendyn_constant_bounds_us_per_step=med["tendyn_constant_bounds"],
         tendyn_friction_solver_iterations_per_step=pgs,
-        tendyn_solver=f"PGS (SOR {full.pgs_relaxation}), tolerance {full.pgs_tolerance:g} relative, "
+        tendyn_solver=f"exact finish {'on' if full.pgs_exact_finish else 'off'} (projection for the warm start's "
+                      f"classification, active-set changes, Coulomb's law checked to {full.pgs_speed_tolerance:g} "
+                      f"rad/s), else PGS (SOR {full.pgs_relaxation}), tolerance {full.pgs_tolerance:g} relative, "
                       f"at most {full.pgs_max_iterations} iterations (the twin's defaults)",
         mujoco_us_per_step={name: med[name] for name in mj},
         mujoco_settings={name: describe(*settings[name]) for name in settings} | {

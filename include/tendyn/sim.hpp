@@ -630,6 +630,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
     if (finish_friction<NV>(m, d, active, na_sites, na_sites)) { d.pgs_finished = 1; return 0; }
     tried = classify();
   }
+  for (int a = 0; a < na_sites; ++a) d.Wrecip(active[a]) = 1.0 / W[active[a]];  // the sweeps need 1/W_kk
   int it = 0;
   bool polish = false;  // the last sweep, plain Gauss–Seidel (ω = 1), after the speed test was met
   for (; it < m.pgs_max_iterations; ++it) {
@@ -641,7 +642,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
       const double Wkk = W[k];
       const double uk = site_speed<NV>(m, k, v);
       const double pold = p[k];
-      // 1/W_kk from the set-up of B: no division on the chain of dependent site updates
+      // 1/W_kk taken before the sweeps: no division on the chain of dependent site updates
       const double pk = std::max(lo[k], std::min(hi[k], pold - uk * (w * rW[k])));
       const double dp = pk - pold;
       change = std::max(change, std::abs(dp));
@@ -789,7 +790,6 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
       for (int j = m.site_begin(k); j < m.site_end(k); ++j)
         for (int r = 0; r < nv; ++r) bk[r] += Mi[r + j * nv] * g[j];
       d.Wdiag(k) = site_speed<NV>(m, k, bk);
-      d.Wrecip(k) = d.Wdiag(k) > 0.0 ? 1.0 / d.Wdiag(k) : 0.0;
     }
     d.pgs_iterations = solve_friction<NV>(m, d);
     for (int k = 0; k < ns; ++k) {  // where each site ended: inside its box, at lo, at hi
