@@ -129,10 +129,12 @@ struct SimModel {
   /// benchmarks/sim_bench.py the sweeps fall from 15.1 to 7.9 per step and the 2 s trajectory moves by
   /// 4.1e-13 rad (tests/python/test_sim_pgs.py bounds it by 1e-9 rad; docs/simulator.md).
   double pgs_speed_tolerance = 1e-10;
-  /// Finish the sweeps exactly (detail::finish_friction): once a sweep leaves the classification of the
-  /// sites (stuck inside its box / at its lower / at its upper bound) as the sweep before it did, project v
-  /// onto the velocities that keep every stuck site at rest, with the sliding sites at their bounds; keep
-  /// it when it satisfies the friction laws to pgs_speed_tolerance. Needs pgs_speed_tolerance > 0.
+  /// Solve the friction exactly (detail::finish_friction) for the classification of the sites (stuck
+  /// inside its box / sliding at its lower / upper bound) of the warm start, and of each new one a sweep
+  /// reaches if that fails: project v onto the velocities that keep every stuck site at rest, with the
+  /// sliding sites at their bounds, active-set changes as the laws ask; kept only when Coulomb's law holds at
+  /// every site to pgs_speed_tolerance. Sliding sites are warm-started at their new bound. Needs
+  /// pgs_speed_tolerance > 0; off: the sweeps alone, as before issue 12.
   bool pgs_exact_finish = true;
 
   // ---- derived at finalize() ----
