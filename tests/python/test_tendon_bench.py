@@ -378,3 +378,19 @@ def test_wrong_kind_and_missing_file(tmp_path):
         load_tendon_bench(p)
     with pytest.raises(DeviceError, match="file not found"):
         load_tendon_bench(tmp_path / "nope.toml")
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(omega=[0.0]), "omega must be"),
+    (dict(omega=[2 * math.pi * 6000.0]), "omega must be"),    # above rate_hz/4 at 20 kHz
+    (dict(omega=[10.0], amplitude_N=0.0), "amplitude_N must be"),
+    (dict(omega=[10.0], cycles=0), "cycles must be"),
+])
+def test_stepped_sines_reject_bad_plans(bench, kwargs, message):
+    """The open-loop stepped sine and the loop stepped sine share one plan check (frequency band, amplitude,
+    cycle counts)."""
+    args = dict(amplitude_N=0.3) | kwargs
+    with pytest.raises(ValueError, match=message):
+        tb.stepped_sine(bench, **args)
+    with pytest.raises(ValueError, match=message):
+        tb.loop_stepped_sine(bench, None, **args)

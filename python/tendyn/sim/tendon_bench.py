@@ -107,6 +107,25 @@ def simulate(bench: TendonBench | CompiledDevice, u: Any, rate_hz: float = 20000
     return BenchRun(time, u, *out, rate_hz=float(rate_hz), seed=int(seed))
 
 
+def _stepped_sine_plan(omega: Any, amplitude_N: float, cycles: int, settle_cycles: int, settle_s: float,
+                       rate_hz: float) -> tuple[np.ndarray, list[tuple[int, int]]]:
+    """Frequencies [Hz] of a stepped sine at ``omega`` [rad/s] and, per frequency, the steps [n0, n1) measured:
+    from rest, max(settle_cycles, ceil(settle_s f)) cycles to settle, then ``cycles`` whole cycles. Raises
+    ValueError on a frequency not in (0, rate_hz/4), a non-positive amplitude or cycle counts out of range."""
+    freqs = np.asarray(omega, dtype=float).ravel() / (2.0 * math.pi)
+    if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0) or np.any(freqs >= rate_hz / 4):
+        raise ValueError("omega must be finite, > 0 and < 2π rate_hz/4")
+    if not (math.isfinite(amplitude_N) and amplitude_N > 0):
+        raise ValueError("amplitude_N must be > 0")
+    if int(cycles) < 1 or int(settle_cycles) < 0:
+        raise ValueError("cycles must be >= 1 and settle_cycles >= 0")
+    windows = []
+    for f in freqs:
+        n_settle = max(int(settle_cycles), int(math.ceil(settle_s * f)))
+        windows.append((int(round(n_settle / f * rate_hz)), int(round((n_settle + int(cycles)) / f * rate_hz))))
+    return freqs, windows
+
+
 def _sine_command(amplitude: float, freq_hz: float, n: int, rate_hz: float) -> np.ndarray:
     h = 1.0 / rate_hz
     return amplitude * np.sin(2.0 * math.pi * freq_hz * (np.arange(n) + 0.5) * h)
@@ -151,21 +170,12 @@ def stepped_sine(bench: TendonBench | CompiledDevice, *, omega: Sequence[float],
         ``ratio`` = F_m / F_τ [-], ``method = "stepped_sine"``; ``meta`` holds cycles, settle_s (per
         frequency), rate_hz and seed.
     """
-    freqs = np.asarray(omega, dtype=float).ravel() / (2.0 * math.pi)
-    if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0) or np.any(freqs >= rate_hz / 4):
-        raise ValueError("omega must be finite, > 0 and < 2π rate_hz/4")
-    if not (math.isfinite(amplitude_N) and amplitude_N > 0):
-        raise ValueError("amplitude_N must be > 0")
-    if int(cycles) < 1 or int(settle_cycles) < 0:
-        raise ValueError("cycles must be >= 1 and settle_cycles >= 0")
+    freqs, windows = _stepped_sine_plan(omega, amplitude_N, cycles, settle_cycles, settle_s, rate_hz)
     model = bench_model(bench, rate_hz)
     h = 1.0 / rate_hz
     ratios = np.empty(freqs.size, dtype=complex)
     settles = np.empty(freqs.size)
-    for i, f in enumerate(freqs):
-        n_settle_cyc = max(int(settle_cycles), int(math.ceil(settle_s * f)))
-        n0 = int(round(n_settle_cyc / f * rate_hz))
-        n1 = int(round((n_settle_cyc + int(cycles)) / f * rate_hz))
+    for i, (f, (n0, n1)) in enumerate(zip(freqs, windows)):
         u = _sine_command(amplitude_N, f, n1, rate_hz)
         data = _core.TendonBenchData(model, int(seed) + i)
         out = [np.empty(n1) for _ in range(7)]
@@ -483,18 +493,11 @@ def loop_stepped_sine(bench: TendonBench | CompiledDevice, controller: Controlle
     csd/welch) or ``"lockin"`` (single-bin DFT). The half-step offset between the reference (mid-step) and the
     outputs (end of step) is removed. ``output="u"`` gives the command response u/r instead of F_m/r.
     """
-    freqs = np.asarray(omega, dtype=float).ravel() / (2.0 * math.pi)
-    if freqs.size == 0 or not np.all(np.isfinite(freqs)) or np.any(freqs <= 0) or np.any(freqs >= rate_hz / 4):
-        raise ValueError("omega must be finite, > 0 and < 2π rate_hz/4")
-    if not (math.isfinite(amplitude_N) and amplitude_N > 0):
-        raise ValueError("amplitude_N must be > 0")
     if estimator not in ("h1", "lockin"):
         raise ValueError(f"estimator must be 'h1' or 'lockin' (got {estimator!r})")
+    freqs, windows = _stepped_sine_plan(omega, amplitude_N, cycles, settle_cycles, settle_s, rate_hz)
     ratios = np.empty(freqs.size, dtype=complex)
-    for i, f in enumerate(freqs):
-        n_settle = max(int(settle_cycles), int(math.ceil(settle_s * f)))
-        n0 = int(round(n_settle / f * rate_hz))
-        n1 = int(round((n_settle + int(cycles)) / f * rate_hz))
+    for i, (f, (n0, n1)) in enumerate(zip(freqs, windows)):
         r = _sine_command(amplitude_N, f, n1, rate_hz)
         run = simulate_closed_loop(bench, controller, r, rate_hz, int(seed) + i, **changes)
         y = (run.force if output == "force" else run.u)[n0:n1]
