@@ -7,36 +7,13 @@
 #include <vector>
 
 #include "counting_malloc.hpp"
+#include "sim_test_chain.hpp"
 #include "tendyn/sim_batch.hpp"
 
 namespace {
 
-// A 3-joint tendon chain with friction on every branch and reducer; `scale` multiplies tau0 and beta.
-tendyn::SimModel chain(double scale) {
-  tendyn::SimModel m;
-  const int n = 3;
-  for (int j = 0; j < n; ++j) {
-    Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
-    T(0, 3) = j == 0 ? 0.0 : 0.25;
-    m.body.add_joint(j, T, Eigen::Vector3d::UnitZ(), false, 1.0, Eigen::Vector3d(0.1, 0.02, 0.0),
-                     Eigen::Matrix3d::Identity() * 0.01, "j" + std::to_string(j + 1));
-  }
-  m.body.set_gravity(Eigen::Vector3d(0, -9.81, 0));
-  m.L = Eigen::MatrixXd::Identity(n, n);
-  m.c = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(n, n);
-  idle(1, 0) = 0.015; idle(2, 0) = 0.015; idle(2, 1) = -0.015;
-  m.tendon = tendyn::TransmissionModel(Eigen::VectorXd::Constant(n, 0.008), idle, Eigen::VectorXd::Constant(n, 0.04),
-                                       Eigen::VectorXd::Constant(n, 8.0));
-  m.tendon.reducer_efficiency.setConstant(0.9);
-  m.tendon.tau0.setConstant(1.0 * scale); m.tendon.nu.setConstant(10.0); m.tendon.beta.setConstant(0.02 * scale);
-  m.rotor_inertia = Eigen::VectorXd::Constant(n, 1e-5);
-  m.encoder_counts = Eigen::VectorXd::Constant(n, 16384);
-  m.current_noise = Eigen::VectorXd::Constant(n, 0.01);
-  m.dt = 1e-4;
-  m.control_decimation = 10;
-  return m;
-}
+// The shared 3-joint tendon chain; `scale` multiplies tau0 and beta.
+tendyn::SimModel chain(double scale) { return three_joint_chain(tendyn::DriveKind::Tendon, scale); }
 
 struct Logs {  // one run's log arrays
   long rows;

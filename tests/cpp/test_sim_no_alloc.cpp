@@ -7,42 +7,15 @@
 #include <Eigen/Geometry>
 
 #include "counting_malloc.hpp"
+#include "sim_test_chain.hpp"
 #include "tendyn/sim.hpp"
 
+// The shared test chain, with a joint PID in the loop.
 static tendyn::SimModel chain(tendyn::DriveKind kind) {
-  tendyn::SimModel m;
-  const int n = 3;
-  for (int j = 0; j < n; ++j) {
-    Eigen::Matrix4d T = Eigen::Matrix4d::Identity();
-    T(0, 3) = j == 0 ? 0.0 : 0.25;
-    m.body.add_joint(j, T, Eigen::Vector3d::UnitZ(), false, 1.0, Eigen::Vector3d(0.1, 0.02, 0.0),
-                     Eigen::Matrix3d::Identity() * 0.01, "j" + std::to_string(j + 1));
-  }
-  m.body.set_gravity(Eigen::Vector3d(0, -9.81, 0));
-  m.L = Eigen::MatrixXd::Identity(n, n);
-  m.c = Eigen::VectorXd::Zero(n);
-  m.drive = kind;
-  if (kind == tendyn::DriveKind::Tendon) {
-    Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(n, n);
-    idle(1, 0) = 0.015; idle(2, 0) = 0.015; idle(2, 1) = -0.015;
-    m.tendon = tendyn::TransmissionModel(Eigen::VectorXd::Constant(n, 0.008), idle,
-                                         Eigen::VectorXd::Constant(n, 0.04), Eigen::VectorXd::Constant(n, 8.0));
-    m.tendon.reducer_efficiency.setConstant(0.9);
-    m.tendon.tau0.setConstant(1.0); m.tendon.nu.setConstant(10.0); m.tendon.beta.setConstant(0.02);
-  } else {
-    m.ratio = Eigen::VectorXd::Constant(n, 20.0);
-    m.stiffness_motor = Eigen::VectorXd::Constant(n, 2.0);
-    m.coulomb_motor = Eigen::VectorXd::Constant(n, 0.006);
-    m.viscous_motor = Eigen::VectorXd::Constant(n, 1e-4);
-  }
-  m.rotor_inertia = Eigen::VectorXd::Constant(n, 1e-5);
-  m.encoder_counts = Eigen::VectorXd::Constant(n, 16384);
-  m.current_noise = Eigen::VectorXd::Constant(n, 0.01);
+  tendyn::SimModel m = three_joint_chain(kind);
   m.mode = tendyn::ControlMode::JointPID;
-  m.kp = Eigen::VectorXd::Constant(n, 20.0);
-  m.kd = Eigen::VectorXd::Constant(n, 1.0);
-  m.dt = 1e-4;
-  m.control_decimation = 10;
+  m.kp = Eigen::VectorXd::Constant(m.L.cols(), 20.0);
+  m.kd = Eigen::VectorXd::Constant(m.L.cols(), 1.0);
   return m;
 }
 
