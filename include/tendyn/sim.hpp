@@ -13,7 +13,7 @@
 // site k has a Jacobian row g_k and a box [lo_k, hi_k] for its force; the impulses follow from a
 // projected Gauss–Seidel on the Delassus matrix W = G (M + hD)⁻¹ Gᵀ, warm-started, run in velocity
 // space: W is never formed; with B = (M + hD)⁻¹ Gᵀ and the diagonal W_kk = g_k B_k, a site update reads
-// its velocity u_k = g_k v (the nonzero range of g_k) and moves v by B_k Δp_k — the same iterates as
+// its velocity u_k = g_k v (a dense length-nv sum) and moves v by B_k Δp_k — the same iterates as
 // the sweep on W, at two length-nv products per site instead of one length-n_sites one. The solve ends
 // exactly (detail::finish_friction): for the classification the warm start or a sweep reaches (stuck /
 // sliding at a bound) v is projected onto the stuck sites' rest, active-set changes as the friction laws
@@ -126,8 +126,9 @@ struct SimModel {
   /// cable branch, ‖g_k‖ ~ 0.01–0.05 m, about kRestSpeed = 1e-12 m/s). Either test stops the sweeps.
   /// 1e-10 rad/s is 2e-10 rad over 2 s, 1e-5 of an encoder count. Once met, one plain (ω = 1) sweep more
   /// brings stuck sites to rest to rounding (holds stay bit-identical). On the stick–slip test of
-  /// benchmarks/sim_bench.py the sweeps fall from 15.1 to 7.9 per step and the 2 s trajectory moves by
-  /// 4.1e-13 rad (tests/python/test_sim_pgs.py bounds it by 1e-9 rad; docs/simulator.md).
+  /// benchmarks/sim_bench.py, exact finish off, the sweeps fall from 15.1 to 7.9 per step and the 2 s
+  /// trajectory moves by 4.1e-13 rad (tests/python/test_sim_pgs.py bounds it by 1e-9 rad; docs/simulator.md).
+  /// It is also the tolerance to which the exact finish checks Coulomb's law.
   double pgs_speed_tolerance = 1e-10;
   /// Solve the friction exactly (detail::finish_friction) for the classification of the sites (stuck
   /// inside its box / sliding at its lower / upper bound) of the warm start, and of each new one a sweep
@@ -168,7 +169,7 @@ struct SimData {
   Eigen::VectorXd q_tree, v_tree;
   TreeDynamicsData tree;            ///< one-pass mass matrix and bias forces of the tree
   Eigen::MatrixXd ML, M, Mt, Linv, Minv, B;  // Mt: Cholesky factor L of M + hD; Minv = (M + hD)⁻¹; B = Minv Gᵀ
-  Eigen::VectorXd F, v, rhs, vfree, Dv, Wdiag, Wrecip, sdot, u, p, lo, hi;  // sdot: site speeds at the step start; Wrecip = 1/W_kk
+  Eigen::VectorXd F, v, rhs, vfree, Lrecip, Wdiag, Wrecip, sdot, u, p, lo, hi;  // sdot: site speeds at the step start; Lrecip = 1/L_jj; Wrecip = 1/W_kk
   Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
   Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
   Eigen::VectorXi site_state;       ///< where each site ended the last step: 0 inside its box, 1 at lo, 2 at hi
@@ -311,7 +312,7 @@ inline SimData::SimData(const SimModel& m)
       Minv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       B(Eigen::MatrixXd::Zero(m.nv, m.n_sites)),
       F(Eigen::VectorXd::Zero(m.nv)), v(Eigen::VectorXd::Zero(m.nv)), rhs(Eigen::VectorXd::Zero(m.nv)),
-      vfree(Eigen::VectorXd::Zero(m.nv)), Dv(Eigen::VectorXd::Zero(m.nv)), Wdiag(Eigen::VectorXd::Zero(m.n_sites)),
+      vfree(Eigen::VectorXd::Zero(m.nv)), Lrecip(Eigen::VectorXd::Zero(m.nv)), Wdiag(Eigen::VectorXd::Zero(m.n_sites)),
       Wrecip(Eigen::VectorXd::Zero(m.n_sites)),
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
@@ -409,14 +410,17 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
 constexpr double kRestSpeed = 1e-12;
 
 namespace detail {
+/// Where impulse p sits in its box [lo, hi]: 0 inside, 1 at lo, 2 at hi (a zero-width box counts as inside).
+inline int site_class(double p, double lo, double hi) { return lo == hi ? 0 : p <= lo ? 1 : p >= hi ? 2 : 0; }
+
 /// Compile-time size N (1 … 8, loops unrolled) or the run-time n (N ≤ 0).
 template <int N>
 constexpr int dim(int n) { return N > 0 ? N : n; }
 }  // namespace detail
 
 /// Velocity of friction site k [m/s or rad/s]: g_k v as a dense ascending sum over the nv entries
-/// (the zeros before the first nonzero add nothing: for a branch this is Ṡ_ib = Σ_{j=b..i} K_ij q̇_j
-/// summed in the order of the statics).
+/// (the zeros before the first nonzero add nothing: for a branch this is Ṡ_ib = Σ_{j=b..i} K_ij q̇_j, summed
+/// from joint b up; the statics of losses.hpp sum the same terms from the driven joint down).
 template <int NV = 0>
 inline double site_speed(const SimModel& m, int k, const double* v) {
   const int nv = detail::dim<NV>(m.nv);
@@ -508,7 +512,7 @@ inline bool finish_friction(const SimModel& m, SimData& d, const int* active, in
   for (int a = 0; a < n_active; ++a) {
     const int k = active[a];
     pw[k] = d.p(k);
-    state[k] = pw[k] <= lo[k] ? 1 : pw[k] >= hi[k] ? 2 : 0;
+    state[k] = site_class(pw[k], lo[k], hi[k]);
   }
   double* vb = d.fin_vb.data();  // v at the impulses pw
   for (int j = 0; j < nv; ++j) vb[j] = d.v(j);
@@ -595,7 +599,9 @@ inline bool finish_friction(const SimModel& m, SimData& d, const int* active, in
 /// Projected Gauss–Seidel (SOR) on the friction impulses p, warm-started, in velocity space: v starts at
 /// v_free + B p and follows every update (v += B_k Δp_k); u_k = g_k v is the site velocity G v_free + W p
 /// of the sweep on the Delassus matrix W, which is never formed. Needs d.B, d.Wdiag and the boxes scaled
-/// to impulses (h lo, h hi) with p clamped into them. Returns the sweeps used.
+/// to impulses (h lo, h hi) with p clamped into them. With pgs_exact_finish, the warm start's classification
+/// is tried exactly first (finish_friction) and each new classification a sweep reaches after it; an accepted
+/// finish ends the solve (d.pgs_finished = 1). Returns the sweeps used (0 when the warm start finished).
 template <int NV>
 inline int solve_friction(const SimModel& m, SimData& d) {
   const int nv = dim<NV>(m.nv), ns = m.n_sites;
@@ -621,7 +627,7 @@ inline int solve_friction(const SimModel& m, SimData& d) {
     std::uint64_t h = 1469598103934665603ull;
     for (int a = 0; a < na_sites; ++a) {
       const int k = active[a];
-      h = (h ^ static_cast<std::uint64_t>((p[k] <= lo[k]) + 2 * (p[k] >= hi[k]))) * 1099511628211ull;
+      h = (h ^ static_cast<std::uint64_t>(site_class(p[k], lo[k], hi[k]))) * 1099511628211ull;
     }
     return h;
   };
@@ -719,7 +725,7 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
   double* L = d.Mt.data();
   double* Li = d.Linv.data();
   double* Mi = d.Minv.data();
-  double* rd = d.Dv.data();  // reciprocal diagonal of L
+  double* rd = d.Lrecip.data();  // reciprocal diagonal of L
   const double* D = m.D.data();
   for (int c = 0; c < nv; ++c)
     for (int r = c; r < nv; ++r) L[r + c * nv] = M[r + c * nv] + h * D[r + c * nv];
@@ -794,10 +800,7 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
       d.Wdiag(k) = site_speed<NV>(m, k, bk);
     }
     d.pgs_iterations = solve_friction<NV>(m, d);
-    for (int k = 0; k < ns; ++k) {  // where each site ended: inside its box, at lo, at hi
-      const double pk = d.p(k), lk = d.lo(k), hk = d.hi(k);
-      d.site_state(k) = lk == hk ? 0 : pk <= lk ? 1 : pk >= hk ? 2 : 0;
-    }
+    for (int k = 0; k < ns; ++k) d.site_state(k) = site_class(d.p(k), d.lo(k), d.hi(k));  // where each site ended
     // v⁺ = v_free + B p, summed afresh (not the running sum of the sweeps)
     for (int k = 0; k < ns; ++k) {
       const double pk = d.p(k);
