@@ -112,15 +112,12 @@ class MujocoRunner:
         self.sensordata = np.zeros((1, steps, max(self.model.nsensordata, 0)))
         self.steps = steps
 
-    def run(self, control: np.ndarray, nthread: int | None = None, n_roll: int = 1) -> np.ndarray:
-        """Roll out; returns the states (n_roll, steps, nstate). nthread > 1: a list of MjData, one per thread."""
-        ctrl = np.ascontiguousarray(np.broadcast_to(control, (n_roll,) + control.shape[-2:]))
-        init = np.ascontiguousarray(np.broadcast_to(self.state0, (n_roll, self.state0.size)))
-        if n_roll == 1 and not nthread:
-            self._rollout.rollout(self.model, self.data, init, ctrl, state=self.state, sensordata=self.sensordata)
-            return self.state
-        datas = [self._mj.MjData(self.model) for _ in range(nthread or 1)]
-        return self._rollout.rollout(self.model, datas, init, ctrl)[0]
+    def run(self, control: np.ndarray) -> np.ndarray:
+        """Roll out one run into the preallocated buffers; returns the states (1, steps, nstate)."""
+        ctrl = np.ascontiguousarray(np.broadcast_to(control, (1,) + control.shape[-2:]))
+        init = np.ascontiguousarray(np.broadcast_to(self.state0, (1, self.state0.size)))
+        self._rollout.rollout(self.model, self.data, init, ctrl, state=self.state, sensordata=self.sensordata)
+        return self.state
 
     def qpos(self, states: np.ndarray) -> np.ndarray:
         """Joint positions (…, steps, nq) from rollout states (FULLPHYSICS: time, qpos, qvel, …)."""

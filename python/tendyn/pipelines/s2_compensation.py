@@ -137,12 +137,17 @@ class HandStroke:
     position_along: np.ndarray = field(repr=False)
 
 
+def _stroke_timing(stroke, speed, accel):
+    """One way of the stroke [s]: (accelerating time, cruising time at ``speed`` [m/s], whole way T)."""
+    t_acc = speed / accel
+    t_cruise = max(stroke - accel * t_acc ** 2, 0.0) / speed
+    return t_acc, t_cruise, 2 * t_acc + t_cruise
+
+
 def _stroke_profile(t, stroke, speed, accel):
     """Back-and-forth along a line: out by ``stroke`` [m] then back, trapezoidal speed. (s, v, cruising)."""
-    t_acc = speed / accel
+    t_acc, t_cruise, T = _stroke_timing(stroke, speed, accel)
     d_acc = 0.5 * accel * t_acc ** 2
-    t_cruise = max(stroke - 2 * d_acc, 0.0) / speed
-    T = 2 * t_acc + t_cruise
     def one(tt):
         if tt <= 0:
             return 0.0, 0.0, False
@@ -161,7 +166,6 @@ def _stroke_profile(t, stroke, speed, accel):
         s, v, c = one(t - T)
         return stroke - s, -v, (-1 if c else 0)
     return 0.0, 0.0, 0
-    # (2T is the end of the cycle)
 
 
 def hand_stroke(model, q0, factor: float, *, direction=(1.0, 1.0, 1.0), stroke: float = 0.06, speed: float = 0.05,
@@ -182,12 +186,11 @@ def hand_stroke(model, q0, factor: float, *, direction=(1.0, 1.0, 1.0), stroke: 
     from tendyn.pipelines.s0_compensation import _encoders
 
     x_start = model.position(q_start)
-    T = 2 * (speed / accel) + max(stroke - speed ** 2 / accel, 0.0) / speed
+    T = _stroke_timing(stroke, speed, accel)[2]
     periods = int(round((2 * T + release) * control_hz))
     time = np.arange(periods) / control_hz
     f_along, x_along, tag = np.empty(periods), np.empty(periods), np.zeros(periods, int)
     frame = model.frame
-    w0 = 0.0
     w_cycle = None
     for s, t in enumerate(time):
         torque_motor = comp.cycle(_encoders(sim, data))
@@ -199,12 +202,12 @@ def hand_stroke(model, q0, factor: float, *, direction=(1.0, 1.0, 1.0), stroke: 
             f = hand_stiffness * (x_start + sp * u - x) + hand_damping * (vp * u - J @ qd)
         else:
             if w_cycle is None:
-                w_cycle = data.work_external - w0
+                w_cycle = data.work_external
             f = np.zeros(3)
         block.run(data, torque_motor, J.T @ f)
         f_along[s], x_along[s] = f @ u, (x - x_nat) @ u
     if w_cycle is None:
-        w_cycle = data.work_external - w0
+        w_cycle = data.work_external
     fwd, back = f_along[tag == 1], f_along[tag == -1]
     felt = 0.5 * (fwd.mean() - back.mean()) if fwd.size and back.size else float("nan")
     bias = 0.5 * (fwd.mean() + back.mean()) if fwd.size and back.size else float("nan")

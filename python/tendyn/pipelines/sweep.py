@@ -94,7 +94,7 @@ def evaluate_design(bench_fields: dict, design: dict, amplitudes: Sequence[float
     row.update({f"peak_hz_{a:g}N": float(p) for a, p in zip(frs, peaks)})
     if loop == "closed":
         big = frs[max(frs)]
-        _, ctrl, T0 = s1_controller(fit_plant_frf(big.omega, big.ratio))
+        _, ctrl, _ = s1_controller(fit_plant_frf(big.omega, big.ratio))
         closed = []
         for a in frs:
             fr = loop_stepped_sine(bench, ctrl, omega=omega, amplitude_N=a, **cyc)
