@@ -207,16 +207,18 @@ class StrategyComparison(Result):
         return sorted(self.truth)
 
     def torque_error(self, t: int, strategy: str) -> float:
-        """RMS over the test speeds of |Ĉ(v) − C(v)| [N·m] (the residual error C_m,err of S0 §III)."""
+        """RMS over the test speeds of |Ĉ(v) − C(v)| [N·m] at the test's load (the residual error C_m,err of
+        S0 §III); Ĉ includes the identified load term at the test's mean load."""
         f = self.fits[(t, strategy)]
         c0, nu = self.truth[t]
         v = np.asarray(self.speeds_motor, float)
-        return float(np.sqrt(np.mean(((f.coulomb_motor - c0) + (f.viscous_motor - nu) * v) ** 2)))
+        return float(np.sqrt(np.mean(((f.coulomb_at_load() - c0) + (f.viscous_motor - nu) * v) ** 2)))
 
     def errors_pct(self, t: int, strategy: str) -> tuple[float, float]:
+        """Errors [%] of the Coulomb part at the test's load and of ν against the truth at that load."""
         f = self.fits[(t, strategy)]
         c0, nu = self.truth[t]
-        return 100 * (f.coulomb_motor - c0) / c0, 100 * (f.viscous_motor - nu) / nu
+        return 100 * (f.coulomb_at_load() - c0) / c0, 100 * (f.viscous_motor - nu) / nu
 
     def s2_better(self) -> dict:
         return {t: self.torque_error(t, "S2") < self.torque_error(t, "S1") for t in self.transmissions}
@@ -241,7 +243,8 @@ class StrategyComparison(Result):
     def table(self) -> str:
         h = (f"{'tr':<3}{'strat':<6}{'C_m0 [mN·m]':>12}{'true':>8}{'err %':>8}{'%σ':>7}"
              f"{'ν [mN·m·s]':>12}{'true':>8}{'err %':>8}{'%σ':>7}{'rms err':>10}{'bound':>9}")
-        lines = [f"{self.device}: S0 friction identification, S1 vs S2 (C8); torques in mN·m", h]
+        lines = [f"{self.device}: S0 friction identification, S1 vs S2 (C8); torques in mN·m, C_m0 at the test's "
+                 "load (C_m0 + c_L |C_0|)", h]
         for t in self.transmissions:
             c0, nu = self.truth[t]
             for s in ("S1", "S2"):
@@ -249,7 +252,7 @@ class StrategyComparison(Result):
                 ec, ev = self.errors_pct(t, s)
                 rc, rv = f.rel_std_pct
                 b = self.bounds_truth.get((t, s))
-                lines.append(f"{t:<3}{s:<6}{1e3 * f.coulomb_motor:>12.3f}{1e3 * c0:>8.3f}{ec:>8.1f}{rc:>7.2f}"
+                lines.append(f"{t:<3}{s:<6}{1e3 * f.coulomb_at_load():>12.3f}{1e3 * c0:>8.3f}{ec:>8.1f}{rc:>7.2f}"
                              f"{1e3 * f.viscous_motor:>12.4f}{1e3 * nu:>8.4f}{ev:>8.1f}{rv:>7.2f}"
                              f"{1e3 * self.torque_error(t, s):>10.3f}{'' if b is None else f'{1e3 * b:.3f}':>9}")
         better = self.s2_better()
