@@ -29,24 +29,6 @@ PLAN_EXPERIMENTS = ("constant-velocity",)
 LOG_SUFFIXES = (".csv", ".parquet")
 
 
-# ---- argparse converters (shared ones from tendyn.commands.args; messages without the option name) ------
-
-def _out_path(suffixes):
-    """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
-    def convert(text: str) -> Path:
-        p = Path(text)
-        if p.suffix.lower() not in suffixes:
-            raise argparse.ArgumentTypeError(f"must end in {' or '.join(suffixes)} (got {text!r})")
-        if p.exists() and p.is_dir():
-            raise argparse.ArgumentTypeError(f"{text} is a folder")
-        parent = p.parent if str(p.parent) else Path(".")
-        if not parent.is_dir():
-            raise argparse.ArgumentTypeError(f"folder {parent} does not exist")
-        return p
-    convert.__name__ = "path"
-    return convert
-
-
 def _load_device(text: str):
     """A device file path or a bundled twin name (as the rest of the command line)."""
     from tendyn.device import load_device
@@ -93,7 +75,7 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
                    help="start joint positions of the first pose [rad], comma-separated (default: mid-range)")
     p.add_argument("--rate", type=conv.number(0.0, 1e6, lo_open=True, unit="Hz"), default=1000.0,
                    help="sample rate of the references [Hz] (the controller's rate; default 1000)")
-    p.add_argument("--out", type=_out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
+    p.add_argument("--out", type=conv.out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
     p.set_defaults(func=run_plan)
     return p
@@ -164,7 +146,7 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("logs", nargs="+", type=conv.existing_file, metavar="LOG",
                    help="constant-velocity logs (.csv/.parquet), one or more per transmission; every "
                         "transmission of the device must be covered")
-    p.add_argument("--out", type=_out_path((".json",)), required=True, help="FRICTION.json to write")
+    p.add_argument("--out", type=conv.out_path((".json",)), required=True, help="FRICTION.json to write")
     p.add_argument("--gravity", choices=("pairs", "model", "both"), default="pairs",
                    help="gravity removal: forward/backward pairs (S0, default), the device's gravity model, or both")
     p.add_argument("--min-speeds", type=conv.number(2, 1000, integer=True), default=None,
@@ -295,7 +277,7 @@ def run_decompose(args) -> int:
             p, pp = read_shares(args.shares, dev)
     except (FrictionFileError, SharesError) as exc:
         raise UsageError(str(exc)) from None
-    dec = decompose(dev, doc["coulomb_motor"], doc["viscous_motor"], p, pp)
+    dec = decompose(dev, doc["coulomb_motor"], doc["viscous_motor"], p, pp, doc.get("load_coefficient"))
     if args.json:
         _print_json(dec.to_dict())
     else:

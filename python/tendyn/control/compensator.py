@@ -27,10 +27,15 @@ from tendyn.device.closed_loop import end_effector_point
 from tendyn.transmission import Transmission, as_vector
 
 __all__ = ["Compensator", "chain_model", "end_effector_point", "transmission_with_friction",
-           "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ"]
+           "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ",
+           "IDENTIFIED_UNDERESTIMATION"]
 
 DEFAULT_UNDERESTIMATION = 0.9
 """k [-]: friction compensated with under-estimated coefficients (C46), 10 % below the model."""
+IDENTIFIED_UNDERESTIMATION = 0.7
+"""k [-] for a compensator built from identified friction (``tendyn export compensator``): identification errs by a
+few per cent, friction drifts with temperature and wear, and an over-estimate makes a haptic device active, so
+S2's 20–30 % margin (C46) is kept."""
 DEFAULT_VELOCITY_BAND = 0.5
 """v_band [rad/s], motor side: below it the friction feedforward fades to zero (2 % of a slow 25 rad/s move)."""
 DEFAULT_VELOCITY_CUTOFF_HZ = 30.0
