@@ -23,16 +23,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from tendyn.protocols import DEFAULT_SPEEDS
 from tendyn.ident.friction import (FrictionFit, TransmissionFriction, isolated_move_joint_speeds,
                                    residual_error_bound)
 from tendyn.results import Result
 from tendyn.sim import experiments as ex
 
-BENT_POSE = (0.0, 0.3, 0.0, 0.8)
-"""Centre of the strokes [rad] (shoulder flexed, elbow bent: gravity loads the cables)."""
-
-DEFAULT_SPEEDS = (2.0, 4.0, 6.0, 8.0, 10.0)
-"""Motor speeds [rad/s], one forward and one backward pass each (≥ 5 per direction, issue 8)."""
 
 BANDWIDTH_HZ = 12.0
 """Position-loop bandwidth of the tests [Hz]: at the experiment's default (6 Hz) the integral action
@@ -277,29 +273,17 @@ class StrategyComparison(Result):
         ax.grid(alpha=0.3, axis="y")
 
 
-def stroke_plan(device, transmission: int, travel_joint: float | None = None, centre=BENT_POSE,
-                max_travel: float = 1.0, margin: float = 0.1, travel_motor: float | None = None):
-    """(q0 [rad], motor travel [rad]) for transmission ``transmission`` (1-based): strokes of
-    ``travel_joint`` [rad] at the driven joint (or ``travel_motor`` [rad] at the motor), centred on
-    ``centre``. Neither given: the longest stroke that stays ``margin`` inside the joint limits, at most
-    ``max_travel`` (longer strokes average more noise)."""
-    arr = device.routing_arrays()
-    j = transmission - 1
-    ratio = arr["K"][j, j] / arr["motor_radius"][j]
-    if travel_motor is not None:
-        travel_joint = travel_motor / ratio
-    n = device.n_joints
-    q0 = np.concatenate([centre, np.zeros(max(0, n - len(centre)))])[:n].astype(float)
-    if travel_joint is None:
-        js = device.kinematics.joints[j]
-        room = 2.0 * min(q0[j] - js.lower, js.upper - q0[j]) - 2.0 * margin
-        travel_joint = max(0.05, min(max_travel, room))
-    q0[j] -= 0.5 * travel_joint
-    return q0, travel_joint * ratio
+def stroke_plan(device, transmission: int, travel_motor: float | None = None, speeds=DEFAULT_SPEEDS):
+    """(q0 [rad], motor travel [rad]) of the test of ``transmission`` (1-based): the first pose and stroke of the
+    planned test (:func:`tendyn.protocols.plan_test`: the stroke centred in the driven joint's range, the other
+    joints mid-range, at most ``travel_motor``)."""
+    from tendyn.protocols import plan_test
+
+    test = plan_test(device, transmission, "S2", speeds, travel=travel_motor, loads=1, require_speeds=False)
+    return test.poses[0], test.travel
 
 
-def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_joint: float | None = None,
-                       travel_motor: float | None = None,
+def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_motor: float | None = None,
                        seed: int = 0, gravity: str = "pairs", rate_hz: float = 10_000.0,
                        bandwidth_hz: float = BANDWIDTH_HZ, progress=None, keep_runs: bool = False):
     """Run S1 and S2 on each transmission, fit, compare with the truth. Returns a
@@ -308,7 +292,7 @@ def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel
     out = StrategyComparison(device.name, [float(v) for v in speeds])
     runs = {}
     for t in transmissions:
-        q0, travel = stroke_plan(device, t, travel_joint, travel_motor=travel_motor)
+        q0, travel = stroke_plan(device, t, travel_motor, speeds)
         for s in ("S1", "S2"):
             run = ex.constant_velocity(device, t, speeds, strategy=s, travel=travel, q0=q0, seed=seed,
                                        rate_hz=rate_hz, bandwidth_hz=bandwidth_hz)
