@@ -39,13 +39,29 @@ SETTLE_S = 0.5
 
 PLATEAU = dict(window_s=0.04, tol=0.02, min_speed=0.2, min_duration_s=0.15, trim_s=0.05)
 """Plateau detection of the identification (:func:`tendyn.ident.plateaus.find_plateaus`)."""
+LOOP_BANDWIDTH_HZ = 12.0
+"""Position-loop bandwidth [Hz] of the twin's constant-velocity test: at 6 Hz the integral action leaves a speed
+drift of ~10 % over a short stroke on L-EXOS and light distal links never hold a plateau; at 12 Hz the speed is
+flat within 1 % after ~0.1 s (a lab's own loop is its own; the plan's strokes leave it LOOP_SETTLE_S)."""
+LOOP_SETTLE_S = 0.6
+"""Time [s] a position loop takes to hold the speed within the plateau tolerance after a ramp (a light distal
+link on a 6 Hz loop, measured on generated devices: 0.4–0.7 s at 10 rad/s)."""
 
 
 def cruise_needed_s() -> float:
-    """Time at constant speed [s] a pass needs for the identification to see a plateau: the shortest plateau,
-    its trimmed ends and the detection windows on both sides, with 50 % to spare for the loop's transient."""
+    """Time at constant speed [s] a pass needs for the identification to pair it with the pass back: each pass
+    holds its speed only after the loop settles (and the detection's trim and window), at its far end for one
+    direction and at its near end for the other, so their steady parts overlap by the shortest plateau only when
+    the cruise lasts twice the settling plus that plateau."""
     p = PLATEAU
-    return 1.5 * (p["min_duration_s"] + 2.0 * p["trim_s"] + 2.0 * p["window_s"])
+    return 2.0 * (LOOP_SETTLE_S + p["trim_s"] + p["window_s"]) + p["min_duration_s"]
+
+
+def fastest_speed(travel: float, accel: float) -> float:
+    """The highest speed [rad/s] whose pass of ``travel`` [rad] holds it for :func:`cruise_needed_s` (the root of
+    v²/a + v T = travel)."""
+    T = cruise_needed_s()
+    return 0.5 * accel * (-T + math.sqrt(T * T + 4.0 * travel / accel))
 
 
 def travel_needed(speed: float, accel: float) -> float:
@@ -103,13 +119,15 @@ def _gravity_motor(compiled, poses) -> np.ndarray:
 
 def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, travel: float | None = None,
               accel: float | None = None, q0=None, loads: int = DEFAULT_LOADS,
-              require_speeds: bool = True) -> ConstantVelocityTest:
+              strict: bool = True) -> ConstantVelocityTest:
     """Plan the constant-velocity test of ``transmission`` on any serial cable device.
 
     Stroke: from ``q0`` if given (the driven joint moves up from it), else centred in the driven joint's range;
     the motor travel is ``travel`` or the longest that stays :data:`LIMIT_MARGIN` inside the limits, at most
-    :data:`DEFAULT_TRAVEL`. ``require_speeds=False`` lets a twin run fewer than :data:`MIN_SPEEDS` speeds
-    (``tendyn simulate`` with explicit --speeds; the identification will then refuse it). Poses (``loads`` of them): the first holds the other joints at ``q0`` or mid-range;
+    :data:`DEFAULT_TRAVEL`; default speeds are scaled down where the stroke is too short for them. ``strict=False``
+    lets a twin run what it is told (``tendyn simulate`` with explicit --speeds or a short travel): fewer than
+    :data:`MIN_SPEEDS` speeds or passes shorter than :func:`cruise_needed_s` become notes, not refusals (the
+    identification may then refuse the log). Poses (``loads`` of them): the first holds the other joints at ``q0`` or mid-range;
     the others are chosen among the corners and middles of the other joints' ranges for the largest change of
     the gravity load at the motor, with every motor's holding torque within its continuous torque.
 
@@ -130,11 +148,12 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
         raise UsageError(f"must be 1…{n} (got {transmission})", "transmission")
     if strategy not in ("S1", "S2"):
         raise UsageError(f"must be S1 or S2 (got {strategy!r})", "strategy")
+    default_speeds = speeds is None
     speeds = tuple(float(v) for v in (DEFAULT_SPEEDS if speeds is None else speeds))
     accel = float(DEFAULT_ACCEL if accel is None else accel)
     j = transmission - 1
     distinct = sorted(set(round(v, 9) for v in speeds))
-    if require_speeds and len(distinct) < MIN_SPEEDS:
+    if strict and len(distinct) < MIN_SPEEDS:
         raise UsageError(f"transmission {transmission}: {len(distinct)} distinct speeds, the identification needs "
                          f"at least {MIN_SPEEDS} per direction", "speeds")
     G = compiled.transmission.matrices()["motor_from_joint_position"]
@@ -153,16 +172,24 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
     else:
         room_joint = (hi[j] - lo[j]) - 2.0 * margin[j]
     room_motor = abs(G[j, j]) * max(room_joint, 0.0)
-    needed = travel_needed(max(speeds), accel)
     if travel is None:
         travel = min(DEFAULT_TRAVEL, room_motor)
         if travel < DEFAULT_TRAVEL:
             notes.append(f"motor travel {travel:.3g} rad: the longest stroke inside joint {transmission}'s limits")
-    elif travel > room_motor + 1e-12:
+    if default_speeds and travel_needed(max(speeds), accel) > travel:
+        scale = fastest_speed(travel, accel) / max(speeds)
+        speeds = tuple(math.floor(v * scale * 1000.0) / 1000.0 for v in speeds)   # rounded down: still fits
+        notes.append(f"speeds scaled by {scale:.3g} to {', '.join(f'{v:g}' for v in speeds)} rad/s: the stroke "
+                     "holds the default ones too briefly")
+    needed = travel_needed(max(speeds), accel)
+    if travel > room_motor + 1e-12:
         raise UsageError(f"transmission {transmission}: a motor travel of {travel:g} rad moves joint "
                          f"{transmission} by {travel / abs(G[j, j]):.3g} rad, past its limits (room "
                          f"{room_motor:.3g} rad at the motor)", "travel")
-    if travel < needed:
+    if travel < needed and not strict:
+        notes.append(f"at {max(speeds):g} rad/s a pass of {travel:.3g} rad holds the speed less than "
+                     f"{cruise_needed_s():.2f} s: the identification may not pair it")
+    elif travel < needed:
         v = max(speeds)
         raise UsageError(f"transmission {transmission}: at {v:g} rad/s a pass of {travel:.3g} rad (motor) leaves "
                          f"{max(0.0, (travel - v * v / accel) / v):.3g} s at constant speed; the identification "

@@ -185,7 +185,7 @@ def test_true_global_values_two_routes(lexos):
     arr = lexos.routing_arrays()
     for j in range(4):
         np.testing.assert_allclose(sf.true_global_friction(arr, j), sf.true_global_feedforward(arr, j), rtol=1e-12)
-        q0, travel = sf.stroke_plan(lexos, j + 1, TRAVEL_MOTOR, SPEEDS)
+        q0, travel, _ = sf.stroke_plan(lexos, j + 1, TRAVEL_MOTOR, SPEEDS)
         np.testing.assert_allclose(sf.true_global_at_load(arr, lexos, j + 1, q0, travel, SPEEDS, route="python"),
                                    sf.true_global_at_load(arr, lexos, j + 1, q0, travel, SPEEDS, route="core"),
                                    rtol=1e-10)

@@ -269,7 +269,8 @@ class TransmissionFriction:
     window_s, tol, min_speed, min_duration_s, trim_s :
         Plateau detection, see :func:`tendyn.ident.plateaus.find_plateaus`.
     speed_match : float
-        Relative speed difference allowed between the two passes of a pair [-].
+        Relative speed difference allowed between the two passes of a pair [-] (the pair's mean speed is the
+        observation's; a position loop holds a light distal link's high speeds within a few per cent only).
     load : {"auto", "fit", "none"}
         The load-dependent term c_L |C_0| (module docstring): "fit" always; "none" never (S0's law);
         "auto" (default) keeps it when the data determine it — |ĉ_L| > ``load_significance`` σ — and when it is
@@ -294,7 +295,7 @@ class TransmissionFriction:
     def __init__(self, transmission: int, gravity: str = "pairs", device=None, min_speeds: int = MIN_SPEEDS,
                  bins: int = 16, window_s: float = PLATEAU["window_s"], tol: float = PLATEAU["tol"],
                  min_speed: float = PLATEAU["min_speed"], min_duration_s: float = PLATEAU["min_duration_s"],
-                 trim_s: float = PLATEAU["trim_s"], speed_match: float = 0.05,
+                 trim_s: float = PLATEAU["trim_s"], speed_match: float = 0.1,
                  bound_tau0=None, bound_nu=None, load: str = "auto", load_significance: float = 3.0):
         self.transmission = transmission
         self.gravity = gravity
@@ -371,6 +372,7 @@ class TransmissionFriction:
                                       "test with tendyn plan constant-velocity (its strokes hold each speed long "
                                       "enough) or lower --min-speeds")
         x, cov, s, cond, kept, self.warnings_ = self._fit_law(points, i)
+        x, cov = self._nonnegative(points, x, cov, kept, i)
         self.params_ = x
         self.stderr_ = np.sqrt(np.diag(cov))
         self.rel_stderr_ = np.array([_pct(self.stderr_[k], x[k]) for k in range(x.size)])
@@ -427,6 +429,33 @@ class TransmissionFriction:
                             "more loads (tendyn plan constant-velocity --loads 2) to identify it")
         x, cov, s, cond = least_squares(W, y, weights)
         return x, cov, s, cond, False, warnings
+
+    def _nonnegative(self, points, x, cov, kept, i):
+        """A loss law has no negative term: a coefficient that comes out negative (the S2 residual of held distal
+        cables can exceed a small ν, ERRATA eq. 15) is fixed at 0 and the others refitted; the fit says so.
+        Returns (x, Cov) with the fixed entries 0 (σ 0)."""
+        names = ["C_m0", "ν", "c_L"][:x.size]
+        fixed = [k for k in range(x.size) if x[k] < 0]
+        if not fixed:
+            return x, cov
+        v, y, w, load = points[:, 0], points[:, 1], points[:, 2], np.abs(points[:, 3])
+        cols = [np.sign(v), v, load * np.sign(v)][:x.size]
+        while True:
+            free = [k for k in range(x.size) if k not in fixed]
+            xf = np.zeros(x.size)
+            covf = np.zeros((x.size, x.size))
+            if free:
+                xs, cs, _, _ = least_squares(np.column_stack([cols[k] for k in free]), y, w / w.mean())
+                xf[free] = xs
+                covf[np.ix_(free, free)] = cs
+            more = [k for k in free if xf[k] < 0]
+            if not more:
+                break
+            fixed += more
+        self.warnings_.append(f"transmission {i}: {', '.join(f'{names[k]} = {x[k]:.3g}' for k in fixed)} came out "
+                              "negative: fixed at 0 and the rest refitted (a friction term cannot feed energy; the "
+                              "S2 residual of held distal cables, ERRATA eq. 15, or a torque offset can cause it)")
+        return xf, covf
 
     def _bins_model(self, strokes):
         rows = []

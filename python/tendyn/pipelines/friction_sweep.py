@@ -80,7 +80,7 @@ def friction_sweep(device: Device | CompiledDevice, transmission: int = 2, speed
     from tendyn.protocols import plan_test
 
     device = compile_device(device)
-    test = plan_test(device, transmission, "S2", speeds, q0=q0, loads=1, require_speeds=False)
+    test = plan_test(device, transmission, "S2", speeds, q0=q0, loads=1, strict=False)
     out = FrictionSweep(device.name, transmission)
     for strategy in ("S1", "S2"):
         run = ex.constant_velocity(device, transmission, speeds, strategy=strategy, travel=test.travel,

@@ -130,8 +130,8 @@ class _Handle:
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         x = np.array(self.data.oMf[self.frame].translation)
-        J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
-        return x, np.array(J)
+        J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        return x, np.asarray(J).reshape(6, -1)[:3]   # a 1-joint Jacobian comes back as a vector
 
 
 def _reset(sim, data, q0, seed) -> None:

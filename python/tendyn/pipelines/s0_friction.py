@@ -23,16 +23,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tendyn.protocols import DEFAULT_SPEEDS
+from tendyn.protocols import DEFAULT_SPEEDS, LOOP_BANDWIDTH_HZ
 from tendyn.ident.friction import (FrictionFit, TransmissionFriction, isolated_move_joint_speeds,
                                    residual_error_bound)
 from tendyn.results import Result
 from tendyn.sim import experiments as ex
 
 
-BANDWIDTH_HZ = 12.0
-"""Position-loop bandwidth of the tests [Hz]: at the experiment's default (6 Hz) the integral action
-leaves a speed drift of ~10 % over a short stroke; at 12 Hz the speed is flat within 1 % after ~0.1 s."""
+BANDWIDTH_HZ = LOOP_BANDWIDTH_HZ
+"""Position-loop bandwidth of the tests [Hz] (:data:`tendyn.protocols.LOOP_BANDWIDTH_HZ`)."""
 
 
 # ---- truth ---------------------------------------------------------------------------------------
@@ -193,6 +192,7 @@ class StrategyComparison(Result):
 
     device: str
     speeds_motor: list
+    speeds_by_transmission: dict = field(default_factory=dict)   # transmission -> planned speeds [rad/s]
     truth: dict = field(default_factory=dict)       # transmission -> (C_m0, ν) at the test's load
     truth_zero_load: dict = field(default_factory=dict)  # transmission -> (C_m0, ν) of eqs. 18–19
     fits: dict = field(default_factory=dict)        # (transmission, strategy) -> FrictionFit
@@ -207,7 +207,7 @@ class StrategyComparison(Result):
         S0 §III); Ĉ includes the identified load term at the test's mean load."""
         f = self.fits[(t, strategy)]
         c0, nu = self.truth[t]
-        v = np.asarray(self.speeds_motor, float)
+        v = np.asarray(self.speeds_by_transmission.get(t, self.speeds_motor), float)
         return float(np.sqrt(np.mean(((f.coulomb_at_load() - c0) + (f.viscous_motor - nu) * v) ** 2)))
 
     def errors_pct(self, t: int, strategy: str) -> tuple[float, float]:
@@ -273,37 +273,39 @@ class StrategyComparison(Result):
         ax.grid(alpha=0.3, axis="y")
 
 
-def stroke_plan(device, transmission: int, travel_motor: float | None = None, speeds=DEFAULT_SPEEDS):
-    """(q0 [rad], motor travel [rad]) of the test of ``transmission`` (1-based): the first pose and stroke of the
-    planned test (:func:`tendyn.protocols.plan_test`: the stroke centred in the driven joint's range, the other
-    joints mid-range, at most ``travel_motor``)."""
+def stroke_plan(device, transmission: int, travel_motor: float | None = None, speeds=None):
+    """(q0 [rad], motor travel [rad], speeds [rad/s]) of the test of ``transmission`` (1-based): the first pose,
+    stroke and speeds of the planned test (:func:`tendyn.protocols.plan_test`: the stroke centred in the driven
+    joint's range, the other joints mid-range, at most ``travel_motor``; default speeds scaled down where the
+    stroke is short)."""
     from tendyn.protocols import plan_test
 
-    test = plan_test(device, transmission, "S2", speeds, travel=travel_motor, loads=1, require_speeds=False)
-    return test.poses[0], test.travel
+    test = plan_test(device, transmission, "S2", speeds, travel=travel_motor, loads=1, strict=False)
+    return test.poses[0], test.travel, test.speeds
 
 
-def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_motor: float | None = None,
+def compare_strategies(device, transmissions=None, speeds=None, travel_motor: float | None = None,
                        seed: int = 0, gravity: str = "pairs", rate_hz: float = 10_000.0,
                        bandwidth_hz: float = BANDWIDTH_HZ, progress=None, keep_runs: bool = False):
     """Run S1 and S2 on each transmission, fit, compare with the truth. Returns a
     :class:`StrategyComparison` (and the runs when ``keep_runs``)."""
     transmissions = list(range(1, device.n_transmissions + 1)) if transmissions is None else list(transmissions)
-    out = StrategyComparison(device.name, [float(v) for v in speeds])
+    out = StrategyComparison(device.name, [float(v) for v in (DEFAULT_SPEEDS if speeds is None else speeds)])
     runs = {}
     for t in transmissions:
-        q0, travel = stroke_plan(device, t, travel_motor, speeds)
+        q0, travel, sp = stroke_plan(device, t, travel_motor, speeds)
+        out.speeds_by_transmission[t] = list(sp)
         for s in ("S1", "S2"):
-            run = ex.constant_velocity(device, t, speeds, strategy=s, travel=travel, q0=q0, seed=seed,
+            run = ex.constant_velocity(device, t, sp, strategy=s, travel=travel, q0=q0, seed=seed,
                                        rate_hz=rate_hz, bandwidth_hz=bandwidth_hz)
             est = TransmissionFriction(t, gravity=gravity, device=device if gravity != "pairs" else None)
             fit: FrictionFit = est.fit([run.log]).result_
             out.fits[(t, s)] = fit
             arr = truth_arrays(run.truth)
-            out.truth[t] = true_global_at_load(arr, device, t, q0, travel, speeds)
-            out.truth_zero_load[t] = true_global_friction(arr, t - 1, speeds)
+            out.truth[t] = true_global_at_load(arr, device, t, q0, travel, sp)
+            out.truth_zero_load[t] = true_global_friction(arr, t - 1, sp)
             out.bounds_truth[(t, s)] = residual_error_bound(arr["K"], arr["motor_radius"], t - 1, s,
-                                                            arr["tau0"], arr["nu"], max(speeds))
+                                                            arr["tau0"], arr["nu"], max(sp))
             if keep_runs:
                 runs[(t, s)] = run
             if progress:

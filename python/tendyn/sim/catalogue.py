@@ -95,7 +95,7 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
 )}
 
 DEFAULTS: dict[str, Any] = dict(seed=0, log_rate=1_000.0, transmission=1, joint=1, strategy="S2",
-                                speeds=DEFAULT_SPEEDS, loads=DEFAULT_LOADS, duration=20.0, torque=0.1, period=2.0, cycles=3,
+                                speeds=None, loads=DEFAULT_LOADS, duration=20.0, torque=0.1, period=2.0, cycles=3,
                                 freqs=(1.0, 2.0, 5.0, 10.0), q0=None)
 """Defaults shared by the experiments; rates that depend on the device come from :func:`_device_defaults`."""
 
@@ -347,7 +347,7 @@ def run_length_s(device, experiment: str, o: dict) -> list[float]:
 
         test = planned_test(device, o)
         if test is None:
-            return [constant_velocity_duration(o["speeds"])]
+            return [constant_velocity_duration(o["speeds"] or DEFAULT_SPEEDS)]
         return [duration_s(_motor_from_joint(device), test)]
     if experiment in ("stepped-sine",):
         return [o["cycles"] / f for f in o["freqs"]]
@@ -409,7 +409,7 @@ def planned_test(device, o: dict):
     from tendyn.protocols import plan_test
 
     return plan_test(device, o["transmission"], o["strategy"], o["speeds"], q0=o.get("q0"), loads=o["loads"],
-                     require_speeds=False)
+                     strict=False)
 
 
 def _motor_from_joint(device) -> np.ndarray:
@@ -441,8 +441,8 @@ def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] |
         test = planned_test(device, o)
         if test is not None:
             return [ex.constant_velocity(device, test=test, **twin)]
-        return [ex.constant_velocity(device, o["transmission"], o["speeds"], strategy=o["strategy"], q0=q0,
-                                     **twin)]
+        return [ex.constant_velocity(device, o["transmission"], o["speeds"] or DEFAULT_SPEEDS,
+                                     strategy=o["strategy"], q0=q0, **twin)]
     if experiment == "exciting":
         return [ex.exciting_trajectory(device, duration=o["duration"], q0=q0, **twin)]
     if experiment == "blocked-link":

@@ -24,7 +24,7 @@ from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.schema import TRANSMISSION_MODEL_FIELDS
 from tendyn.io import to_jsonable
 from tendyn.io.logs import Log, make_log
-from tendyn.protocols import ConstantVelocityTest, references as cv_references
+from tendyn.protocols import LOOP_BANDWIDTH_HZ, ConstantVelocityTest, references as cv_references
 from tendyn.protocols import check_index as _check_index
 from tendyn.protocols import (constant_velocity_duration, constant_velocity_profile,  # noqa: F401 (API)
                                constant_velocity_references)
@@ -161,7 +161,8 @@ def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: f
 def constant_velocity(device, transmission: int | None = None, speeds=None, strategy: str = "S2",
                       travel: float = 20.0, accel: float = 200.0, q0=None, rate_hz: float = 10_000.0,
                       control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
-                      bandwidth_hz: float = 6.0, progress=None, test: ConstantVelocityTest | None = None) -> SimRun:
+                      bandwidth_hz: float = LOOP_BANDWIDTH_HZ, progress=None,
+                      test: ConstantVelocityTest | None = None) -> SimRun:
     """Constant-velocity moves of one transmission (S0 §III-A) at several motor speeds.
 
     Parameters
