@@ -32,16 +32,16 @@ def _feedforward_python(model: Path) -> str:
     return out.splitlines()[0]
 
 
-def _cmake_consumer(tmp: Path, source: str, components: str, prefix_path: str, **kw) -> subprocess.CompletedProcess:
+def _cmake_consumer(tmp: Path, source: str, components: str, prefix_path: str,
+                    extra: str = "") -> subprocess.CompletedProcess:
     """Configure a one-file project that finds tendyn with ``components`` (no system paths: only what is given)."""
     (tmp / "main.c").write_text(source)
     (tmp / "CMakeLists.txt").write_text(
         "cmake_minimum_required(VERSION 3.18)\nproject(consumer LANGUAGES C CXX)\n"
         f"find_package(tendyn REQUIRED {components})\n"
-        "add_executable(main main.c)\ntarget_link_libraries(main PRIVATE tendyn::tendyn_c)\n")
+        "add_executable(main main.c)\ntarget_link_libraries(main PRIVATE tendyn::tendyn_c)\n" + extra)
     return subprocess.run(["cmake", "-S", str(tmp), "-B", str(tmp / "build"), f"-DCMAKE_PREFIX_PATH={prefix_path}",
-                           "-DCMAKE_FIND_USE_CMAKE_SYSTEM_PATH=OFF"], capture_output=True, text=True, env=user_env(),
-                          **kw)
+                           "-DCMAKE_FIND_USE_CMAKE_SYSTEM_PATH=OFF"], capture_output=True, text=True, env=user_env())
 
 
 C_MAIN = """#include <stdio.h>
@@ -142,6 +142,17 @@ def test_cmake_c_target_needs_no_eigen(pkg, tmp_path):
     (tmp_path / "core").mkdir()
     r = _cmake_consumer(tmp_path / "core", C_MAIN, "COMPONENTS core", str(pkg.prefix))
     assert r.returncode != 0 and "Eigen3" in r.stdout + r.stderr
+
+
+def test_cmake_components_core_and_sim_give_their_targets(pkg, tmp_path):
+    """With the printed prefix path, COMPONENTS core sim find Eigen3 and pinocchio and define tendyn::core and
+    tendyn::sim (configure only: compiling against Pinocchio takes minutes); an unknown component is refused."""
+    check = "foreach(t tendyn::core tendyn::sim)\n  if(NOT TARGET ${t})\n    message(FATAL_ERROR \"no ${t}\")\n  endif()\nendforeach()\n"
+    r = _cmake_consumer(tmp_path, C_MAIN, "COMPONENTS core sim", pkg.cmake_prefix_path(), extra=check)
+    assert r.returncode == 0, r.stdout + r.stderr
+    (tmp_path / "bad").mkdir()
+    r = _cmake_consumer(tmp_path / "bad", C_MAIN, "COMPONENTS fortran", pkg.cmake_prefix_path())
+    assert r.returncode != 0 and "unknown component 'fortran'" in r.stdout + r.stderr
 
 
 def test_relocated_package_builds_by_its_own_paths(pkg, tmp_path):
