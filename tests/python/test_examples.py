@@ -15,6 +15,15 @@ REPO = Path(__file__).resolve().parents[2]
 EX01 = REPO / "examples" / "01_feedforward"
 EX02 = REPO / "examples" / "02_compensation"
 
+MOTOR = """[transmissions.motor]
+torque_constant = 0.08
+rotor_inertia = 3e-5
+continuous_torque = 0.5
+peak_torque = 2.0
+[transmissions.sensors]
+encoder_counts = 8192
+current_noise = 0.0
+"""
 PLANAR2 = """
 schema = 1
 [device]
@@ -51,15 +60,7 @@ reducer_ratio = 6.0
 reducer_efficiency = 0.92
 pretension = 40.0
 friction = [{tau0 = 0.6, nu = 4.0, beta = 0.01}]
-[transmissions.motor]
-torque_constant = 0.08
-rotor_inertia = 3e-5
-continuous_torque = 0.5
-peak_torque = 2.0
-[transmissions.sensors]
-encoder_counts = 8192
-current_noise = 0.0
-[[transmissions]]
+""" + MOTOR + """[[transmissions]]
 name = "t2"
 joint = 2
 motor_radius = 0.009
@@ -71,15 +72,7 @@ reducer_efficiency = 0.88
 pretension = 30.0
 friction = [{tau0 = 0.4, nu = 3.0, beta = 0.015}, {tau0 = 0.3, nu = 2.0, beta = 0.02}]
 bearings = [{}, {count = 2, radius = 0.012, wrap = 3.14159, static_coefficient = 0.002, dynamic_coefficient = 0.0015, h0 = 1e-4, h1 = 2e-5, n0 = 5.0}]
-[transmissions.motor]
-torque_constant = 0.08
-rotor_inertia = 3e-5
-continuous_torque = 0.5
-peak_torque = 2.0
-[transmissions.sensors]
-encoder_counts = 8192
-current_noise = 0.0
-"""
+""" + MOTOR
 
 
 @pytest.fixture(scope="module")
