@@ -146,9 +146,15 @@ def test_cmake_c_target_needs_no_eigen(pkg, tmp_path):
 
 def test_cmake_components_core_and_sim_give_their_targets(pkg, tmp_path):
     """With the printed prefix path, COMPONENTS core sim find Eigen3 and pinocchio and define tendyn::core and
-    tendyn::sim (configure only: compiling against Pinocchio takes minutes); an unknown component is refused."""
-    check = "foreach(t tendyn::core tendyn::sim)\n  if(NOT TARGET ${t})\n    message(FATAL_ERROR \"no ${t}\")\n  endif()\nendforeach()\n"
+    tendyn::sim (configure only: compiling against Pinocchio takes minutes); without COMPONENTS tendyn::core
+    comes when Eigen3 is found; an unknown component is refused."""
+    check = ("foreach(t tendyn::core tendyn::sim)\n  if(NOT TARGET ${t})\n    message(FATAL_ERROR \"no ${t}\")\n"
+             "  endif()\nendforeach()\n")
     r = _cmake_consumer(tmp_path, C_MAIN, "COMPONENTS core sim", pkg.cmake_prefix_path(), extra=check)
+    assert r.returncode == 0, r.stdout + r.stderr
+    (tmp_path / "plain").mkdir()  # no COMPONENTS: tendyn::core comes too, Eigen3 being on the path
+    r = _cmake_consumer(tmp_path / "plain", C_MAIN, "", pkg.cmake_prefix_path(),
+                        extra=check.replace(" tendyn::sim", ""))
     assert r.returncode == 0, r.stdout + r.stderr
     (tmp_path / "bad").mkdir()
     r = _cmake_consumer(tmp_path / "bad", C_MAIN, "COMPONENTS fortran", pkg.cmake_prefix_path())
@@ -179,8 +185,9 @@ def test_cmake_install_of_the_plain_build(pkg, tmp_path):
     from tendyn import c_package
 
     build_dir, prefix = tmp_path / "build", tmp_path / "prefix"
-    run(["cmake", "-S", str(REPO), "-B", str(build_dir), "-DTENDYN_BUILD_PYTHON=OFF", f"-DPython_EXECUTABLE={sys.executable}",
-         f"-DCMAKE_INSTALL_PREFIX={prefix}", "-DCMAKE_INSTALL_LIBDIR=lib", "-DCMAKE_BUILD_TYPE=Release"])
+    run(["cmake", "-S", str(REPO), "-B", str(build_dir), "-DTENDYN_BUILD_PYTHON=OFF",
+         f"-DPython_EXECUTABLE={sys.executable}", f"-DCMAKE_INSTALL_PREFIX={prefix}", "-DCMAKE_INSTALL_LIBDIR=lib",
+         "-DCMAKE_BUILD_TYPE=Release"])
     run(["cmake", "--build", str(build_dir), "-j", "2"])
     run(["cmake", "--install", str(build_dir)])
     plain = c_package.CPackage(prefix=prefix, cmeel_prefix=pkg.cmeel_prefix)
