@@ -2,7 +2,7 @@
  * compensation.py; tests/python/test_examples.py compares the three to 1e-12, on L-EXOS and other devices).
  *
  * A controller loads the compensator model file once (exported by Python from a device file:
- * `python compensation.py --export my_device.toml my_device.comp`, or `tendyn export compensator`), then calls
+ * `python compensation.py --export my_device.toml my_device.comp`), then calls
  * one cycle per control period: motor encoder readings + wanted joint torques -> motor torques covering gravity
  * and the transmission losses. n comes from the file.
  * Usage: compensation_c MODEL.comp [DEVICE_NAME] (with DEVICE_NAME, a file of another device is refused).
