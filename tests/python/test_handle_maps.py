@@ -127,7 +127,7 @@ def test_apparent_mass_equals_the_simulated_response_to_a_handle_force(tmp_path,
             p = model.at(q)
             measured = _simulated_inverse_mass(dev, q, p.basis)
             expected = np.linalg.inv(p.mass)
-            assert np.allclose(measured, expected, rtol=2e-3, atol=2e-3 * np.abs(expected).max()), \
+            assert np.allclose(measured, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max()), \
                 (dev.name, q, measured, expected)
 
 
