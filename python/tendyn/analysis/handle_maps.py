@@ -417,8 +417,13 @@ class HandleMaps(Result):
                   (self.dry_max[sel], "largest dry friction [N]"),
                   (self.viscous[sel, 0], "largest viscous friction [N·s/m]"))
         order = np.argsort(p[:, 3 - a - b]) if p.shape[0] else np.zeros(0, int)   # far side drawn first
+        from matplotlib.colors import LogNorm
+
         for axis, (values, label) in zip(axes, panels):
-            sc = axis.scatter(p[order, a], p[order, b], c=values[order], s=10, cmap="viridis")
+            v = values[order]
+            spread = len(v) and np.all(v > 0) and v.max() > 10 * v.min()      # near singularities: a log scale
+            sc = axis.scatter(p[order, a], p[order, b], c=v, s=10, cmap="viridis",
+                              norm=LogNorm(v.min(), v.max()) if spread else None)
             axis.figure.colorbar(sc, ax=axis, label=label)
             axis.set_xlabel(f"handle {AXES[a]} [mm]")
             axis.set_ylabel(f"handle {AXES[b]} [mm]")
@@ -447,6 +452,9 @@ class HandleMaps(Result):
             "min_viscous_N_s_per_m": float(np.min(self._u(self.viscous)[:, -1])),
             "max_dry_friction_N": float(np.max(self._u(self.dry_max))),
             "min_dry_friction_N": float(np.min(self._u(self.dry_min))),
+            "median": {"largest_apparent_mass_kg": float(np.median(self._u(self.mass)[:, 0])),
+                       "largest_viscous_N_s_per_m": float(np.median(self._u(self.viscous)[:, 0])),
+                       "largest_dry_friction_N": float(np.median(self._u(self.dry_max)))},
             "stiffness": None,
             "stiffness_note": "the device file gives no cable or joint stiffness (schema 1): the maps have none",
             "rotor_inertia_kg_m2": [float(v) for v in self.rotor_inertia],
@@ -464,6 +472,9 @@ class HandleMaps(Result):
         rows = [
             ("apparent mass, largest / smallest (grid) [kg]",
              f"{d['max_apparent_mass_kg']:.4g} / {d['min_apparent_mass_kg']:.4g}"),
+            ("largest apparent mass / dry / viscous friction, median over the poses",
+             f"{d['median']['largest_apparent_mass_kg']:.4g} kg / {d['median']['largest_dry_friction_N']:.4g} N / "
+             f"{d['median']['largest_viscous_N_s_per_m']:.4g} N·s/m"),
             ("apparent mass, principal (reference pose) [kg]", ", ".join(f"{v:.4g}" for v in ref["apparent_mass_kg"])),
             ("viscous friction, largest / smallest (grid) [N·s/m]",
              f"{d['max_viscous_N_s_per_m']:.4g} / {d['min_viscous_N_s_per_m']:.4g}"),
