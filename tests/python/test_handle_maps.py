@@ -149,24 +149,29 @@ def test_rotor_inertia_is_reflected_through_the_transmission(tmp_path):
 # viscous friction: power balance
 # --------------------------------------------------------------------------------------------------------
 
+def _directions(tmp_path, rng, poses=2, directions=2):
+    """(device, model, q, pose, w): random poses of every test device and random unit handle directions w in
+    each pose's basis."""
+    for dev in _devices(tmp_path):
+        model = HandleModel(dev)
+        for q in _poses(model, rng, poses):
+            p = model.at(q)
+            for _ in range(directions):
+                w = rng.normal(size=p.task_dimension)
+                yield dev, model, q, p, w / np.linalg.norm(w)
+
+
 def test_viscous_map_is_the_least_dissipated_power(tmp_path, rng):
     """uᵀ B u = min over the joint motions moving the handle at u of Σ ν_i q̇_m,i² (brute force, core
     kinematics), and the map's own motion dissipates exactly F·Ẋ."""
-    for dev in _devices(tmp_path):
-        model = HandleModel(dev)
+    for dev, model, q, p, w in _directions(tmp_path, rng):
         nu = model.viscous_motor
-        for q in _poses(model, rng, 2):
-            p = model.at(q)
-            for _ in range(2):
-                w = rng.normal(size=p.task_dimension)
-                w /= np.linalg.norm(w)
-                u = p.basis @ w
-                force = p.viscous @ w
-                qd = model.joint_velocity(q, w, "viscous")
-                power = float(np.sum(nu * _motor_speeds(dev, qd) ** 2))
-                assert force @ w == pytest.approx(power, rel=1e-9)
-                best = _brute_min(dev, model, q, u, lambda qm: float(np.sum(nu * qm ** 2)))
-                assert force @ w == pytest.approx(best, rel=1e-5), (dev.name, q)
+        force = p.viscous @ w
+        qd = model.joint_velocity(q, w, "viscous")
+        power = float(np.sum(nu * _motor_speeds(dev, qd) ** 2))
+        assert force @ w == pytest.approx(power, rel=1e-9)
+        best = _brute_min(dev, model, q, p.basis @ w, lambda qm: float(np.sum(nu * qm ** 2)))
+        assert force @ w == pytest.approx(best, rel=1e-5), (dev.name, q)
 
 
 # --------------------------------------------------------------------------------------------------------
@@ -174,16 +179,12 @@ def test_viscous_map_is_the_least_dissipated_power(tmp_path, rng):
 # --------------------------------------------------------------------------------------------------------
 
 def test_dry_friction_along_a_direction_is_the_least_coulomb_power(tmp_path, rng):
-    for dev in _devices(tmp_path):
-        model = HandleModel(dev)
+    """h(u) = min over the joint motions moving the handle along u of Σ C_m0,i |q̇_m,i| (virtual work)."""
+    for dev, model, q, p, w in _directions(tmp_path, rng, directions=3):
         C = model.coulomb_motor
-        for q in _poses(model, rng, 2):
-            p = model.at(q)
-            for _ in range(3):
-                w = rng.normal(size=p.task_dimension)
-                u = p.basis @ (w / np.linalg.norm(w))
-                best = _brute_min(dev, model, q, u, lambda qm: float(np.sum(C * np.abs(qm))))
-                assert p.dry_friction(u) == pytest.approx(best, rel=1e-5), (dev.name, q, u)
+        u = p.basis @ w
+        best = _brute_min(dev, model, q, u, lambda qm: float(np.sum(C * np.abs(qm))))
+        assert p.dry_friction(u) == pytest.approx(best, rel=1e-5), (dev.name, q, u)
 
 
 def test_dry_friction_extremes_over_directions(tmp_path, rng):
