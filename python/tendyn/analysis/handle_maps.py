@@ -368,7 +368,8 @@ class HandleMaps(Result):
     ----------
     device : name; sources : {"inertia", "friction"} (text); task_dimension : r, the directions the handle moves
     q : (k, n) poses [rad]; position : (k, 3) handle [m], operator frame; cond : (k,) σ_max/σ_min of J_r
-    usable : (k,) cond ≤ ``max_condition`` (the extremes are over these)
+    usable : (k,) cond ≤ ``max_condition`` (the extremes are over these; an identified A that is not positive
+        definite shows as a smallest apparent mass ≤ 0, counted in ``mass_not_positive_definite_poses``)
     mass : (k, r) principal apparent masses [kg], descending; viscous : (k, r) principal viscous [N·s/m]
     dry_max, dry_min : (k,) largest and smallest dry friction over the directions [N]
     dry_axes : (k, 3) dry friction along the operator axes x, y, z [N] (NaN where the handle cannot move so)
@@ -438,8 +439,6 @@ class HandleMaps(Result):
 
     def to_dict(self) -> dict:
         u = self.usable
-        if not u.any():
-            raise ValueError(f"{self.device}: no pose of the grid has cond(J) <= {self.max_condition:g}")
         return {
             "device": self.device,
             "kind": "handle",
@@ -455,6 +454,7 @@ class HandleMaps(Result):
             "median": {"largest_apparent_mass_kg": float(np.median(self._u(self.mass)[:, 0])),
                        "largest_viscous_N_s_per_m": float(np.median(self._u(self.viscous)[:, 0])),
                        "largest_dry_friction_N": float(np.median(self._u(self.dry_max)))},
+            "mass_not_positive_definite_poses": int(np.sum(self._u(self.mass)[:, -1] <= 0)),
             "stiffness": None,
             "stiffness_note": "the device file gives no cable or joint stiffness (schema 1): the maps have none",
             "rotor_inertia_kg_m2": [float(v) for v in self.rotor_inertia],
@@ -552,6 +552,9 @@ def handle_maps(device, *, coulomb_motor=None, viscous_motor=None, mass_matrix=N
         mass[i], visc[i] = p.apparent_mass(), p.viscous_principal()
         dmax[i], dmin[i] = p.dry_friction_max()[0], p.dry_friction_min()[0]
         daxes[i] = [p.dry_friction(e) for e in np.eye(3)]
+    if not usable.any():
+        raise ValueError(f"{model.device.name}: no pose of the grid has cond(J) <= {max_condition:g} "
+                         f"(the best is {np.min(cond):.3g})")
     if progress:
         progress(f"maps: {int(usable.sum())}/{k} poses usable (cond(J) <= {max_condition:g}), "
                  f"{r} handle directions")

@@ -103,7 +103,10 @@ def _run_handle(args, dev) -> int:
     if args.params is not None:
         kw["mass_matrix"] = _identified_mass_matrix(dev, args.params)
         sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
-    maps = handle_maps(dev, points=args.points, sources=sources, **kw)
+    try:
+        maps = handle_maps(dev, points=args.points, sources=sources, **kw)
+    except ValueError as exc:      # a device whose handle cannot be mapped (no motor per joint, always singular)
+        raise UsageError(str(exc), "device") from None
     doc = maps.to_dict()
     doc["params_file"] = None if args.params is None else str(args.params)
     doc["friction_file"] = None if args.friction is None else str(args.friction)
