@@ -344,3 +344,30 @@ def test_maps_over_the_grid_are_finite_and_the_reference_pose_is_on_it(tmp_path)
         fig = maps.plot()
         assert len(fig.axes) >= 4
         assert "apparent mass" in maps.table()
+
+
+def test_maps_from_values_identified_on_the_lexos_twin(tmp_path, capsys):
+    """The chain a lab runs: simulate → identify (PARAMS.json) and identify-friction (FRICTION.json) → maps. The
+    identified inertia gives the device file's apparent masses within 10 % at the reference pose; the maps carry
+    the identified friction (not the file's)."""
+    from tendyn.cli import main
+
+    logs = []
+    for t in (1, 2, 3, 4):
+        logs.append(str(tmp_path / f"t{t}.parquet"))
+        assert main(["simulate", "lexos", "constant-velocity", "--transmission", str(t), "--strategy", "S2",
+                     "--speeds", "2,4,6,8,10", "--out", logs[-1], "--quiet"]) == 0
+    assert main(["simulate", "lexos", "exciting", "--out", str(tmp_path / "ex.parquet"), "--quiet"]) == 0
+    fr, params = tmp_path / "friction.json", tmp_path / "params.json"
+    assert main(["identify-friction", "lexos", *logs, "--out", str(fr)]) == 0
+    assert main(["identify", "lexos", str(tmp_path / "ex.parquet"), "--out", str(params), "--quiet",
+                 "--scheduler", "none"]) == 0
+    capsys.readouterr()
+    assert main(["maps", "lexos", "--points", "4", "--json"]) == 0
+    ref = json.loads(capsys.readouterr().out)
+    assert main(["maps", "lexos", str(params), "--friction", str(fr), "--points", "4", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["coulomb_motor_N_m"] == json.loads(fr.read_text())["coulomb_motor"]
+    assert doc["mass_not_positive_definite_poses"] == 0
+    np.testing.assert_allclose(doc["reference_pose"]["apparent_mass_kg"], ref["reference_pose"]["apparent_mass_kg"],
+                               rtol=0.1)
