@@ -260,7 +260,7 @@ ALLOWED = {
     "device": {"device", "_core", "transmission"},
     "io": {"io"},
     "sim": {"sim", "device", "io", "results", "transmission", "protocols", "_core"},
-    "analysis": {"analysis", "device", "io", "results", "transmission", "_core"},
+    "analysis": {"analysis", "device", "io", "results", "transmission", "protocols", "_core"},
     "control": {"control", "ident", "device", "io", "results", "transmission", "_core"},
     "ident": {"ident", "device", "io", "results", "transmission", "protocols", "_core"},
     "protocols": {"protocols", "device", "transmission", "_core"},

@@ -24,8 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tendyn.protocols import DEFAULT_SPEEDS, LOOP_BANDWIDTH_HZ
-from tendyn.ident.friction import (FrictionFit, TransmissionFriction, isolated_move_joint_speeds,
-                                   residual_error_bound)
+from tendyn.ident.friction import FrictionFit, TransmissionFriction, residual_error_bound
 from tendyn.results import Result
 from tendyn.sim import experiments as ex
 
@@ -77,19 +76,17 @@ def true_global_friction(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, flo
 
 
 def true_global_feedforward(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, float]:
-    """The same from the core's statics with losses (independent route): motor torque of
-    ``Transmission.feedforward(0, q̇)`` with only joint i moving at r_m q̇_m / r_i^i."""
+    """The same from the core's statics with losses (independent route): the device file's equivalent friction
+    of :func:`tendyn.analysis.handle_maps.equivalent_motor_friction` (``Transmission.feedforward(0, ±q̇)`` with only
+    joint i moving at r_m q̇_m / r_i^i), transmission i (0-based)."""
+    from tendyn.analysis.handle_maps import equivalent_motor_friction
     from tendyn.transmission import Transmission
 
     fields = [k for k in arr if k in ("tau0", "nu", "beta") or k.startswith("bearing_")]
     tr = Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"], arr["reducer_efficiency"],
                                   arr["pretension"], **{k: arr[k] for k in fields if k in arr})
-    n = tr.n
-    torques = []
-    for v in speeds:
-        qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], i, "S2", v)
-        torques.append(float(tr.feedforward(np.zeros(n), qd).torque_motor[i]))
-    return _affine(speeds, torques)
+    coulomb, viscous = equivalent_motor_friction(tr, speeds)
+    return float(coulomb[i]), float(viscous[i])
 
 
 def _upstream(x, sdot, a, b, nu):
