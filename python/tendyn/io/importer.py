@@ -1,6 +1,6 @@
 """Turn a lab's CSV files into a log: an import map says which column is which signal.
 
-An import map is a small TOML file (``examples/tx40_import.toml`` is the one for the Stäubli TX40 files)::
+An import map is a small TOML file (``import.toml`` of ``tendyn data path tx40`` is the one for the Stäubli TX40 files)::
 
     schema = 1
     [log]
