@@ -260,6 +260,11 @@ def _solve(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol=1e-1
     (2n + 1 + p)² small, so a step costs the simulation and two filters per record, never a factorisation of
     J (a thin SVD of a 10 000 × 8 Jacobian costs more than the whole simulation); thresholds are kept above
     their lower bounds by projection."""
+    with np.errstate(over="ignore", invalid="ignore"):     # unstable trial points are rejected by their cost
+        return _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol)
+
+
+def _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol):
     lb = np.concatenate([np.full(2 * n + 1, -np.inf), lower_nl])
     theta = np.maximum(np.asarray(theta0, float), lb)
     r, J = _residual_and_jac(structure, nl, n, theta, records, True, skip)
@@ -332,16 +337,42 @@ def _initial_nonlinear(structure, nl, n, b, a, records, degree_cols):
     return g * b, np.array(c)
 
 
-def _abs_sign_recovery(records, n, rounds=6):
-    """Linear initial estimate of a Wiener model with f = |x| (the best linear approximation is zero for an
-    even f): alternate an ARX fit of s·y on u and s = sgn(G u), starting from s = sgn(u)."""
-    signs = [np.sign(r.u) + (r.u == 0) for r in records]
-    for _ in range(rounds):
-        recs = [Record(r.u, s * r.y, r.rate_hz) for r, s in zip(records, signs)]
-        b, a = _arx(recs, n)
-        signs = [np.sign(signal.lfilter(b, np.concatenate([[1.0], a]), r.u)) for r in records]
+def _kernel_signs(records, lags=24):
+    """A sign sequence for x = G u from y = |x|: y² = (g * u)² is a quadratic form in the lagged inputs,
+    y²_t ≈ Σ_ij Q_ij u_{t−i} u_{t−j} with Q = g gᵀ (g the first ``lags`` samples of G's impulse response);
+    Q by least squares, g (up to its sign) its leading eigenvector, s = sgn(g * u)."""
+    rows, rhs = [], []
+    iu = np.triu_indices(lags)
+    for r in records:
+        U = np.column_stack([_shifted(r.u, k) for k in range(lags)])
+        rows.append((U[:, iu[0]] * U[:, iu[1]])[lags:])
+        rhs.append(r.y[lags:] ** 2)
+    q, *_ = np.linalg.lstsq(np.concatenate(rows), np.concatenate(rhs), rcond=None)
+    Q = np.zeros((lags, lags))
+    Q[iu] = q
+    Q = 0.5 * (Q + Q.T)
+    w, V = np.linalg.eigh(Q)
+    g = V[:, -1] * math.sqrt(max(w[-1], 0.0))
+    return [np.sign(np.convolve(r.u, g)[:r.u.size]) + 0.0 for r in records]
+
+
+def _abs_sign_recovery(records, n, skip, max_nfev, rounds=4):
+    """Linear initial estimate of a Wiener model with f = |x| (its best linear approximation is zero: f is
+    even). Two sign sequences are tried for x — sgn(u) and the output's own dips (:func:`_output_signs`) —
+    each refined by alternating an ARX fit of s·y on u with s = sgn(G u), then by output error with |·|;
+    the one of lower cost is kept (G and −G are the same model)."""
+    nl = NONLINEARITIES["abs"]
+    best = None
+    for signs in ([np.sign(r.u) for r in records], _kernel_signs(records)):
         signs = [s + (s == 0) for s in signs]
-    return b, a
+        for _ in range(rounds):
+            b, a = _arx([Record(r.u, s * r.y, r.rate_hz) for r, s in zip(records, signs)], n)
+            signs = [np.sign(signal.lfilter(b, np.concatenate([[1.0], a]), r.u)) for r in records]
+            signs = [s + (s == 0) for s in signs]
+        sol = _solve("wiener", nl, n, np.concatenate([b, a]), records, skip, max_nfev, np.zeros(0))
+        if best is None or sol.cost < best.cost:
+            best = sol
+    return best.x[:n + 1], _stabilise(best.x[n + 1:2 * n + 1])
 
 
 # ---- the result and the estimator -------------------------------------------------------------------------
@@ -496,7 +527,7 @@ class BlockModel:
     def _fit_order(self, records, n):
         nl = self._nl()
         if self.structure == "wiener" and nl.name == "abs":
-            b, a = _abs_sign_recovery(records, n)
+            b, a = _abs_sign_recovery(records, n, self.skip, self.max_nfev)
         else:   # linear output error (identity in place of f) from ARX
             b, a = _arx(records, n)
             sol = _solve(self.structure, IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
@@ -505,7 +536,10 @@ class BlockModel:
         b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
         sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
                      np.array(nl.lower, float))
-        return sol.x, sol.nfev
+        theta = sol.x
+        if self.structure == "wiener" and nl.name == "abs" and np.sum(theta[:n + 1]) < 0:
+            theta = np.concatenate([-theta[:n + 1], theta[n + 1:]])     # |G u| = |−G u|: G(1) > 0 by convention
+        return theta, sol.nfev
 
     def fit(self, records, validation=None) -> "BlockModel":
         """Fit to records: a :class:`Record`, a ``(u, y)`` pair or a list of either (``rate_hz`` needed for
