@@ -183,7 +183,7 @@ def test_h1_h2_match_the_generating_system_on_broadband_excitations(kind, nperse
         err = np.abs(h - ref) / np.abs(ref)
         assert np.median(err) < 0.01 and np.max(err) < 0.03
     assert frf.unit == "rad/s/V" and frf.to_frd().omega.size == frf.freq_hz.size
-    np.testing.assert_allclose(np.asarray(frf.to_frd().fresp).ravel(), frf.h1)
+    np.testing.assert_allclose(np.asarray(frf.to_frd().frdata).ravel(), frf.h1)
 
 
 def test_h1_unbiased_by_output_noise_h2_by_input_noise_and_bands_cover_the_truth():

@@ -403,7 +403,8 @@ class BlockModelFit(Result):
         """G(z) as a python-control discrete ``TransferFunction`` (dt [s])."""
         import control
 
-        return control.tf(self.b, np.concatenate([[1.0], self.a]), self.dt)
+        b = np.where(np.abs(self.b) < 1e-12 * np.abs(self.b).max(), 0.0, self.b)   # a round-off b_0 is a delay
+        return control.tf(b, np.concatenate([[1.0], self.a]), self.dt)
 
     def linear_continuous(self):
         """G(s) with the same zero-order-hold samples as G(z) (matrix logarithm of the sampled state
