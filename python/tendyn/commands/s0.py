@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from tendyn.commands import args as conv
+from tendyn.commands import plan_bench
 from tendyn.errors import UsageError
 
 PLAN_EXPERIMENTS = ("constant-velocity",)
@@ -69,9 +70,11 @@ def _print_json(doc) -> None:
 def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     """``tendyn plan constant-velocity DEVICE --transmission I --strategy S1|S2 [...] --out REF.csv``."""
     p = subparsers.add_parser("plan", help="write the references of a twin experiment for a real controller")
-    p.add_argument("experiment", choices=PLAN_EXPERIMENTS, help="the experiment to plan")
-    p.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
-    p.add_argument("--transmission", type=conv.number(1, integer=True), required=True, help="1-based transmission to move")
+    p.add_argument("experiment", choices=PLAN_EXPERIMENTS + plan_bench.KINDS, help="the experiment to plan")
+    p.add_argument("device", nargs="?", default=None,
+                   help="device file (.toml) or bundled twin name (lexos, …); optional for the bench plans")
+    p.add_argument("--transmission", type=conv.number(1, integer=True), default=None,
+                   help="1-based transmission to move (constant-velocity)")
     p.add_argument("--strategy", choices=("S1", "S2"), default="S2",
                    help="S1 holds the other motors (motor-space references), S2 the other joints (joint-space); "
                         "default S2")
@@ -88,6 +91,7 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
                    help="sample rate of the references [Hz] (the controller's rate; default 1000)")
     p.add_argument("--out", type=_out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
+    plan_bench.add_arguments(p)
     p.set_defaults(func=run_plan)
     return p
 
@@ -125,6 +129,11 @@ def plan_constant_velocity(device, transmission: int, strategy: str, speeds, tra
 def run_plan(args) -> int:
     from tendyn.io import write_log
 
+    if args.experiment in plan_bench.KINDS:
+        return plan_bench.run(args, _load_device)
+    for name in ("device", "transmission"):
+        if getattr(args, name) is None:
+            raise UsageError("required for `plan constant-velocity`", name)
     dev = _load_device(args.device)
     n = dev.n_transmissions
     if n == 0:
