@@ -129,5 +129,6 @@ def s1_from_logs(bench, *, freqs_hz, large_amplitude_N: float, truth_G=None, dea
             frf.freq_hz, np.abs(freqresp(lin, omega=wf) - gf) / np.abs(gf))}
     if dead_band_truth_N is not None:
         summary["wiener"]["dead_band_truth_N"] = dead_band_truth_N
-        summary["wiener"]["dead_band_rel_error"] = abs(wiener.params["width"] - dead_band_truth_N) / dead_band_truth_N
+        summary["wiener"]["dead_band_rel_error"] = (abs(wiener.params["width"] - dead_band_truth_N) / dead_band_truth_N
+                                                    if dead_band_truth_N > 0 else None)
     return summary, fit, wiener, {"stepped_sine": steps, "prbs": est, "validation": val, "low_speed": slow}
