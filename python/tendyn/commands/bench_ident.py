@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from tendyn.commands import args as conv
 from tendyn.errors import UsageError
@@ -23,18 +22,9 @@ DEFAULT_PAIRS = (("input_1", "output_1"), ("force_cmd", "force_tendon"))
 
 
 def _out(suffix: str):
-    def convert(text: str) -> Path:
-        p = Path(text)
-        if p.suffix.lower() != suffix:
-            raise argparse.ArgumentTypeError(f"must end in {suffix} (got {text!r})")
-        if p.is_dir():
-            raise argparse.ArgumentTypeError(f"{text} is a folder")
-        parent = p.parent if str(p.parent) else Path(".")
-        if not parent.is_dir():
-            raise argparse.ArgumentTypeError(f"folder {parent} does not exist")
-        return p
-    convert.__name__ = "path"
-    return convert
+    from tendyn.commands.s0 import _out_path
+
+    return _out_path((suffix,))
 
 
 def _band(text: str):
@@ -77,13 +67,22 @@ def _print_json(doc) -> None:
     print(json.dumps(to_jsonable(doc), indent=2))
 
 
-def _write(doc, out, result, figure):
+def _publish(args, doc, result, what: str) -> int:
+    """Write ``doc`` to ``--out`` and the figure to ``--figure`` (when given), print the JSON or the table."""
     from tendyn.io import atomic_write_text, save_png, to_jsonable
 
-    if out is not None:
-        atomic_write_text(out, json.dumps(to_jsonable(doc), indent=2) + "\n")
-    if figure is not None:
-        save_png(result.plot(), figure)
+    if args.out is not None:
+        atomic_write_text(args.out, json.dumps(to_jsonable(doc), indent=2) + "\n")
+    if args.figure is not None:
+        save_png(result.plot(), args.figure)
+    if args.json:
+        _print_json(doc)
+        return 0
+    print(result.table())
+    for name, path in ((what, args.out), ("figure", args.figure)):
+        if path is not None:
+            print(f"{name}: {path}")
+    return 0
 
 
 # ---- frf --------------------------------------------------------------------------------------------------
@@ -125,16 +124,7 @@ def run_frf(args) -> int:
                             overlap=args.overlap, confidence=args.confidence, band_hz=args.band)
     except ValueError as exc:
         raise UsageError(str(exc)) from None
-    doc = frf.to_dict()
-    _write(doc, args.out, frf, args.figure)
-    if args.json:
-        _print_json(doc)
-    else:
-        print(frf.table())
-        for what, path in (("data", args.out), ("figure", args.figure)):
-            if path is not None:
-                print(f"{what}: {path}")
-    return 0
+    return _publish(args, frf.to_dict(), frf, "data")
 
 
 # ---- identify-bench --------------------------------------------------------------------------------------
@@ -179,15 +169,7 @@ def run_identify_bench(args) -> int:
     res.units = units
     doc = res.to_dict() | {"input": i, "output": o, "logs": [str(p) for p in args.logs],
                            "validation_logs": [str(p) for p in args.validate]}
-    _write(doc, args.out, res, args.figure)
-    if args.json:
-        _print_json(doc)
-    else:
-        print(res.table())
-        for what, path in (("model", args.out), ("figure", args.figure)):
-            if path is not None:
-                print(f"{what}: {path}")
-    return 0
+    return _publish(args, doc, res, "model")
 
 
 def register(subparsers) -> None:
