@@ -109,6 +109,7 @@ def test_generic_columns_round_trip_with_their_names_and_units(tmp_path):
     ({"input_1": {"name": "v", "unit": ""}, "output_1": SIGNALS["output_1"]}, "input_1.unit"),
     ({"input_1": {"name": "v"}, "output_1": SIGNALS["output_1"]}, "exactly the keys name and unit"),
     ({"force_cmd": {"name": "v", "unit": "N"}, **SIGNALS}, "not a generic column"),
+    ({"input_1": {"name": "output_1", "unit": "V"}, "output_1": SIGNALS["output_1"]}, "name of another column"),
 ])
 def test_generic_columns_must_be_declared_once(signals, problem):
     t = np.arange(5) / RATE

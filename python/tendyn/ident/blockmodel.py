@@ -397,7 +397,7 @@ class BlockModelFit(Result):
     units: dict = field(default_factory=lambda: {"input": "-", "output": "-"})
     nfev: int = 0
     seconds: float = 0.0
-    example: tuple | None = field(default=None, repr=False)     # (time, y, ŷ) of one validation record
+    example: tuple | None = field(default=None, repr=False)     # (title, time, y, ŷ) of one record, ≤ 2 s
 
     def linear_tf(self):
         """G(z) as a python-control discrete ``TransferFunction`` (dt [s])."""
@@ -441,12 +441,12 @@ class BlockModelFit(Result):
         if self.example is None:
             ax.text(0.5, 0.5, "no validation record", ha="center")
             return
-        t, y, yh = self.example
+        title, t, y, yh = self.example
         ax.plot(t, y, lw=1.0, label="measured")
-        ax.plot(t, yh, lw=1.0, ls="--", label=f"simulated ({self.structure}, {self.nonlinearity})")
+        ax.plot(t, yh, lw=1.0, ls="--", label=f"simulated from rest ({self.structure}, {self.nonlinearity})")
         ax.set_xlabel("time [s]")
         ax.set_ylabel(f"output [{self.units['output']}]")
-        ax.set_title(f"validation: NRMS {self.validation_nrms[0]:.3f}" if self.validation_nrms else "fit")
+        ax.set_title(title)
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
 
@@ -582,8 +582,12 @@ class BlockModel:
         self.fit_nrms_ = float(np.linalg.norm(err) / np.linalg.norm(ally - ally.mean()))
         self.validation_rms_ = [self.rms(r.u, r.y) for r in val]
         self.validation_nrms_ = [self.nrms(r.u, r.y) for r in val]
-        ex = val[0] if val else recs[0]
-        example = (np.arange(ex.u.size) / ex.rate_hz, ex.y, self.predict(ex.u))
+        k = int(np.argmin(self.validation_nrms_)) if val else 0     # the validation record the model fits best
+        ex = val[k] if val else recs[0]
+        m = min(ex.u.size, int(2.0 * ex.rate_hz))
+        title = (f"validation record {k + 1} of {len(val)}: NRMS {self.validation_nrms_[k]:.3f} (first {m / ex.rate_hz:g} s)"
+                 if val else f"fit: NRMS {self.fit_nrms_:.3f}")
+        example = (title, np.arange(m) / ex.rate_hz, ex.y[:m], self.predict(ex.u)[:m])
         self.result_ = BlockModelFit(self.structure, nl.name, n, self.b_.copy(), self.a_.copy(), dict(self.params_),
                                      self.dt_, self.fit_rms_, self.fit_nrms_, self.validation_rms_,
                                      self.validation_nrms_, dict(self.order_nrms_), nfev=self.nfev_,

@@ -210,7 +210,10 @@ class MeasuredFRF(Result):
         z = float(norm.ppf(0.5 + 0.5 * self.confidence))
         e = z * self.random_error()
         mag = np.abs(self.ratio)
-        return mag * np.maximum(1.0 - e, 0.0), mag * (1.0 + e), np.degrees(np.minimum(e, math.pi))
+        unknown = ~np.isfinite(e)                        # γ² = 0: the data say nothing about |H| there
+        low = np.where(unknown, 0.0, mag * np.maximum(1.0 - e, 0.0))
+        high = np.where(unknown, np.inf, mag * (1.0 + np.where(unknown, 0.0, e)))
+        return low, high, np.degrees(np.minimum(e, math.pi))
 
     def to_frd(self):
         """The chosen estimate as a python-control ``FrequencyResponseData`` on ω [rad/s]."""
@@ -229,9 +232,11 @@ class MeasuredFRF(Result):
         lo, hi, dph = self.band()
         style = "o" if self.freq_hz.size < 80 else "-"
         mag = np.abs(self.ratio)
-        axes[0].loglog(self.freq_hz, mag, style, ms=3, lw=1.0, label=self.estimator.upper())
-        axes[0].fill_between(self.freq_hz, np.maximum(lo, 1e-300), hi, alpha=0.25, lw=0,
+        axes[0].semilogx(self.freq_hz, mag, style, ms=3, lw=1.0, label=self.estimator.upper())
+        axes[0].fill_between(self.freq_hz, lo, np.where(np.isfinite(hi), hi, np.nan), alpha=0.25, lw=0,
                              label=f"{self.confidence:.0%} band")
+        if np.all(mag > 0):
+            axes[0].set_yscale("log")
         axes[0].set_ylabel(f"|{self.output}/{self.input}| [{self.unit}]")
         axes[0].legend(fontsize=7)
         if len(axes) > 1:
@@ -243,9 +248,13 @@ class MeasuredFRF(Result):
             axes[2].semilogx(self.freq_hz, self.coherence, style, ms=3, lw=1.0)
             axes[2].set_ylim(0, 1.05)
             axes[2].set_ylabel("coherence γ² [-]")
+        from matplotlib.ticker import NullFormatter, ScalarFormatter
+
         for a in axes[:3]:
             a.set_xlabel("frequency [Hz]")
             a.grid(alpha=0.3, which="both")
+            a.xaxis.set_major_formatter(ScalarFormatter())
+            a.xaxis.set_minor_formatter(NullFormatter())      # no labels on every minor decade tick
 
     def to_dict(self) -> dict:
         lo, hi, dph = self.band()

@@ -444,10 +444,13 @@ def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
         if is_generic(name) and name not in declared:
             raise LogError(f"generic column without a name and unit: declare it in meta.signals "
                            f"({{\"{name}\": {{\"name\": ..., \"unit\": ...}}}})", file=source, column=name)
-    for name in declared:
+    for name, entry in declared.items():
         if name not in columns:
             raise LogError(f"meta.signals declares {name}, which is not a column of the log", file=source,
                            column="meta.signals")
+        if entry["name"] in columns and entry["name"] != name:
+            raise LogError(f"{name}.name {entry['name']!r} is the name of another column (a signal is called by "
+                           "either name)", file=source, column="meta.signals")
 
 
 # ----------------------------------------------------------------------------------------------------------
