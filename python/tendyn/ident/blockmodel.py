@@ -525,7 +525,9 @@ class BlockModel:
     def _nl(self) -> Nonlinearity:
         return nonlinearity(self.nonlinearity, self.degree)
 
-    def _fit_order(self, records, n):
+    def _fit_order(self, records, n, warm=None):
+        """θ and evaluations of the order-n model; ``warm``, the order n − 1 solution, is also tried padded
+        with a pole and a zero at the origin (the same model), so a higher order never fits worse."""
         nl = self._nl()
         if self.structure == "wiener" and nl.name == "abs":
             b, a = _abs_sign_recovery(records, n, self.skip, self.max_nfev)
@@ -537,6 +539,11 @@ class BlockModel:
         b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
         sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
                      np.array(nl.lower, float))
+        if warm is not None:
+            padded = np.concatenate([warm[:n], [0.0], warm[n:2 * n - 1], [0.0], warm[2 * n - 1:]])
+            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float))
+            if other.cost < sol.cost:
+                sol = _Solution(other.x, other.cost, other.nfev + sol.nfev)
         theta = sol.x
         if self.structure == "wiener" and nl.name == "abs" and np.sum(theta[:n + 1]) < 0:
             theta = np.concatenate([-theta[:n + 1], theta[n + 1:]])     # |G u| = |−G u|: G(1) > 0 by convention
@@ -565,14 +572,17 @@ class BlockModel:
             else:
                 sel_fit = [Record(r.u[:2 * r.u.size // 3], r.y[:2 * r.y.size // 3], r.rate_hz) for r in recs]
                 sel_val = [Record(r.u[2 * r.u.size // 3:], r.y[2 * r.y.size // 3:], r.rate_hz) for r in recs]
+            fits = {0: (None, 0)}
             for n in range(1, int(self.max_order) + 1):
-                th, _ = self._fit_order(sel_fit, n)
-                self._set(th, n, nl, recs[0].rate_hz)
+                fits[n] = self._fit_order(sel_fit, n, warm=fits[n - 1][0])
+                self._set(fits[n][0], n, nl, recs[0].rate_hz)
                 self.order_nrms_[n] = float(np.mean([self.nrms(r.u, r.y) for r in sel_val]))
             n = min(self.order_nrms_, key=lambda k: (round(self.order_nrms_[k], 3), k))
+            # with validation records the selection fitted on all the fit records already
+            th, nfev = fits[n] if val else self._fit_order(recs, n, warm=fits[n - 1][0])
         else:
             n = int(self.order)
-        th, nfev = self._fit_order(recs, n)
+            th, nfev = self._fit_order(recs, n)
         self._set(th, n, nl, recs[0].rate_hz)
         self.nfev_ = int(nfev)
         yh = [self.predict(r.u) for r in recs]
