@@ -8,7 +8,6 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import math
 
 import numpy as np
 import pytest
@@ -17,7 +16,6 @@ control = pytest.importorskip("control")
 
 from tendyn.analysis.s1_plant import PlantParams, TendonDrivePlant  # noqa: E402
 from tendyn.cli import main  # noqa: E402
-from tendyn.control.loop_shaping import freqresp  # noqa: E402
 from tendyn.device.tendon_bench import load_tendon_bench  # noqa: E402
 from tendyn.devices import bundled  # noqa: E402
 from tendyn.io import read_log  # noqa: E402

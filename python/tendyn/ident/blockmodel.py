@@ -45,9 +45,9 @@ STRUCTURES = ("wiener", "hammerstein")
 
 @dataclass(frozen=True)
 class Nonlinearity:
-    """A static nonlinearity f(x; p): its parameter names, f, ∂f/∂x, ∂f/∂p (one column per parameter),
-    lower bounds of p, and ``basis(x, thresholds)``: columns Φ_j such that a gain-scaled f is Σ w_j Φ_j
-    (used by the initial estimate, see :meth:`from_weights`)."""
+    """A static nonlinearity f(x; p): its parameter names, f, ∂f/∂x, ∂f/∂p (one column per parameter), the
+    lower bounds of p, and whether its one parameter is a threshold (found on a grid by the initial
+    estimate, :func:`_initial_nonlinear`)."""
 
     name: str
     params: tuple

@@ -27,9 +27,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tendyn.results import FrequencyResponse, Result, format_table
+from tendyn.results import Result, format_table
 
-__all__ = ["ESTIMATORS", "MeasuredFRF", "Spectra", "frf_from_logs", "spectra", "tone_spectra"]
+__all__ = ["ESTIMATORS", "MeasuredFRF", "Spectra", "frf_from_logs", "spectra", "tone_frequency", "tone_spectra"]
 
 ESTIMATORS = ("h1", "h2")
 EXCITED = 1e-6
@@ -220,12 +220,6 @@ class MeasuredFRF(Result):
         import control
 
         return control.frd(self.ratio, self.omega)
-
-    def to_response(self, label: str = "") -> FrequencyResponse:
-        """As a :class:`tendyn.results.FrequencyResponse` (for the pipelines' spreads and peaks)."""
-        method = "stepped_sine" if self.meta.get("excitation") == "stepped_sine" else "swept_sine"
-        return FrequencyResponse(self.omega, self.ratio, output=self.output, input=self.input, unit=self.unit,
-                                 method=method, label=label or f"{self.estimator.upper()}", meta=dict(self.meta))
 
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
