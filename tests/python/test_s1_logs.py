@@ -160,3 +160,9 @@ def test_plan_usage_errors(tmp_path, argv, problem):
     code, _, err = run(argv + ["--out", str(tmp_path / "r.csv")])
     assert code == 2 and problem in err, err
     assert not (tmp_path / "r.csv").exists()
+
+
+def test_pipeline_s1_given_a_log_points_to_the_log_commands(tmp_path):
+    """Issue 21: `tendyn pipeline s1 LOG` used to fail with a TOML syntax error."""
+    code, _, err = run(["pipeline", "s1", str(tmp_path / "bench.csv")])
+    assert code == 2 and "is a log" in err and "tendyn identify-bench" in err
