@@ -290,6 +290,22 @@ def test_block_model_python_control_objects_and_continuous_equivalent(data):
     assert doc["continuous"]["den"][0] == pytest.approx(1.0) and "limit" in doc["nonlinearity_params"]
 
 
+def test_records_pair_output_k_with_input_k_plus_shift():
+    """shift 1: a command logged at the end of the interval it was held over (y_k = g u_k) becomes the
+    strictly proper zero-order-hold pairing (y_k = g u'_{k−1}); shift −1 the other way."""
+    u = np.random.default_rng(2).standard_normal(400)
+    log = make_log({"time": np.arange(400) / RATE, "input_1": u, "output_1": 0.5 * u}, device="belt", rate_hz=RATE,
+                   seed=None, experiment="e", signals=SIGNALS)
+    (r1,), _ = bm.records_from_logs([log], "voltage", "speed", shift=1)
+    np.testing.assert_array_equal(r1.u, u[1:])
+    np.testing.assert_array_equal(r1.y, 0.5 * u[:-1])
+    (rm,), _ = bm.records_from_logs([log], "voltage", "speed", shift=-1)
+    np.testing.assert_array_equal(rm.u, u[:-1])
+    np.testing.assert_array_equal(rm.y, 0.5 * u[1:])
+    model = bm.BlockModel("hammerstein", "saturation", order=1, rate_hz=RATE).fit(r1)
+    np.testing.assert_allclose(model.b_, [0.0, 0.5], atol=1e-3)        # a delay, no direct term
+
+
 def test_block_model_rejects_bad_settings():
     u = np.zeros(100)
     with pytest.raises(ValueError, match="structure"):

@@ -145,6 +145,9 @@ def add_identify_bench_arguments(sub) -> None:
                    help="validation logs (simulated from rest with the fitted model: RMS and NRMS)")
     p.add_argument("--input", default=None, help="input signal (default input_1, or force_cmd)")
     p.add_argument("--output", default=None, help="output signal (default output_1, or force_tendon)")
+    p.add_argument("--shift", type=conv.number(-1000, 1000, integer=True), default=0, metavar="N",
+                   help="pair output k with input k + N [samples]: 0 when a logged command is held from its "
+                        "time on, 1 when it was held up to its time (the twins' logs); default 0")
     p.add_argument("--out", type=_out(".json"), default=None, help="write the model as JSON")
     p.add_argument("--figure", type=_out(".png"), default=None, help="measured vs simulated validation output")
     p.add_argument("--json", action="store_true", help="print the model as one JSON document on stdout")
@@ -157,8 +160,8 @@ def run_identify_bench(args) -> int:
     fit_logs, val_logs = _read(args.logs), _read(args.validate)
     i, o = _signals(fit_logs + val_logs, args.input, args.output)
     try:
-        recs, units = records_from_logs(fit_logs, i, o)
-        val, vunits = records_from_logs(val_logs, i, o)
+        recs, units = records_from_logs(fit_logs, i, o, args.shift)
+        val, vunits = records_from_logs(val_logs, i, o, args.shift)
         if vunits != units:
             raise ValueError(f"the validation logs' units {vunits} differ from the estimation logs' {units}")
         model = BlockModel(args.structure, args.nonlinearity, order=args.order, max_order=args.max_order,
@@ -167,7 +170,7 @@ def run_identify_bench(args) -> int:
         raise UsageError(str(exc)) from None
     res = model.result_
     res.units = units
-    doc = res.to_dict() | {"input": i, "output": o, "logs": [str(p) for p in args.logs],
+    doc = res.to_dict() | {"input": i, "output": o, "shift": args.shift, "logs": [str(p) for p in args.logs],
                            "validation_logs": [str(p) for p in args.validate]}
     return _publish(args, doc, res, "model")
 

@@ -138,11 +138,19 @@ class Record:
             raise ValueError(f"record {self.name}: values must be finite")
 
 
-def records_from_logs(logs, input: str, output: str) -> tuple[list, dict]:
+def records_from_logs(logs, input: str, output: str, shift: int = 0) -> tuple[list, dict]:
     """Records of ``input`` → ``output`` (column names or ``meta.signals`` names) from logs or paths, and the
-    units ``{"input": …, "output": …}`` (the logs must agree)."""
+    units ``{"input": …, "output": …}`` (the logs must agree).
+
+    ``shift`` pairs y_k with u_{k+shift} [samples]. The model's G(z) is the zero-order-hold sampling of G(s)
+    when u_k is the command held from t_k to t_{k+1} (shift 0: a controller that logs what it sends at t_k);
+    a log whose u_k was held over the interval that *ends* at t_k (the twins' logs, ``bench_log``) needs
+    shift 1."""
     from tendyn.io import Log, read_log
 
+    if int(shift) != shift:
+        raise ValueError(f"shift must be a whole number of samples (got {shift!r})")
+    shift = int(shift)
     out, units = [], None
     for k, lg in enumerate(logs if isinstance(logs, (list, tuple)) else [logs]):
         name = str(lg) if not isinstance(lg, Log) else f"log {k + 1}"
@@ -152,7 +160,9 @@ def records_from_logs(logs, input: str, output: str) -> tuple[list, dict]:
         if units is not None and u_units != units:
             raise ValueError(f"{name}: units {u_units} differ from the first log's {units}")
         units = u_units
-        out.append(Record(lg[ci], lg[co], float(lg.meta["rate_hz"]), name))
+        u, y, n = lg[ci], lg[co], lg.n_samples
+        u, y = (u[shift:], y[:n - shift]) if shift >= 0 else (u[:n + shift], y[-shift:])
+        out.append(Record(u, y, float(lg.meta["rate_hz"]), name))
     return out, units
 
 

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from tendyn.ident.blockmodel import BlockModel, Record
+from tendyn.ident.blockmodel import BlockModel, records_from_logs
 from tendyn.ident.frf import frf_from_logs
 from tendyn.sim import excitation
 from tendyn.sim.tendon_bench import bench_log, simulate
@@ -64,8 +64,8 @@ def record_log(bench, reference: np.ndarray, rate_hz: float, experiment: str, op
 
 
 def bench_records(logs) -> list:
-    """Block-model records (u_{k+1}, y_k) of bench logs (module docstring: the log alignment)."""
-    return [Record(lg["force_cmd"][1:], lg["force_tendon"][:-1], float(lg.meta["rate_hz"])) for lg in logs]
+    """Block-model records (u_{k+1}, y_k) of the twin's logs (module docstring: the log alignment)."""
+    return records_from_logs(logs, "force_cmd", "force_tendon", shift=1)[0]
 
 
 def prbs_logs(bench, amplitudes, seed0: int, duration_s: float = PRBS_DURATION_S) -> list:
