@@ -43,8 +43,8 @@ PRBS_AMPLITUDES = (0.5, 1.0, 2.0)
 VALIDATION_AMPLITUDES = (0.4, 1.5)
 """PRBS levels [N] of the validation logs."""
 PRBS_CLOCK_HZ = 50.0
-"""PRBS clock [Hz]: a level lasts 20 ms, long against the 30 Hz resonance, so the nodes slide through whole
-half-swings; power flat to ≈ 22 Hz."""
+"""PRBS clock [Hz]: a level lasts 20 ms; power flat to ≈ 22 Hz. Chosen on the McGill twin, where it gives the
+dead-band 2 F_c (a 100 Hz clock gives 0.40 N there); on other benches it does not (docs/bench-identification.md)."""
 PRBS_DURATION_S = 12.0
 BAND_HZ = (2.0, 20.0)
 """Band [Hz] in which the identified linear block is compared with G(s) (inside the PRBS's flat power)."""
