@@ -25,8 +25,18 @@
 //     velocity_band 0.5                      [rad/s], motor side
 //     velocity_cutoff_hz 30                  [Hz]
 //     rate_hz 1000                           [Hz]
+//     section losses 1                       (optional; absent = every loss term from the device file)
+//     tau0 identified                        source of each loss term: device, identified or none
+//     nu identified
+//     beta none
+//     bearings none
+//     reducer_efficiency identified
+//     friction friction.json                 (optional: where the identified friction came from)
 //
-// Every field of both sections is required, once; unknown sections, versions or fields, wrong counts,
+// Section losses records one loss model at a time (CompensatorModel::loss_source): identified and device terms
+// never mix, and a term recorded as none must be lossless in the transmission part; a file that breaks this is
+// refused. Every field of the chain and compensator sections is required, once (of section losses: the five
+// terms); unknown sections, versions or fields, wrong counts,
 // values that are not numbers (NaN and Inf are refused) and a model that fails validation are errors whose
 // message names the file, the line and the field (`lexos.comp: line 31: mass: 3 values, expected 4`).
 // A caller may name the device it expects: a file for another device is refused, naming `device`.
@@ -45,6 +55,7 @@ namespace tendyn {
 
 inline constexpr int chain_section_version = 1;
 inline constexpr int compensator_section_version = 1;
+inline constexpr int losses_section_version = 1;
 
 /// Text of the compensator model file of `m` (format above).
 inline std::string compensator_model_text(const CompensatorModel& m) {
@@ -89,6 +100,11 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
   line("velocity_band", &m.velocity_band, 1);
   line("velocity_cutoff_hz", &m.velocity_cutoff_hz, 1);
   line("rate_hz", &m.rate_hz, 1);
+  out += "section losses " + std::to_string(losses_section_version) + "\n";
+  out += "# source of each loss term: device (the device file), identified (FRICTION.json), none (lossless)\n";
+  for (int k = 0; k < loss_term_count; ++k)
+    out += std::string(loss_terms[k]) + " " + loss_source_names[static_cast<int>(m.loss_source[k])] + "\n";
+  if (!m.friction_source.empty()) out += "friction " + m.friction_source + "\n";
   return out;
 }
 
@@ -117,8 +133,9 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
   constexpr int n_chain = 11, n_comp = 4;
   int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0};
-  int section = 0;  // 0 transmission part, 1 chain, 2 compensator
-  int section_line[3] = {0, 0, 0};
+  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 losses
+  int section_line[4] = {0, 0, 0, 0};
+  int loss_seen[loss_term_count + 1] = {0};  // the five terms, then `friction`
   int n = -1;
   std::istringstream in(text);
   std::string line;
@@ -134,9 +151,10 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       std::string sname;
       int version = 0;
       if (!(ls >> sname >> version)) return fail(lineno, "section: expected 'section <name> <version>'");
-      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : 0;
-      if (!which) return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator)");
-      const int want = which == 1 ? chain_section_version : compensator_section_version;
+      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : sname == "losses" ? 3 : 0;
+      if (!which) return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator, losses)");
+      const int want = which == 1 ? chain_section_version : which == 2 ? compensator_section_version
+                                                                        : losses_section_version;
       if (version != want)
         return fail(lineno, "section " + sname + ": version " + std::to_string(version) +
                                 " is not supported (this build reads " + std::to_string(want) + ")");
@@ -146,6 +164,31 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       continue;
     }
     if (section == 0) continue;  // the transmission part, parsed above
+    if (section == 3) {          // loss sources: `<term> device|identified|none`, `friction <origin>`
+      std::string rest;
+      std::getline(ls, rest);
+      const auto b = rest.find_first_not_of(" \t"), e = rest.find_last_not_of(" \t\r");
+      rest = b == std::string::npos ? std::string() : rest.substr(b, e - b + 1);
+      int idx = -1;
+      for (int k = 0; k < loss_term_count; ++k)
+        if (key == loss_terms[k]) idx = k;
+      if (key == "friction") idx = loss_term_count;
+      if (idx < 0)
+        return fail(lineno, key + ": unknown field of section losses (known: tau0, nu, beta, bearings, "
+                                  "reducer_efficiency, friction)");
+      if (loss_seen[idx]) return fail(lineno, key + ": given twice (first on line " + std::to_string(loss_seen[idx]) + ")");
+      loss_seen[idx] = lineno;
+      if (idx == loss_term_count) {
+        m.friction_source = rest;
+        continue;
+      }
+      int src = -1;
+      for (int k = 0; k < 3; ++k)
+        if (rest == loss_source_names[k]) src = k;
+      if (src < 0) return fail(lineno, key + ": '" + rest + "' is not a source (device, identified or none)");
+      m.loss_source[idx] = static_cast<LossSource>(src);
+      continue;
+    }
     const char* const* keys = section == 1 ? chain_keys : comp_keys;
     const int count = section == 1 ? n_chain : n_comp;
     int* seen = section == 1 ? chain_seen : comp_seen;
@@ -246,6 +289,9 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
     if (!chain_seen[k]) return fail(0, std::string("chain.") + chain_keys[k] + ": missing required field");
   for (int k = 0; k < n_comp; ++k)
     if (!comp_seen[k]) return fail(0, std::string(comp_keys[k]) + ": missing required field");
+  if (section_line[3])
+    for (int k = 0; k < loss_term_count; ++k)
+      if (!loss_seen[k]) return fail(0, std::string("losses.") + loss_terms[k] + ": missing required field");
   const std::string problem = m.first_issue();
   if (!problem.empty()) return fail(0, problem);
   *out = std::move(m);
