@@ -22,9 +22,7 @@ DEFAULT_PAIRS = (("input_1", "output_1"), ("force_cmd", "force_tendon"))
 
 
 def _out(suffix: str):
-    from tendyn.commands.s0 import _out_path
-
-    return _out_path((suffix,))
+    return conv.out_path((suffix,))
 
 
 def _band(text: str):
