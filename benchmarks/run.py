@@ -178,6 +178,9 @@ def main() -> int:
 
     bench_sensitivity_sweep(results)
     bench_dask_sweep(results)
+    from blockmodel_bench import bench_blockmodel_fit
+
+    bench_blockmodel_fit(results)
     from tx40_identify import bench_tx40_identify
 
     bench_tx40_identify(results)
