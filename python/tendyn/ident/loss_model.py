@@ -195,88 +195,108 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
         non-finite values, a load coefficient outside [0, 1).
     """
     from tendyn.device import compile_device
-    from tendyn.ident.decomposition import SharesError, decompose, read_shares
-    from tendyn.ident.friction_file import FORMAT, FrictionFileError, validate_friction
+    from tendyn.ident.friction_file import FORMAT
 
     dev = compile_device(device).device
     n = dev.n_transmissions
     if n == 0:
         raise LossModelError(f"{dev.name} has no cable transmissions")
     doc, origin = _read(friction)
-    src = origin
     name = doc.get("device")
     if name is not None and name != dev.name:
-        raise LossModelError(f"the friction is about {name!r}, not {dev.name!r}", source=src, field="device")
+        raise LossModelError(f"the friction is about {name!r}, not {dev.name!r}", source=origin, field="device")
     fmt = doc.get("format")
-    sources = {t: "identified" for t in ("tau0", "nu")}
-    sources.update(beta="none", bearings="none", reducer_efficiency="none")
+    inner = doc.get("branch_losses", doc)
     if fmt == FORMAT:
-        try:
-            validate_friction(doc, device=dev, source=None if origin == "mapping" else src)
-        except FrictionFileError as exc:
-            raise LossModelError(str(exc)) from None
-        c0 = _array(doc, "coulomb_motor", (n,), src)
-        nu = _array(doc, "viscous_motor", (n,), src)
-        load = _array(doc, "load_coefficient", (n,), src) if doc.get("load_coefficient") is not None else None
-        p = pp = None
-        if shares is not None:
-            if isinstance(shares, (str, Path)):
-                try:
-                    p, pp = read_shares(shares, dev)
-                except SharesError as exc:
-                    raise LossModelError(str(exc)) from None
-            else:
-                p, pp = (np.asarray(a, float) for a in shares)
-        dec = decompose(dev, c0, nu, p, pp)
-        tau0_b, nu_b = dec.tau0_branch, dec.nu_branch
-        beta = np.zeros((n, n))
+        parts = _from_friction_file(dev, doc, shares, origin)
     elif fmt == DECOMPOSITION_FORMAT:
-        rows = doc.get("transmissions")
-        if not isinstance(rows, list) or len(rows) != n:
-            raise LossModelError(f"must list the {n} transmissions of {dev.name}", source=src, field="transmissions")
-        tau0_b, nu_b, beta = np.zeros((n, n)), np.zeros((n, n)), np.zeros((n, n))
-        load = np.zeros(n) if any("load_coefficient" in r for r in rows) else None
-        for i, row in enumerate(rows):
-            nb = dev.transmissions[i].joint
-            for key, dst in (("tau0_branch", tau0_b), ("nu_branch", nu_b)):
-                dst[i, :nb] = _array({key: row.get(key)}, key, (nb,), src)
-            if load is not None:
-                load[i] = float(_array({"load_coefficient": [row.get("load_coefficient", 0.0)]},
-                                       "load_coefficient", (1,), src)[0])
-    elif fmt is None and ("tau0" in doc or "nu" in doc):
-        inner = doc.get("branch_losses", doc)
-        tau0_b = _array(inner, "tau0", (n, n), src) if "tau0" in inner else np.zeros((n, n))
-        nu_b = _array(inner, "nu", (n, n), src) if "nu" in inner else np.zeros((n, n))
-        beta = _array(inner, "beta", (n, n), src, upper=1.0) if "beta" in inner else np.zeros((n, n))
-        load = _array(inner, "load_coefficient", (n,), src) if "load_coefficient" in inner else None
-        eta = None
-        if "reducer_efficiency" in inner:
-            eta = _array(inner, "reducer_efficiency", (n,), src)
-            if np.any((eta <= 0) | (eta > 1)):
-                raise LossModelError("must be in (0, 1]", source=src, field="reducer_efficiency")
-        sources.update({"tau0": "identified" if "tau0" in inner else "none",
-                        "nu": "identified" if "nu" in inner else "none",
-                        "beta": "identified" if "beta" in inner else "none"})
-        if eta is not None:
-            sources["reducer_efficiency"] = "identified"
-        given = inner.get("sources", {})
-        for term, value in given.items():
-            if term not in LOSS_TERMS or value not in ("device", "identified", "none"):
-                raise LossModelError(f"{term!r}: {value!r} (terms {', '.join(LOSS_TERMS)}; sources device, "
-                                     "identified, none)", source=src, field="sources")
-            sources[term] = value
-        if eta is not None and load is None:
-            return _finish(dev, tau0_b, nu_b, beta, eta, 1.0 / eta - 1.0, sources, origin)
+        parts = _from_decomposition(dev, doc, origin)
+    elif fmt is None and ("tau0" in inner or "nu" in inner):
+        parts = _from_branch_arrays(dev, inner, origin)
     else:
         raise LossModelError(f"unknown friction format {fmt!r} (expected {FORMAT!r}, {DECOMPOSITION_FORMAT!r} "
-                             "or per-branch arrays 'tau0', 'nu')", source=src, field="format")
-    if load is None:
-        load = np.zeros(n)
-        eta = np.ones(n)
-    else:
-        eta = _reducer_from_load(load, src)
+                             "or per-branch arrays 'tau0', 'nu')", source=origin, field="format")
+    tau0_b, nu_b, beta, eta, load, given = parts
+    sources = {"tau0": "identified", "nu": "identified", "beta": "none", "bearings": "none",
+               "reducer_efficiency": "none"}
+    sources.update(given)
+    if eta is None and load is not None:
+        eta = _reducer_from_load(load, origin)
         sources["reducer_efficiency"] = "identified"
+    elif eta is None:
+        eta, load = np.ones(n), np.zeros(n)
+    elif load is None:
+        load = 1.0 / eta - 1.0
     return _finish(dev, tau0_b, nu_b, beta, eta, load, sources, origin)
+
+
+def _from_friction_file(dev, doc, shares, src):
+    """FRICTION.json: C_m0, ν decomposed over the branches (S0 eqs. 20–21), c_L when identified."""
+    from tendyn.ident.decomposition import SharesError, decompose, read_shares
+    from tendyn.ident.friction_file import FrictionFileError, validate_friction
+
+    n = dev.n_transmissions
+    try:
+        validate_friction(doc, device=dev, source=None if src == "mapping" else src)
+    except FrictionFileError as exc:
+        raise LossModelError(str(exc)) from None
+    c0 = _array(doc, "coulomb_motor", (n,), src)
+    nu = _array(doc, "viscous_motor", (n,), src)
+    load = _array(doc, "load_coefficient", (n,), src) if doc.get("load_coefficient") is not None else None
+    p = pp = None
+    if isinstance(shares, (str, Path)):
+        try:
+            p, pp = read_shares(shares, dev)
+        except SharesError as exc:
+            raise LossModelError(str(exc)) from None
+    elif shares is not None:
+        p, pp = (np.asarray(a, float) for a in shares)
+    dec = decompose(dev, c0, nu, p, pp)
+    return dec.tau0_branch, dec.nu_branch, np.zeros((n, n)), None, load, {}
+
+
+def _from_decomposition(dev, doc, src):
+    """``tendyn decompose --json``: the per-branch values as they are, c_L per transmission when given."""
+    n = dev.n_transmissions
+    rows = doc.get("transmissions")
+    if not isinstance(rows, list) or len(rows) != n:
+        raise LossModelError(f"must list the {n} transmissions of {dev.name}", source=src, field="transmissions")
+    tau0_b, nu_b = np.zeros((n, n)), np.zeros((n, n))
+    load = np.zeros(n) if any(isinstance(r, dict) and "load_coefficient" in r for r in rows) else None
+    for i, row in enumerate(rows):
+        if not isinstance(row, dict):
+            raise LossModelError("must be an object", source=src, field=f"transmissions[{i + 1}]")
+        nb = dev.transmissions[i].joint
+        for key, dst in (("tau0_branch", tau0_b), ("nu_branch", nu_b)):
+            dst[i, :nb] = _array({key: row.get(key)}, key, (nb,), src)
+        if load is not None:
+            load[i] = _array({"load_coefficient": [row.get("load_coefficient", 0.0)]}, "load_coefficient", (1,), src)[0]
+    return tau0_b, nu_b, np.zeros((n, n)), None, load, {}
+
+
+def _from_branch_arrays(dev, inner, src):
+    """Per-branch arrays (n, n): ``tau0``, ``nu``, optionally ``beta``, ``reducer_efficiency`` (n,),
+    ``load_coefficient`` (n,) and ``sources``; a term not given is absent (none)."""
+    n = dev.n_transmissions
+    zeros = np.zeros((n, n))
+    tau0_b = _array(inner, "tau0", (n, n), src) if "tau0" in inner else zeros
+    nu_b = _array(inner, "nu", (n, n), src) if "nu" in inner else zeros
+    beta = _array(inner, "beta", (n, n), src, upper=1.0) if "beta" in inner else zeros
+    load = _array(inner, "load_coefficient", (n,), src) if "load_coefficient" in inner else None
+    eta = None
+    if "reducer_efficiency" in inner:
+        eta = _array(inner, "reducer_efficiency", (n,), src)
+        if np.any((eta <= 0) | (eta > 1)):
+            raise LossModelError("must be in (0, 1]", source=src, field="reducer_efficiency")
+    given = {term: ("identified" if term in inner else "none") for term in ("tau0", "nu", "beta")}
+    if eta is not None:
+        given["reducer_efficiency"] = "identified"
+    for term, value in inner.get("sources", {}).items():
+        if term not in LOSS_TERMS or value not in ("device", "identified", "none"):
+            raise LossModelError(f"{term!r}: {value!r} (terms {', '.join(LOSS_TERMS)}; sources device, "
+                                 "identified, none)", source=src, field="sources")
+        given[term] = value
+    return tau0_b, nu_b, beta, eta, load, given
 
 
 def _finish(dev, tau0, nu, beta, eta, load, sources, origin) -> IdentifiedLosses:
