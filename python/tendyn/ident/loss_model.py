@@ -95,20 +95,6 @@ class IdentifiedLosses(Result):
         return Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"], self.reducer_efficiency,
                                         arr["pretension"], tau0=self.tau0, nu=self.nu, beta=self.beta)
 
-    def motor_friction(self, device, transmission: int, qd_motor, load_motor: float = 0.0) -> float:
-        """Friction torque [N·m] this model puts at motor ``transmission`` (1-based) when that transmission moves
-        alone (S2: only its joint moves) at motor speed ``qd_motor`` [rad/s] against a lossless load torque
-        ``load_motor`` [N·m] at its motor: the core statics' C_m minus the lossless C_0."""
-        from tendyn.ident.friction import isolated_move_joint_speeds
-
-        tr = self.transmission(device)
-        arr = device.routing_arrays()
-        j = transmission - 1
-        qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], j, "S2", qd_motor)
-        # joint torque whose lossless motor torque is load_motor at motor j alone: τ = Kᵀ R_m⁻¹ e_j load
-        tau = tr.matrices()["joint_from_motor_torque"][:, j] * load_motor
-        return float(tr.feedforward(tau, qd).torque_motor[j] - load_motor)
-
     def to_dict(self) -> dict:
         return {"device": self.device, "origin": self.origin, "sources": dict(self.sources),
                 "units": {"tau0": "N", "nu": "N·s/m", "beta": "-", "reducer_efficiency": "-",
