@@ -199,6 +199,20 @@ tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, d
   return TENDYN_OK;
 }
 
+tendyn_status tendyn_compensator_passivity(const tendyn_compensator* c, double* energy, double* damping,
+                                           double* torque, double* energy_injected, double* energy_budget) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  if (!c->model.passivity.enabled) return TENDYN_INVALID_MODEL;
+  const int n = c->model.transmission.n;
+  const tendyn::PassivityData& p = c->data.passivity;
+  if (energy) Eigen::Map<Eigen::VectorXd>(energy, n) = p.energy;
+  if (damping) Eigen::Map<Eigen::VectorXd>(damping, n) = p.damping;
+  if (torque) Eigen::Map<Eigen::VectorXd>(torque, n) = p.torque;
+  if (energy_injected) Eigen::Map<Eigen::VectorXd>(energy_injected, n) = p.energy_injected;
+  if (energy_budget) Eigen::Map<Eigen::VectorXd>(energy_budget, n) = p.energy_budget;
+  return TENDYN_OK;
+}
+
 tendyn_status tendyn_renderer_create(const tendyn_compensator* c, double stiffness, double damping,
                                      double surface_friction, tendyn_renderer** out) {
   if (!c || !out) return TENDYN_NULL_ARGUMENT;

@@ -46,6 +46,27 @@ void expose_compensator(nb::module_& m) {
         [need_valid](const C& c, CD& d, VecRef q) { need_valid(c); return check(chain_gravity_torque(c, d, q), "chain_gravity_torque"); },
         nb::arg("model"), nb::arg("data"), nb::arg("q"));
 
+  using PM = PassivityModel;
+  using PD = PassivityData;
+  nb::class_<PM>(m, "PassivityModel",
+                 "Passivity observer + controller at the motor ports (passivity.hpp), all motor side.")
+      .def(nb::init<>())
+      .def_rw("enabled", &PM::enabled)
+      .def_rw("dissipation_coulomb", &PM::dissipation_coulomb)
+      .def_rw("dissipation_viscous", &PM::dissipation_viscous)
+      .def_rw("reserve", &PM::reserve)
+      .def_rw("damping_max", &PM::damping_max)
+      .def("first_issue", &PM::first_issue, nb::arg("n"));
+  nb::class_<PD>(m, "PassivityData")
+      .def(nb::init<int>(), nb::arg("n") = 0)
+      .def("reset", &PD::reset)
+      .def_ro("energy", &PD::energy)
+      .def_ro("damping", &PD::damping)
+      .def_ro("torque", &PD::torque)
+      .def_ro("torque_added_prev", &PD::torque_added_prev)
+      .def_ro("energy_injected", &PD::energy_injected)
+      .def_ro("energy_budget", &PD::energy_budget);
+
   using M = CompensatorModel;
   using D = CompensatorData;
   nb::class_<M>(m, "CompensatorModel", "Real-time compensator model (compensator.hpp); validate() before use.")
@@ -56,6 +77,7 @@ void expose_compensator(nb::module_& m) {
       .def_rw("velocity_band", &M::velocity_band)
       .def_rw("velocity_cutoff_hz", &M::velocity_cutoff_hz)
       .def_rw("rate_hz", &M::rate_hz)
+      .def_rw("passivity", &M::passivity)
       .def_rw("device", &M::device)
       .def("first_issue", &M::first_issue)
       .def("period", &M::period)
@@ -71,6 +93,8 @@ void expose_compensator(nb::module_& m) {
       .def("reset", &D::reset)
       .def_ro("q_motor", &D::q_motor)
       .def_ro("qd_motor", &D::qd_motor)
+      .def_ro("motor_step", &D::motor_step)
+      .def_ro("passivity", &D::passivity)
       .def_ro("q", &D::q)
       .def_ro("qd", &D::qd)
       .def_ro("torque_joint_wanted", &D::torque_joint_wanted)

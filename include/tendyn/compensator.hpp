@@ -13,7 +13,9 @@
 //   6. output C_m = C₀ + k · w_i · C_f,i with the under-estimation factor k ∈ [0, 1.5] (C46: friction
 //      compensated with under-estimated coefficients) and w_i = min(1, |q̇_m,i| / v_band) fading the
 //      friction feedforward linearly to zero inside the velocity band (no chatter at rest; static friction
-//      is not compensated, S0 §III).
+//      is not compensated, S0 §III);
+//   7. with model.passivity enabled: the passivity observer at each motor port and the controller's damping
+//      torque τ_pc added to C_m (passivity.hpp: Hannaford & Ryu's PO/PC against a certified dissipation bound).
 // The compute time of the cycle is reported in the output (data.compute_time [s]), as Ruckig does.
 // Model / Data convention; no allocation, no exception on the real-time path; every call returns a Status.
 #pragma once
@@ -26,6 +28,7 @@
 
 #include "tendyn/chain.hpp"
 #include "tendyn/losses.hpp"
+#include "tendyn/passivity.hpp"
 
 namespace tendyn {
 
@@ -37,6 +40,7 @@ struct CompensatorModel {
   double velocity_band = 0.0;      ///< v_band [rad/s], motor side: friction fades to 0 below it (0 = off)
   double velocity_cutoff_hz = 0.0; ///< cut-off of the first-order velocity filter [Hz] (0 = raw difference)
   double rate_hz = 1000.0;         ///< control rate [Hz] (one cycle per period)
+  PassivityModel passivity;        ///< passivity observer + controller at the motor ports (off by default)
   std::string device;              ///< name of the device the model belongs to (setup-time checks only)
 
   /// The first problem as text naming the field, or nullptr when usable. Allocates only to describe a
@@ -59,7 +63,7 @@ struct CompensatorModel {
       return "rate_hz = " + format_double(rate_hz) + ": must be in [100, 100000] Hz";
     if (!(velocity_cutoff_hz >= 0.0 && velocity_cutoff_hz < 0.5 * rate_hz))
       return "velocity_cutoff_hz = " + format_double(velocity_cutoff_hz) + ": must be in [0, rate_hz / 2)";
-    return std::string();
+    return passivity.first_issue(transmission.n);
   }
   Status validate() const { return first_issue().empty() ? Status::Ok : Status::InvalidModel; }
 
@@ -78,6 +82,7 @@ struct CompensatorData {
   Eigen::VectorXd q_motor;                ///< last encoder reading [rad]
   Eigen::VectorXd q_motor_prev;           ///< previous reading [rad]
   Eigen::VectorXd qd_motor;               ///< filtered motor velocity estimate [rad/s]
+  Eigen::VectorXd motor_step;             ///< displacement over the last period q_m − q_m,prev [rad]
   Eigen::VectorXd q, qd;                  ///< joint position [rad] / velocity [rad/s] estimates
   Eigen::VectorXd torque_joint_wanted;    ///< joint torques wanted on top of gravity [N·m]
   Eigen::VectorXd torque_joint;           ///< joint torques delivered: wanted + gravity [N·m]
@@ -85,6 +90,7 @@ struct CompensatorData {
   Eigen::VectorXd torque_motor_friction;  ///< k w C_f, the friction part commanded [N·m]
   Eigen::VectorXd friction_weight;        ///< w_i in [0, 1] (velocity band)
   Eigen::VectorXd torque_motor;           ///< C_m to command [N·m]
+  PassivityData passivity;                ///< observer energy and controller torque per motor
   bool first = true;                      ///< no previous reading yet (velocity 0)
   long cycles = 0;
   double compute_time = 0.0;              ///< wall time of the last cycle [s]
@@ -93,20 +99,24 @@ struct CompensatorData {
   explicit CompensatorData(const CompensatorModel& m)
       : transmission(m.transmission), chain(m.chain),
         q_motor(Eigen::VectorXd::Zero(m.transmission.n)), q_motor_prev(Eigen::VectorXd::Zero(m.transmission.n)),
-        qd_motor(Eigen::VectorXd::Zero(m.transmission.n)), q(Eigen::VectorXd::Zero(m.transmission.n)),
+        qd_motor(Eigen::VectorXd::Zero(m.transmission.n)), motor_step(Eigen::VectorXd::Zero(m.transmission.n)),
+        q(Eigen::VectorXd::Zero(m.transmission.n)),
         qd(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_joint_wanted(Eigen::VectorXd::Zero(m.transmission.n)), torque_joint(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_motor_lossless(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_motor_friction(Eigen::VectorXd::Zero(m.transmission.n)),
         friction_weight(Eigen::VectorXd::Zero(m.transmission.n)),
-        torque_motor(Eigen::VectorXd::Zero(m.transmission.n)), filter_alpha(m.filter_gain()) {}
+        torque_motor(Eigen::VectorXd::Zero(m.transmission.n)), passivity(m.transmission.n),
+        filter_alpha(m.filter_gain()) {}
 
-  /// Forget the velocity history (the next reading starts at rest).
+  /// Forget the velocity history and the observed energy (the next reading starts at rest).
   void reset() {
     first = true;
     cycles = 0;
     qd_motor.setZero();
+    motor_step.setZero();
     qd.setZero();
+    passivity.reset();
   }
 };
 
@@ -128,7 +138,8 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
   }
   const double alpha = d.filter_alpha, rate = m.rate_hz;
   for (int i = 0; i < n; ++i) {
-    d.qd_motor(i) += alpha * ((d.q_motor(i) - d.q_motor_prev(i)) * rate - d.qd_motor(i));
+    d.motor_step(i) = d.q_motor(i) - d.q_motor_prev(i);
+    d.qd_motor(i) += alpha * (d.motor_step(i) * rate - d.qd_motor(i));
     d.q_motor_prev(i) = d.q_motor(i);
   }
   Status s = joint_from_motor(m.transmission, d.transmission, d.q_motor);
@@ -169,6 +180,15 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
             ? m.underestimation * w * (d.transmission.torque_motor(i) - d.torque_motor_lossless(i))
             : 0.0;
     d.torque_motor(i) = d.torque_motor_lossless(i) + d.torque_motor_friction(i);
+  }
+  if (m.passivity.enabled) {
+    const double T = m.period();
+    for (int i = 0; i < n; ++i) {
+      passivity_observe(m.passivity, d.passivity, i, d.motor_step(i), T);
+      const double pc = passivity_control(m.passivity, d.passivity, i, d.qd_motor(i), T);
+      d.torque_motor(i) += pc;
+      d.passivity.torque_added_prev(i) = d.torque_motor_friction(i) + pc;
+    }
   }
   ++d.cycles;
   return s;

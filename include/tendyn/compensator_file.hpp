@@ -25,8 +25,15 @@
 //     velocity_band 0.5                      [rad/s], motor side
 //     velocity_cutoff_hz 30                  [Hz]
 //     rate_hz 1000                           [Hz]
+//     section passivity 1                    (optional: absent = no passivity controller, passivity.hpp)
+//     enabled 1                              0 or 1
+//     dissipation_coulomb 0.01 …             c_i [N·m] per motor, certified lower bound of its Coulomb friction
+//     dissipation_viscous 1e-4 …             b_i [N·m·s/rad] per motor, the same for its viscous friction
+//     reserve 0.005                          [J], most dissipated energy the observer banks per motor
+//     damping_max 0.05                       α_max [N·m·s/rad], bound of the controller's damping
 //
-// Every field of both sections is required, once; unknown sections, versions or fields, wrong counts,
+// Every field of the chain and compensator sections is required, once (of the passivity section too, when
+// it is there; files without it, written before it existed, still load); unknown sections, versions or fields, wrong counts,
 // values that are not numbers (NaN and Inf are refused) and a model that fails validation are errors whose
 // message names the file, the line and the field (`lexos.comp: line 31: mass: 3 values, expected 4`).
 // A caller may name the device it expects: a file for another device is refused, naming `device`.
@@ -45,6 +52,7 @@ namespace tendyn {
 
 inline constexpr int chain_section_version = 1;
 inline constexpr int compensator_section_version = 1;
+inline constexpr int passivity_section_version = 1;
 
 /// Text of the compensator model file of `m` (format above).
 inline std::string compensator_model_text(const CompensatorModel& m) {
@@ -89,6 +97,17 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
   line("velocity_band", &m.velocity_band, 1);
   line("velocity_cutoff_hz", &m.velocity_cutoff_hz, 1);
   line("rate_hz", &m.rate_hz, 1);
+  const PassivityModel& p = m.passivity;
+  if (p.enabled) {  // written only when on: files of compensators without it stay as they were
+    out += "section passivity " + std::to_string(passivity_section_version) + "\n";
+    out += "# passivity observer + controller at the motor ports (include/tendyn/passivity.hpp), motor side\n";
+    const double on = 1.0;
+    line("enabled", &on, 1);
+    line("dissipation_coulomb", p.dissipation_coulomb.data(), static_cast<int>(p.dissipation_coulomb.size()));
+    line("dissipation_viscous", p.dissipation_viscous.data(), static_cast<int>(p.dissipation_viscous.size()));
+    line("reserve", &p.reserve, 1);
+    line("damping_max", &p.damping_max, 1);
+  }
   return out;
 }
 
@@ -115,10 +134,12 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   static const char* chain_keys[] = {"device", "n", "gravity", "parent", "placement", "axis",
                                      "prismatic", "mass", "com", "ee_joint", "ee_point"};
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
-  constexpr int n_chain = 11, n_comp = 4;
-  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0};
-  int section = 0;  // 0 transmission part, 1 chain, 2 compensator
-  int section_line[3] = {0, 0, 0};
+  static const char* pass_keys[] = {"enabled", "dissipation_coulomb", "dissipation_viscous", "reserve", "damping_max"};
+  constexpr int n_chain = 11, n_comp = 4, n_pass = 5;
+  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0};
+  static const char* section_names[] = {"", "chain", "compensator", "passivity"};
+  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 passivity
+  int section_line[4] = {0, 0, 0, 0};
   int n = -1;
   std::istringstream in(text);
   std::string line;
@@ -134,9 +155,12 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       std::string sname;
       int version = 0;
       if (!(ls >> sname >> version)) return fail(lineno, "section: expected 'section <name> <version>'");
-      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : 0;
-      if (!which) return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator)");
-      const int want = which == 1 ? chain_section_version : compensator_section_version;
+      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : sname == "passivity" ? 3 : 0;
+      if (!which)
+        return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator, passivity)");
+      const int want = which == 1 ? chain_section_version
+                       : which == 2 ? compensator_section_version
+                                    : passivity_section_version;
       if (version != want)
         return fail(lineno, "section " + sname + ": version " + std::to_string(version) +
                                 " is not supported (this build reads " + std::to_string(want) + ")");
@@ -146,17 +170,16 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       continue;
     }
     if (section == 0) continue;  // the transmission part, parsed above
-    const char* const* keys = section == 1 ? chain_keys : comp_keys;
-    const int count = section == 1 ? n_chain : n_comp;
-    int* seen = section == 1 ? chain_seen : comp_seen;
+    const char* const* keys = section == 1 ? chain_keys : section == 2 ? comp_keys : pass_keys;
+    const int count = section == 1 ? n_chain : section == 2 ? n_comp : n_pass;
+    int* seen = section == 1 ? chain_seen : section == 2 ? comp_seen : pass_seen;
     int idx = -1;
     for (int k = 0; k < count; ++k)
       if (key == keys[k]) idx = k;
     if (idx < 0) {
       std::string known;
       for (int k = 0; k < count; ++k) known += std::string(k ? ", " : "") + keys[k];
-      return fail(lineno, key + ": unknown field of section " + (section == 1 ? "chain" : "compensator") +
-                              " (known: " + known + ")");
+      return fail(lineno, key + ": unknown field of section " + section_names[section] + " (known: " + known + ")");
     }
     if (seen[idx]) return fail(lineno, key + ": given twice (first on line " + std::to_string(seen[idx]) + ")");
     seen[idx] = lineno;
@@ -179,6 +202,23 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       return false;
     };
     auto integer = [](double v) { return v == std::floor(v) && std::abs(v) < 1e9; };
+    if (section == 3) {
+      PassivityModel& p = m.passivity;
+      const int nt = m.transmission.n;
+      if (idx == 1 || idx == 2) {
+        if (!expect(nt, "one per motor")) return false;
+        (idx == 1 ? p.dissipation_coulomb : p.dissipation_viscous) = Eigen::Map<const Eigen::VectorXd>(values.data(), nt);
+        continue;
+      }
+      if (!expect(1, "one number")) return false;
+      if (idx == 0) {
+        if (values[0] != 0.0 && values[0] != 1.0) return fail(lineno, "enabled: must be 0 or 1");
+        p.enabled = values[0] == 1.0;
+      } else {
+        (idx == 3 ? p.reserve : p.damping_max) = values[0];
+      }
+      continue;
+    }
     if (section == 2) {
       if (!expect(1, "one number")) return false;
       double* dst[] = {&m.underestimation, &m.velocity_band, &m.velocity_cutoff_hz, &m.rate_hz};
@@ -246,6 +286,9 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
     if (!chain_seen[k]) return fail(0, std::string("chain.") + chain_keys[k] + ": missing required field");
   for (int k = 0; k < n_comp; ++k)
     if (!comp_seen[k]) return fail(0, std::string(comp_keys[k]) + ": missing required field");
+  if (section_line[3])
+    for (int k = 0; k < n_pass; ++k)
+      if (!pass_seen[k]) return fail(0, std::string("passivity.") + pass_keys[k] + ": missing required field");
   const std::string problem = m.first_issue();
   if (!problem.empty()) return fail(0, problem);
   *out = std::move(m);

@@ -113,6 +113,20 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None) -
                                     arrays["reducer_efficiency"], arrays["pretension"], **losses)
 
 
+def _passivity(compiled: CompiledDevice, passivity, friction, rate_hz: float) -> Any:
+    """The PassivityModel of :meth:`Compensator.from_device`'s ``passivity`` argument."""
+    from tendyn.control.passivity import passivity_model
+
+    if passivity is None or passivity is False:
+        return _core.PassivityModel()
+    if isinstance(passivity, _core.PassivityModel):
+        return passivity
+    options = {} if passivity is True else dict(passivity)
+    options.setdefault("friction", friction)
+    options.setdefault("rate_hz", rate_hz)
+    return passivity_model(compiled, **options)
+
+
 class Compensator:
     """Gravity + transmission-loss compensator on the C++ core (one model, its preallocated data).
 
@@ -135,7 +149,7 @@ class Compensator:
                     underestimation: float = DEFAULT_UNDERESTIMATION,
                     velocity_band: float = DEFAULT_VELOCITY_BAND,
                     velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ,
-                    rate_hz: float = 1000.0) -> "Compensator":
+                    rate_hz: float = 1000.0, passivity=None) -> "Compensator":
         """Compensator of a serial cable-driven device.
 
         Parameters
@@ -146,6 +160,10 @@ class Compensator:
         velocity_band : v_band [rad/s], motor side; the friction feedforward fades linearly to zero below it
         velocity_cutoff_hz : first-order velocity-filter cut-off [Hz] (0: raw difference)
         rate_hz : control rate [Hz]
+        passivity : None (off), True, a mapping of :func:`tendyn.control.passivity.passivity_model` options
+            (``friction`` — the reference friction of the certified dissipation bound, by default the same
+            ``friction`` as the compensator's —, ``margin``, ``reserve``, ``damping_max``) or a
+            ``_core.PassivityModel``: the passivity observer and controller at the motor ports
         """
         compiled = compile_device(device)
         m = _core.CompensatorModel()
@@ -155,6 +173,7 @@ class Compensator:
         m.velocity_band = float(velocity_band)
         m.velocity_cutoff_hz = float(velocity_cutoff_hz)
         m.rate_hz = float(rate_hz)
+        m.passivity = _passivity(compiled, passivity, friction, m.rate_hz)
         m.device = compiled.name
         return cls(m)
 
@@ -165,9 +184,14 @@ class Compensator:
 
     def with_settings(self, **settings) -> "Compensator":
         """A new compensator with the same transmission and chain and other settings (underestimation,
-        velocity_band, velocity_cutoff_hz, rate_hz)."""
+        velocity_band, velocity_cutoff_hz, rate_hz, passivity: a ``_core.PassivityModel`` or None for off)."""
         m = _core.CompensatorModel()
         m.transmission, m.chain, m.device = self._model.transmission, self._model.chain, self._model.device
+        if "passivity" in settings:
+            p = settings.pop("passivity")
+            m.passivity = p if p is not None else _core.PassivityModel()
+        else:
+            m.passivity = self._model.passivity
         for key in ("underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"):
             value = settings.pop(key, getattr(self._model, key))
             setattr(m, key, float(value))

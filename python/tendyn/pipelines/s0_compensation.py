@@ -113,6 +113,8 @@ class HandRun:
     energy_to_hand_per_cycle : work the device does on the hand per closed cycle [J] (< 0: the hand works)
     cycles : number of closed cycles measured
     compute_time_mean : mean compensator cycle time inside the loop [s]
+    energy_to_hand : (steps,) work the device has done on the hand since the start [J], after each period
+    settle : blend-in time before the measured cycles [s]
     """
 
     underestimation: float
@@ -123,13 +125,28 @@ class HandRun:
     energy_to_hand_per_cycle: float
     cycles: int
     compute_time_mean: float
+    energy_to_hand: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    settle: float = 0.0
+
+    def energy_windows(self, window: float) -> np.ndarray:
+        """Work done on the hand over consecutive windows of ``window`` seconds from the end of the blend-in
+        [J]; > 0 in a window means the device gave the hand net energy in it."""
+        end_of_period = self.time + (self.time[1] - self.time[0])
+        return windowed_energy(end_of_period, self.energy_to_hand, window, self.settle)
+
+
+def windowed_energy(time: np.ndarray, energy: np.ndarray, window: float, start: float = 0.0) -> np.ndarray:
+    """Increments of a cumulative energy [J] sampled at ``time`` [s] over consecutive windows [s] from start."""
+    edges = np.arange(start, time[-1] + 1e-12, window)
+    values = np.interp(edges, time, energy)
+    return np.diff(values)
 
 
 def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float = 0.04,
              period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
              hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
              q0=Q0_LEXOS, seed: int = 7, encoders: str = "quantised", velocity_band: float = DEFAULT_VELOCITY_BAND,
-             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ) -> HandRun:
+             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ, passivity=None) -> HandRun:
     """The hand pulls the handle around a horizontal circle (radius [m], period [s]) for ``settle`` seconds
     of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
 
@@ -137,7 +154,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     does not jerk. RMS and energy are taken over the ``cycles`` closed cycles after ``settle``.
     ``encoders``: ``"quantised"`` (the twin's motor encoders, S0's position sensors) or ``"exact"`` (the motor
     positions themselves, an ideal sensor, C12); ``velocity_band`` [rad/s] and ``velocity_cutoff_hz`` [Hz] are
-    the compensator's (:meth:`tendyn.control.Compensator.from_device`).
+    the compensator's (:meth:`tendyn.control.Compensator.from_device`), so is ``passivity`` (None: off).
     """
     if encoders not in ("quantised", "exact"):
         raise ValueError(f"encoders must be 'quantised' or 'exact' (got {encoders!r})")
@@ -147,7 +164,8 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     q0 = np.asarray(q0, float)
     _reset(sim, data, q0, seed)
     comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
-                                   velocity_band=velocity_band, velocity_cutoff_hz=velocity_cutoff_hz)
+                                   velocity_band=velocity_band, velocity_cutoff_hz=velocity_cutoff_hz,
+                                   passivity=passivity)
     read = _encoders if encoders == "quantised" else (lambda sim_, data_: np.array(data_.q_motor))
     handle = _Handle(compiled)
     x0, _ = handle(q0)
@@ -158,6 +176,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     torque_hand = np.empty((periods, sim.na))
     force_hand = np.empty((periods, 3))
     ctime = np.empty(periods)
+    to_hand = np.empty(periods)
     work_at_settle = 0.0
     for s, t in enumerate(time):
         if abs(t - settle) < 0.5 / control_hz:
@@ -177,11 +196,12 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
         block.run(data, torque_motor, tau)      # one control period, the hand held (1 kHz) like the motors
         torque_hand[s] = tau
         force_hand[s] = f
+        to_hand[s] = -data.work_external
     measured = time >= settle - 0.5 / control_hz
     rms = float(np.sqrt(np.mean(torque_hand[measured, 0] ** 2)))
     energy = -(data.work_external - work_at_settle) / cycles   # work done on the hand [J per cycle]
-    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, float(energy), int(cycles),
-                   float(np.mean(ctime)))
+    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, float(energy),
+                   int(cycles), float(np.mean(ctime)), to_hand, float(settle))
 
 
 @dataclass(eq=False)
@@ -196,6 +216,7 @@ class WallRun:
     force : (control periods, 3) rendered F_d [N]
     oscillation : peak-to-peak height over the last ``window`` seconds [m]
     limit_cycle : True when the oscillation stays above ``tolerance``
+    energy_to_hand : (steps,) work the device has done on the hand since the start [J], after each period
     """
 
     underestimation: float
@@ -205,21 +226,30 @@ class WallRun:
     force: np.ndarray
     oscillation: float
     limit_cycle: bool
+    energy_to_hand: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def energy_windows(self, window: float, start: float = 0.0) -> np.ndarray:
+        """Work done on the hand over consecutive windows of ``window`` seconds from ``start`` [s] [J]."""
+        end_of_period = self.time + (self.time[1] - self.time[0])
+        return windowed_energy(end_of_period, self.energy_to_hand, window, start)
 
 
 def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *, stiffness: float = 3000.0,
              damping: float = 0.0, push: float = 0.02, duration: float = 1.5, window: float = 0.5,
              tolerance: float = 2e-4, hand_stiffness: float = 400.0, hand_damping: float = 2.0,
-             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=Q0_LEXOS, seed: int = 7) -> WallRun:
+             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=Q0_LEXOS, seed: int = 7,
+             friction=None, passivity=None) -> WallRun:
     """A floor 5 mm below the handle; the hand's target is ``push`` [m] below the floor (it presses with about
     ``hand_stiffness · push`` newtons). Peak-to-peak height over the last ``window`` seconds tells whether the
-    contact settled (passive) or keeps a limit cycle."""
+    contact settled (passive) or keeps a limit cycle. ``friction`` and ``passivity`` are the compensator's
+    (:meth:`tendyn.control.Compensator.from_device`); the twin keeps its own losses."""
     compiled = _device(device)
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = np.asarray(q0, float)
     _reset(sim, data, q0, seed)
-    comp = Compensator.from_device(compiled, underestimation=underestimation, rate_hz=control_hz)
+    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
+                                   passivity=passivity)
     handle = _Handle(compiled)
     x0, _ = handle(q0)
     floor = x0[2] - 0.005
@@ -227,6 +257,7 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     periods = int(round(duration * control_hz))
     target = x0 - np.array([0.0, 0.0, 0.005 + push])
     time, height, forces = np.arange(periods) / control_hz, np.empty(periods), np.empty((periods, 3))
+    to_hand = np.empty(periods)
     block = _Block(sim)
     for s, t in enumerate(time):
         torque_motor = rend.cycle(_encoders(sim, data))
@@ -237,9 +268,11 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
         f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.qd))
         block.run(data, torque_motor, J.T @ f)
         height[s] = x[2] - floor
+        to_hand[s] = -data.work_external
     last = time >= duration - window
     osc = float(np.ptp(height[last]))
-    return WallRun(float(underestimation), float(stiffness), time, height, forces, osc, bool(osc > tolerance))
+    return WallRun(float(underestimation), float(stiffness), time, height, forces, osc, bool(osc > tolerance),
+                   to_hand)
 
 
 @dataclass(eq=False)
