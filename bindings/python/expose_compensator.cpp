@@ -134,6 +134,16 @@ void expose_compensator(nb::module_& m) {
       },
       nb::arg("model"), nb::arg("path"), "Write the compensator model file (compensator_file.hpp) atomically.");
   m.def(
+      "parse_compensator_model",
+      [](const std::string& text, const std::string& name, const std::string& expected_device) {
+        M mo;
+        std::string error;
+        if (!parse_compensator_model(text, name, expected_device, &mo, &error)) throw nb::value_error(error.c_str());
+        return mo;
+      },
+      nb::arg("text"), nb::arg("name") = "compensator", nb::arg("expected_device") = "",
+      "Parse a compensator model file's text (ValueError names the name, line and field).");
+  m.def(
       "load_compensator_model",
       [](const std::string& path, const std::string& expected_device) {
         M mo;
