@@ -213,6 +213,25 @@ tendyn_status tendyn_compensator_passivity(const tendyn_compensator* c, double* 
   return TENDYN_OK;
 }
 
+tendyn_status tendyn_compensator_tracking(const tendyn_compensator* c, double* scale_constant, double* scale_viscous,
+                                         long* updates) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  if (!c->model.tracking.enabled) return TENDYN_INVALID_MODEL;
+  const int n = c->model.transmission.n;
+  const tendyn::FrictionTrackingData& t = c->data.tracking;
+  if (scale_constant) Eigen::Map<Eigen::VectorXd>(scale_constant, n) = t.scale_constant;
+  if (scale_viscous) Eigen::Map<Eigen::VectorXd>(scale_viscous, n) = t.scale_viscous;
+  if (updates)
+    for (int i = 0; i < n; ++i) updates[i] = t.updates(i);
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_compensator_set_tracking_active(tendyn_compensator* c, int active) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  c->data.tracking_active = active != 0;
+  return TENDYN_OK;
+}
+
 tendyn_status tendyn_renderer_create(const tendyn_compensator* c, double stiffness, double damping,
                                      double surface_friction, tendyn_renderer** out) {
   if (!c || !out) return TENDYN_NULL_ARGUMENT;

@@ -67,6 +67,29 @@ void expose_compensator(nb::module_& m) {
       .def_ro("energy_injected", &PD::energy_injected)
       .def_ro("energy_budget", &PD::energy_budget);
 
+  using TM = FrictionTrackingModel;
+  using TD = FrictionTrackingData;
+  nb::class_<TM>(m, "FrictionTrackingModel", "Online friction tracking settings (friction_tracking.hpp).")
+      .def(nb::init<>())
+      .def_rw("enabled", &TM::enabled)
+      .def_rw("forgetting", &TM::forgetting)
+      .def_rw("velocity_min", &TM::velocity_min)
+      .def_rw("acceleration_max", &TM::acceleration_max)
+      .def_rw("scale_min", &TM::scale_min)
+      .def_rw("scale_max", &TM::scale_max)
+      .def_rw("covariance_max", &TM::covariance_max)
+      .def_rw("regression_cutoff_hz", &TM::regression_cutoff_hz)
+      .def("first_issue", &TM::first_issue);
+  nb::class_<TD>(m, "FrictionTrackingData")
+      .def_ro("scale_constant", &TD::scale_constant)
+      .def_ro("scale_viscous", &TD::scale_viscous)
+      .def_ro("covariance", &TD::covariance)
+      .def_ro("friction_constant", &TD::friction_constant)
+      .def_ro("friction_viscous", &TD::friction_viscous)
+      .def_ro("acceleration", &TD::acceleration)
+      .def_ro("residual", &TD::residual)
+      .def_ro("updates", &TD::updates);
+
   using M = CompensatorModel;
   using D = CompensatorData;
   nb::class_<M>(m, "CompensatorModel", "Real-time compensator model (compensator.hpp); validate() before use.")
@@ -78,6 +101,7 @@ void expose_compensator(nb::module_& m) {
       .def_rw("velocity_cutoff_hz", &M::velocity_cutoff_hz)
       .def_rw("rate_hz", &M::rate_hz)
       .def_rw("passivity", &M::passivity)
+      .def_rw("tracking", &M::tracking)
       .def_rw("device", &M::device)
       .def("first_issue", &M::first_issue)
       .def("period", &M::period)
@@ -91,10 +115,13 @@ void expose_compensator(nb::module_& m) {
            },
            nb::arg("model"))
       .def("reset", &D::reset)
+      .def("restart", &D::restart)
       .def_ro("q_motor", &D::q_motor)
       .def_ro("qd_motor", &D::qd_motor)
       .def_ro("motor_step", &D::motor_step)
       .def_ro("passivity", &D::passivity)
+      .def_ro("tracking", &D::tracking)
+      .def_rw("tracking_active", &D::tracking_active)
       .def_ro("q", &D::q)
       .def_ro("qd", &D::qd)
       .def_ro("torque_joint_wanted", &D::torque_joint_wanted)

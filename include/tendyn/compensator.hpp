@@ -14,6 +14,9 @@
 //      compensated with under-estimated coefficients) and w_i = min(1, |q̇_m,i| / v_band) fading the
 //      friction feedforward linearly to zero inside the velocity band (no chatter at rest; static friction
 //      is not compensated, S0 §III);
+//   6b. with model.tracking enabled, C_f is split into its constant and viscous parts and scaled by the
+//      scales tracked online (friction_tracking.hpp: RLS with forgetting), which are updated from the last
+//      cycle's command first;
 //   7. with model.passivity enabled: the passivity observer at each motor port and the controller's damping
 //      torque τ_pc added to C_m (passivity.hpp: Hannaford & Ryu's PO/PC against a certified dissipation bound).
 // The compute time of the cycle is reported in the output (data.compute_time [s]), as Ruckig does.
@@ -27,6 +30,7 @@
 #include <Eigen/Core>
 
 #include "tendyn/chain.hpp"
+#include "tendyn/friction_tracking.hpp"
 #include "tendyn/losses.hpp"
 #include "tendyn/passivity.hpp"
 
@@ -41,6 +45,7 @@ struct CompensatorModel {
   double velocity_cutoff_hz = 0.0; ///< cut-off of the first-order velocity filter [Hz] (0 = raw difference)
   double rate_hz = 1000.0;         ///< control rate [Hz] (one cycle per period)
   PassivityModel passivity;        ///< passivity observer + controller at the motor ports (off by default)
+  FrictionTrackingModel tracking;  ///< online friction tracking (off by default)
   std::string device;              ///< name of the device the model belongs to (setup-time checks only)
 
   /// The first problem as text naming the field, or nullptr when usable. Allocates only to describe a
@@ -63,7 +68,8 @@ struct CompensatorModel {
       return "rate_hz = " + format_double(rate_hz) + ": must be in [100, 100000] Hz";
     if (!(velocity_cutoff_hz >= 0.0 && velocity_cutoff_hz < 0.5 * rate_hz))
       return "velocity_cutoff_hz = " + format_double(velocity_cutoff_hz) + ": must be in [0, rate_hz / 2)";
-    return passivity.first_issue(transmission.n);
+    if (std::string p = passivity.first_issue(transmission.n); !p.empty()) return p;
+    return tracking.first_issue();
   }
   Status validate() const { return first_issue().empty() ? Status::Ok : Status::InvalidModel; }
 
@@ -91,6 +97,8 @@ struct CompensatorData {
   Eigen::VectorXd friction_weight;        ///< w_i in [0, 1] (velocity band)
   Eigen::VectorXd torque_motor;           ///< C_m to command [N·m]
   PassivityData passivity;                ///< observer energy and controller torque per motor
+  FrictionTrackingData tracking;          ///< tracked friction scales and the RLS state
+  bool tracking_active = true;            ///< the caller's gate: false while an unknown force (a hand) acts
   bool first = true;                      ///< no previous reading yet (velocity 0)
   long cycles = 0;
   double compute_time = 0.0;              ///< wall time of the last cycle [s]
@@ -107,16 +115,23 @@ struct CompensatorData {
         torque_motor_friction(Eigen::VectorXd::Zero(m.transmission.n)),
         friction_weight(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_motor(Eigen::VectorXd::Zero(m.transmission.n)), passivity(m.transmission.n),
-        filter_alpha(m.filter_gain()) {}
+        tracking(m.transmission, m.tracking), filter_alpha(m.filter_gain()) {}
 
-  /// Forget the velocity history and the observed energy (the next reading starts at rest).
-  void reset() {
+  /// Forget the velocity history and the observed energy (the next reading starts at rest); keep what the
+  /// friction tracker has learnt.
+  void restart() {
     first = true;
     cycles = 0;
     qd_motor.setZero();
     motor_step.setZero();
     qd.setZero();
     passivity.reset();
+    tracking.has_prev = false;
+  }
+  /// restart() and back to the identified friction (tracked scales 1).
+  void reset() {
+    restart();
+    tracking.reset();
   }
 };
 
@@ -153,6 +168,42 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
   return Status::Ok;
 }
 
+namespace detail {
+/// Tracker step of compensator_command (friction_tracking.hpp), after the full feedforward of this cycle is in
+/// d.transmission.torque_motor: acceleration estimate, RLS update from the last cycle, this cycle's split.
+inline Status friction_tracking_step(const CompensatorModel& m, CompensatorData& d) {
+  const int n = m.transmission.n;
+  FrictionTrackingData& t = d.tracking;
+  const FrictionTrackingModel& fm = m.tracking;
+  const double beta = fm.regression_cutoff_hz > 0.0
+                          ? 1.0 - std::exp(-6.283185307179586 * fm.regression_cutoff_hz * m.period())
+                          : 1.0;  // computed per cycle: one exp, no state to keep in sync with the model
+  for (int i = 0; i < n; ++i) {
+    const double a_raw = t.has_prev ? (d.qd_motor(i) - t.velocity_prev(i)) * m.rate_hz : 0.0;
+    t.acceleration(i) += d.filter_alpha * (a_raw - t.acceleration(i));
+    t.residual(i) = 0.0;
+    if (!t.has_prev) continue;
+    const double raw[3] = {t.torque_motor_prev(i) - t.gravity_motor_prev(i), t.regressor_prev(i),
+                           t.regressor_prev(n + i)};
+    for (int k = 0; k < 3; ++k) t.filtered(i, k) += beta * (raw[k] - t.filtered(i, k));
+    if (!d.tracking_active) continue;
+    if (std::abs(t.velocity_prev(i)) < fm.velocity_min || std::abs(t.acceleration(i)) > fm.acceleration_max ||
+        std::abs(raw[1]) + std::abs(raw[2]) < 1e-9)
+      continue;  // no information: near rest, accelerating, or nothing to scale
+    friction_tracking_update(fm, t, i, t.filtered(i, 1), t.filtered(i, 2), t.filtered(i, 0));
+  }
+  const Status s = motor_torque_feedforward(t.constant_model, t.constant_data, d.torque_joint, d.qd);
+  if (is_error(s)) return s;
+  for (int i = 0; i < n; ++i) {
+    t.friction_constant(i) = t.constant_data.torque_motor(i) - d.torque_motor_lossless(i);
+    t.friction_viscous(i) = d.transmission.torque_motor(i) - t.constant_data.torque_motor(i);
+    t.regressor_prev(i) = t.friction_constant(i);
+    t.regressor_prev(n + i) = t.friction_viscous(i);
+  }
+  return s;
+}
+}  // namespace detail
+
 /// Steps 4–6: motor torques that deliver `torque_joint_wanted` plus gravity, with the losses covered.
 /// Call compensator_sense first in the same cycle. Returns Ok, SelfLocked (flag) or an error.
 /// @param torque_joint_wanted  joint torques to deliver on top of gravity (n) [N·m]
@@ -167,18 +218,23 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
   }
   d.torque_motor_lossless.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.torque_joint);
   Status s = Status::Ok;
-  if (m.underestimation > 0.0) {
+  const bool tracking = m.tracking.enabled;
+  if (m.underestimation > 0.0 || tracking) {
     s = motor_torque_feedforward(m.transmission, d.transmission, d.torque_joint, d.qd);
+    if (is_error(s)) return s;
+  }
+  if (tracking) {
+    s = worst(s, detail::friction_tracking_step(m, d));
     if (is_error(s)) return s;
   }
   for (int i = 0; i < n; ++i) {
     const double v = std::abs(d.qd_motor(i));
     const double w = m.velocity_band > 0.0 ? std::min(1.0, v / m.velocity_band) : 1.0;
     d.friction_weight(i) = w;
-    d.torque_motor_friction(i) =
-        m.underestimation > 0.0
-            ? m.underestimation * w * (d.transmission.torque_motor(i) - d.torque_motor_lossless(i))
-            : 0.0;
+    const double friction = tracking ? d.tracking.scale_constant(i) * d.tracking.friction_constant(i) +
+                                           d.tracking.scale_viscous(i) * d.tracking.friction_viscous(i)
+                                     : d.transmission.torque_motor(i) - d.torque_motor_lossless(i);
+    d.torque_motor_friction(i) = m.underestimation > 0.0 ? m.underestimation * w * friction : 0.0;
     d.torque_motor(i) = d.torque_motor_lossless(i) + d.torque_motor_friction(i);
   }
   if (m.passivity.enabled) {
@@ -189,6 +245,12 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
       d.torque_motor(i) += pc;
       d.passivity.torque_added_prev(i) = d.torque_motor_friction(i) + pc;
     }
+  }
+  if (tracking) {  // what the next cycle's tracker update measures against
+    d.tracking.torque_motor_prev = d.torque_motor;
+    d.tracking.gravity_motor_prev.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.chain.gravity_torque);
+    d.tracking.velocity_prev = d.qd_motor;
+    d.tracking.has_prev = true;
   }
   ++d.cycles;
   return s;

@@ -31,9 +31,18 @@
 //     dissipation_viscous 1e-4 …             b_i [N·m·s/rad] per motor, the same for its viscous friction
 //     reserve 0.005                          [J], most dissipated energy the observer banks per motor
 //     damping_max 0.05                       α_max [N·m·s/rad], bound of the controller's damping
+//     section tracking 1                     (optional: absent = no online friction tracking, friction_tracking.hpp)
+//     enabled 1                              0 or 1
+//     forgetting 0.9998                      λ [-] in (0.9, 1]
+//     velocity_min 2                         [rad/s], no update below
+//     acceleration_max 50                    [rad/s²], no update above
+//     scale_min 0.2                          bounds of the tracked scales [-]
+//     scale_max 3
+//     covariance_max 1                       bound on trace(P) [-]
+//     regression_cutoff_hz 2                 low-pass on the regression [Hz]
 //
-// Every field of the chain and compensator sections is required, once (of the passivity section too, when
-// it is there; files without it, written before it existed, still load); unknown sections, versions or fields, wrong counts,
+// Every field of the chain and compensator sections is required, once (of the passivity and tracking sections
+// too, when they are there; files without them, written before they existed, still load); unknown sections, versions or fields, wrong counts,
 // values that are not numbers (NaN and Inf are refused) and a model that fails validation are errors whose
 // message names the file, the line and the field (`lexos.comp: line 31: mass: 3 values, expected 4`).
 // A caller may name the device it expects: a file for another device is refused, naming `device`.
@@ -53,6 +62,7 @@ namespace tendyn {
 inline constexpr int chain_section_version = 1;
 inline constexpr int compensator_section_version = 1;
 inline constexpr int passivity_section_version = 1;
+inline constexpr int tracking_section_version = 1;
 
 /// Text of the compensator model file of `m` (format above).
 inline std::string compensator_model_text(const CompensatorModel& m) {
@@ -108,6 +118,20 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
     line("reserve", &p.reserve, 1);
     line("damping_max", &p.damping_max, 1);
   }
+  const FrictionTrackingModel& t = m.tracking;
+  if (t.enabled) {
+    out += "section tracking " + std::to_string(tracking_section_version) + "\n";
+    out += "# online friction tracking, RLS with forgetting (include/tendyn/friction_tracking.hpp)\n";
+    const double on = 1.0;
+    line("enabled", &on, 1);
+    line("forgetting", &t.forgetting, 1);
+    line("velocity_min", &t.velocity_min, 1);
+    line("acceleration_max", &t.acceleration_max, 1);
+    line("scale_min", &t.scale_min, 1);
+    line("scale_max", &t.scale_max, 1);
+    line("covariance_max", &t.covariance_max, 1);
+    line("regression_cutoff_hz", &t.regression_cutoff_hz, 1);
+  }
   return out;
 }
 
@@ -135,11 +159,13 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
                                      "prismatic", "mass", "com", "ee_joint", "ee_point"};
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
   static const char* pass_keys[] = {"enabled", "dissipation_coulomb", "dissipation_viscous", "reserve", "damping_max"};
-  constexpr int n_chain = 11, n_comp = 4, n_pass = 5;
-  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0};
-  static const char* section_names[] = {"", "chain", "compensator", "passivity"};
-  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 passivity
-  int section_line[4] = {0, 0, 0, 0};
+  static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min",  "acceleration_max",
+                                     "scale_min", "scale_max",  "covariance_max", "regression_cutoff_hz"};
+  constexpr int n_chain = 11, n_comp = 4, n_pass = 5, n_track = 8;
+  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0}, track_seen[n_track] = {0};
+  static const char* section_names[] = {"", "chain", "compensator", "passivity", "tracking"};
+  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 passivity, 4 tracking
+  int section_line[5] = {0, 0, 0, 0, 0};
   int n = -1;
   std::istringstream in(text);
   std::string line;
@@ -155,12 +181,14 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       std::string sname;
       int version = 0;
       if (!(ls >> sname >> version)) return fail(lineno, "section: expected 'section <name> <version>'");
-      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : sname == "passivity" ? 3 : 0;
+      int which = 0;
+      for (int k = 1; k < 5; ++k)
+        if (sname == section_names[k]) which = k;
       if (!which)
-        return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator, passivity)");
-      const int want = which == 1 ? chain_section_version
-                       : which == 2 ? compensator_section_version
-                                    : passivity_section_version;
+        return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator, passivity, tracking)");
+      static const int versions[] = {0, chain_section_version, compensator_section_version,
+                                     passivity_section_version, tracking_section_version};
+      const int want = versions[which];
       if (version != want)
         return fail(lineno, "section " + sname + ": version " + std::to_string(version) +
                                 " is not supported (this build reads " + std::to_string(want) + ")");
@@ -170,9 +198,12 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       continue;
     }
     if (section == 0) continue;  // the transmission part, parsed above
-    const char* const* keys = section == 1 ? chain_keys : section == 2 ? comp_keys : pass_keys;
-    const int count = section == 1 ? n_chain : section == 2 ? n_comp : n_pass;
-    int* seen = section == 1 ? chain_seen : section == 2 ? comp_seen : pass_seen;
+    const char* const* all_keys[] = {nullptr, chain_keys, comp_keys, pass_keys, track_keys};
+    const int counts[] = {0, n_chain, n_comp, n_pass, n_track};
+    int* all_seen[] = {nullptr, chain_seen, comp_seen, pass_seen, track_seen};
+    const char* const* keys = all_keys[section];
+    const int count = counts[section];
+    int* seen = all_seen[section];
     int idx = -1;
     for (int k = 0; k < count; ++k)
       if (key == keys[k]) idx = k;
@@ -202,6 +233,19 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       return false;
     };
     auto integer = [](double v) { return v == std::floor(v) && std::abs(v) < 1e9; };
+    if (section == 4) {
+      if (!expect(1, "one number")) return false;
+      FrictionTrackingModel& t = m.tracking;
+      if (idx == 0) {
+        if (values[0] != 0.0 && values[0] != 1.0) return fail(lineno, "enabled: must be 0 or 1");
+        t.enabled = values[0] == 1.0;
+        continue;
+      }
+      double* dst[] = {nullptr,      &t.forgetting, &t.velocity_min,   &t.acceleration_max,
+                       &t.scale_min, &t.scale_max,  &t.covariance_max, &t.regression_cutoff_hz};
+      *dst[idx] = values[0];
+      continue;
+    }
     if (section == 3) {
       PassivityModel& p = m.passivity;
       const int nt = m.transmission.n;
@@ -289,6 +333,9 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   if (section_line[3])
     for (int k = 0; k < n_pass; ++k)
       if (!pass_seen[k]) return fail(0, std::string("passivity.") + pass_keys[k] + ": missing required field");
+  if (section_line[4])
+    for (int k = 0; k < n_track; ++k)
+      if (!track_seen[k]) return fail(0, std::string("tracking.") + track_keys[k] + ": missing required field");
   const std::string problem = m.first_issue();
   if (!problem.empty()) return fail(0, problem);
   *out = std::move(m);

@@ -98,6 +98,7 @@ int main(int argc, char** argv) {
   mp.passivity.dissipation_viscous = Eigen::VectorXd::Constant(m.transmission.n, 1e-5);
   mp.passivity.reserve = 1e-3;
   mp.passivity.damping_max = 0.05;
+  mp.tracking.enabled = true;  // and online friction tracking (one more statics evaluation, RLS updates)
   expect(mp.first_issue().empty(), "passivity model valid: " + mp.first_issue());
   tendyn::CompensatorData pd(mp);
   tendyn::RenderData prd;
@@ -127,6 +128,7 @@ int main(int argc, char** argv) {
     contacts += rd.in_contact;
     damped += pd.passivity.damping.maxCoeff() > 0.0;
   }
+  const long tracked = pd.tracking.updates.sum();
   counting::armed = false;
   std::printf("%ld cycles x (compensator, compensator force, renderer): %ld allocations, %ld error statuses, "
               "%ld cycles in contact\n", cycles, counting::count, bad, contacts);
@@ -135,6 +137,8 @@ int main(int argc, char** argv) {
   expect(contacts > 0 && contacts < cycles, "the path must touch the scene and leave it");
   std::printf("passivity controller damping in %ld of %ld cycles (k = 1.5)\n", damped, cycles);
   expect(damped > 0, "the passivity controller never acted at k = 1.5");
+  std::printf("friction tracker: %ld updates\n", tracked);
+  expect(tracked > 0, "the friction tracker never updated");
 
   // Section passivity: optional (the file without it loads, off), written when on, read back the same.
   {
@@ -149,6 +153,12 @@ int main(int argc, char** argv) {
                back.passivity.dissipation_viscous.isApprox(mp.passivity.dissipation_viscous) &&
                back.passivity.reserve == mp.passivity.reserve && back.passivity.damping_max == mp.passivity.damping_max,
            "passivity settings round trip");
+    expect(back.tracking.enabled && back.tracking.forgetting == mp.tracking.forgetting &&
+               back.tracking.acceleration_max == mp.tracking.acceleration_max,
+           "tracking settings round trip");
+    refused(replace_line(ptext, "covariance_max", ""), "", "tracking.covariance_max", "missing tracking field");
+    refused(replace_line(ptext, "scale_max", "scale_max 0.5"), "", "tracking.scale_min / scale_max",
+            "tracking bounds exclude the model");
     refused(replace_line(ptext, "damping_max", ""), "", "passivity.damping_max", "missing passivity field");
     refused(replace_line(ptext, "reserve", "reserve -1"), "", "passivity.reserve", "negative reserve");
     refused(replace_line(ptext, "dissipation_coulomb", "dissipation_coulomb 1 2"), "", "dissipation_coulomb",

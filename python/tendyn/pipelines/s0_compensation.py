@@ -146,7 +146,8 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
              period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
              hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
              q0=Q0_LEXOS, seed: int = 7, encoders: str = "quantised", velocity_band: float = DEFAULT_VELOCITY_BAND,
-             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ, passivity=None) -> HandRun:
+             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ, passivity=None, compensator=None,
+             twin_friction_scale: float = 1.0) -> HandRun:
     """The hand pulls the handle around a horizontal circle (radius [m], period [s]) for ``settle`` seconds
     of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
 
@@ -155,6 +156,9 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     ``encoders``: ``"quantised"`` (the twin's motor encoders, S0's position sensors) or ``"exact"`` (the motor
     positions themselves, an ideal sensor, C12); ``velocity_band`` [rad/s] and ``velocity_cutoff_hz`` [Hz] are
     the compensator's (:meth:`tendyn.control.Compensator.from_device`), so is ``passivity`` (None: off).
+    ``compensator``: use this :class:`tendyn.control.Compensator` (its state kept, its tracker gated off: the
+    hand is an unknown force) instead of building one; ``twin_friction_scale`` multiplies the twin's τ_0 and ν
+    (:func:`tendyn.pipelines.tracking.scale_twin_friction`), the compensator keeps its model.
     """
     if encoders not in ("quantised", "exact"):
         raise ValueError(f"encoders must be 'quantised' or 'exact' (got {encoders!r})")
@@ -162,10 +166,21 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = np.asarray(q0, float)
+    if twin_friction_scale != 1.0:
+        from tendyn.pipelines.tracking import scale_twin_friction
+
+        scale_twin_friction(sim, compiled.transmission, twin_friction_scale)
     _reset(sim, data, q0, seed)
-    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
-                                   velocity_band=velocity_band, velocity_cutoff_hz=velocity_cutoff_hz,
-                                   passivity=passivity)
+    if compensator is None:
+        comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation,
+                                       rate_hz=control_hz, velocity_band=velocity_band,
+                                       velocity_cutoff_hz=velocity_cutoff_hz, passivity=passivity)
+    else:
+        comp = compensator
+        if comp.model.rate_hz != control_hz:
+            raise ValueError(f"the compensator runs at {comp.model.rate_hz:g} Hz, the hand at {control_hz:g} Hz")
+        comp.data.restart()                      # a new motion: velocity history gone, tracked friction kept
+        comp.data.tracking_active = False
     read = _encoders if encoders == "quantised" else (lambda sim_, data_: np.array(data_.q_motor))
     handle = _Handle(compiled)
     x0, _ = handle(q0)
@@ -200,7 +215,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     measured = time >= settle - 0.5 / control_hz
     rms = float(np.sqrt(np.mean(torque_hand[measured, 0] ** 2)))
     energy = -(data.work_external - work_at_settle) / cycles   # work done on the hand [J per cycle]
-    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, float(energy),
+    return HandRun(float(comp.model.underestimation), time, torque_hand, force_hand, rms, float(energy),
                    int(cycles), float(np.mean(ctime)), to_hand, float(settle))
 
 
