@@ -164,6 +164,9 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--min-speeds", type=conv.number(2, 1000, integer=True), default=5,
                    help="fewest distinct speeds per direction accepted (default 5)")
     p.add_argument("--json", action="store_true", help="print FRICTION.json on stdout too")
+    from tendyn.commands.history import add_record_arguments
+
+    add_record_arguments(p)
     p.set_defaults(func=run_identify_friction)
     return p
 
@@ -219,12 +222,16 @@ def run_identify_friction(args) -> int:
     from tendyn.ident.friction_file import write_friction, FORMAT
     from tendyn.io import read_log
 
+    from tendyn.commands.history import check_record, record_result
+
     dev = _load_device(args.device)
     if dev.n_transmissions == 0:
         raise UsageError(f"{dev.name} has no tendon transmissions", "device")
+    check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs])
     write_friction(doc, args.out)
+    record_result(args, dev, "identify-friction", doc, source=", ".join(str(p) for p in args.logs))
     if args.json:
         _print_json(doc)
     else:
