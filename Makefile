@@ -5,9 +5,9 @@ VPY      := $(VENV)/bin/python
 PIP      := $(VPY) -m pip
 STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
-SOURCES  := $(shell find include src bindings python -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-python test-cpp demo bench mutants clean
+.PHONY: install test test-python test-cpp tools demo bench mutants clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -21,9 +21,15 @@ $(STAMP): $(VPY) $(SOURCES)
 
 install: $(STAMP)
 
-# C++ first: the Python tests compare the built C/C++ examples with the Python one.
-test: install test-cpp
+# The Python tests also build the C/C++ examples against the installed package (CMake, pkg-config, cc).
+test: install tools test-cpp
 	TENDYN_REQUIRE_EXAMPLES=1 $(VPY) -m pytest tests/python -q
+
+# pkg-config for tests/python/test_examples.py; installed with apt when missing (root only).
+tools:
+	@command -v pkg-config >/dev/null || { [ "$$(id -u)" = 0 ] && { apt-get install -y -q pkg-config || \
+	  { apt-get update -q && apt-get install -y -q pkg-config; }; } >/dev/null; } \
+	  || echo "[tools] pkg-config is missing and cannot be installed without root: the pkg-config builds fail"
 
 test-python: install
 	$(VPY) -m pytest tests/python -q

@@ -103,6 +103,28 @@ void expose_compensator(nb::module_& m) {
       .def_rw("passivity", &M::passivity)
       .def_rw("tracking", &M::tracking)
       .def_rw("device", &M::device)
+      .def_prop_rw(
+          "loss_source",
+          [](const M& mo) {
+            std::vector<std::string> out;
+            for (auto s : mo.loss_source) out.push_back(loss_source_names[static_cast<int>(s)]);
+            return out;
+          },
+          [](M& mo, const std::vector<std::string>& names) {
+            if (static_cast<int>(names.size()) != loss_term_count)
+              throw nb::value_error("loss_source: 5 names expected (tau0, nu, beta, bearings, reducer_efficiency)");
+            for (int k = 0; k < loss_term_count; ++k) {
+              int src = -1;
+              for (int j = 0; j < 3; ++j)
+                if (names[k] == loss_source_names[j]) src = j;
+              if (src < 0)
+                throw nb::value_error(("loss_source[" + std::string(loss_terms[k]) + "]: '" + names[k] +
+                                       "' is not device, identified or none").c_str());
+              mo.loss_source[k] = static_cast<LossSource>(src);
+            }
+          },
+          "source of each loss term (tau0, nu, beta, bearings, reducer_efficiency): device, identified or none")
+      .def_rw("friction_source", &M::friction_source)
       .def("first_issue", &M::first_issue)
       .def("period", &M::period)
       .def("filter_gain", &M::filter_gain);

@@ -1,7 +1,10 @@
 """Example 02 in Python: the same compensation cycles as compensation.c / .cpp, on the same model file.
 
-Regenerate the model file with ``python compensation.py --export`` (tests/python/test_examples.py checks that
-the committed lexos.comp is what Python exports from the bundled lexos.toml today).
+    python compensation.py MODEL.comp [DEVICE_NAME]          # run (n from the file)
+    python compensation.py --export DEVICE.toml OUT.comp      # export a device's compensator (any device)
+    python compensation.py --export                           # re-export lexos.comp from the bundled lexos.toml
+
+(tests/python/test_examples.py checks that the committed lexos.comp is what Python exports today.)
 """
 
 import math
@@ -15,15 +18,22 @@ from tendyn.control import Compensator
 HERE = Path(__file__).resolve().parent
 
 
-def main(argv):
-    if "--export" in argv:
-        from tendyn.device import load_device
-        from tendyn.devices import bundled
+def export(device_path: str | None, out) -> None:
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
 
-        Compensator.from_device(load_device(bundled("lexos"))).export(HERE / "lexos.comp")
+    Compensator.from_device(load_device(device_path or bundled("lexos"))).export(out)
+
+
+def main(argv):
+    if argv[1:2] == ["--export"] and len(argv) in (2, 4):
+        export(*(argv[2:4] if len(argv) == 4 else (None, HERE / "lexos.comp")))
         return 0
-    comp = Compensator.load(argv[1] if len(argv) > 1 else HERE / "lexos.comp", expected_device="L-EXOS")
-    torque_joint = np.array([0.5, -0.2, 0.1, 0.05])
+    if len(argv) not in (2, 3) or argv[1].startswith("--"):
+        print(__doc__, file=sys.stderr)
+        return 2
+    comp = Compensator.load(argv[1], expected_device=argv[2] if len(argv) > 2 else None)
+    torque_joint = 0.5 * (-0.4) ** np.arange(comp.n)
     total = np.zeros(comp.n)
     worst = 0.0
     for k in range(500):

@@ -37,3 +37,10 @@ underestimation 0.9
 velocity_band 0.5
 velocity_cutoff_hz 30
 rate_hz 1000
+section losses 1
+# source of each loss term: device (the device file), identified (FRICTION.json), none (lossless)
+tau0 device
+nu device
+beta device
+bearings device
+reducer_efficiency device

@@ -23,6 +23,7 @@
 // Model / Data convention; no allocation, no exception on the real-time path; every call returns a Status.
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <string>
@@ -36,6 +37,41 @@
 
 namespace tendyn {
 
+/// Where a loss term of the compensator's transmission comes from. One loss model at a time: friction
+/// identified at the motor (S0 eq. 13, constant-velocity tests) already contains every loss the motor saw —
+/// branch τ0 and ν, bearings, β, the reducer — so identified terms never stack on the device file's.
+enum class LossSource : int {
+  Device = 0,      ///< the device file's nominal value
+  Identified = 1,  ///< identified (FRICTION.json, decomposed over the branches)
+  None = 2,        ///< absent: the term is lossless (zero, or η_d = 1)
+};
+/// The loss terms whose source is recorded, in the order of CompensatorModel::loss_source.
+inline constexpr int loss_term_count = 5;
+inline constexpr const char* loss_terms[loss_term_count] = {"tau0", "nu", "beta", "bearings", "reducer_efficiency"};
+inline constexpr const char* loss_source_names[3] = {"device", "identified", "none"};
+
+/// The first contradiction between the recorded sources and the transmission's values, or "" (setup time):
+/// device and identified terms mixed, or a term recorded as absent that carries a loss.
+inline std::string loss_sources_issue(const TransmissionModel& t, const std::array<LossSource, loss_term_count>& src) {
+  int identified = -1, device = -1;
+  for (int k = 0; k < loss_term_count; ++k) {
+    if (src[k] == LossSource::Identified && identified < 0) identified = k;
+    if (src[k] == LossSource::Device && device < 0) device = k;
+  }
+  if (identified >= 0 && device >= 0)
+    return std::string("losses: ") + loss_terms[identified] + " is identified but " + loss_terms[device] +
+           " comes from the device file: one loss model at a time (friction identified at the motor already "
+           "contains it; record it as none)";
+  auto nonzero = [](const Eigen::MatrixXd& a) { return (a.array() != 0.0).any(); };
+  const bool lossy[loss_term_count] = {nonzero(t.tau0), nonzero(t.nu), nonzero(t.beta), nonzero(t.bearing_count),
+                                       (t.reducer_efficiency.array() != 1.0).any()};
+  for (int k = 0; k < loss_term_count; ++k)
+    if (src[k] == LossSource::None && lossy[k])
+      return std::string("losses: ") + loss_terms[k] + " is recorded as none but the transmission has nonzero " +
+             loss_terms[k] + (k == 4 ? " (η_d != 1)" : "");
+  return std::string();
+}
+
 /// Immutable compensator model: the transmissions, the chain they drive and the settings.
 struct CompensatorModel {
   TransmissionModel transmission;  ///< routing and identified losses (motor_torque_feedforward)
@@ -47,6 +83,9 @@ struct CompensatorModel {
   PassivityModel passivity;        ///< passivity observer + controller at the motor ports (off by default)
   FrictionTrackingModel tracking;  ///< online friction tracking (off by default)
   std::string device;              ///< name of the device the model belongs to (setup-time checks only)
+  /// Source of each loss term (loss_terms order): all Device for a model built from a device file alone.
+  std::array<LossSource, loss_term_count> loss_source{};
+  std::string friction_source;     ///< the identified friction's origin (file name), "" if none (information)
 
   /// The first problem as text naming the field, or nullptr when usable. Allocates only to describe a
   /// transmission issue (setup time).
@@ -69,7 +108,8 @@ struct CompensatorModel {
     if (!(velocity_cutoff_hz >= 0.0 && velocity_cutoff_hz < 0.5 * rate_hz))
       return "velocity_cutoff_hz = " + format_double(velocity_cutoff_hz) + ": must be in [0, rate_hz / 2)";
     if (std::string p = passivity.first_issue(transmission.n); !p.empty()) return p;
-    return tracking.first_issue();
+    if (std::string t = tracking.first_issue(); !t.empty()) return t;
+    return loss_sources_issue(transmission, loss_source);
   }
   Status validate() const { return first_issue().empty() ? Status::Ok : Status::InvalidModel; }
 

@@ -25,6 +25,13 @@
 //     velocity_band 0.5                      [rad/s], motor side
 //     velocity_cutoff_hz 30                  [Hz]
 //     rate_hz 1000                           [Hz]
+//     section losses 1                       (optional; absent = every loss term from the device file)
+//     tau0 identified                        source of each loss term: device, identified or none
+//     nu identified
+//     beta none
+//     bearings none
+//     reducer_efficiency identified
+//     friction friction.json                 (optional: where the identified friction came from)
 //     section passivity 1                    (optional: absent = no passivity controller, passivity.hpp)
 //     enabled 1                              0 or 1
 //     dissipation_coulomb 0.01 …             c_i [N·m] per motor, certified lower bound of its Coulomb friction
@@ -33,16 +40,18 @@
 //     damping_max 0.05                       α_max [N·m·s/rad], bound of the controller's damping
 //     section tracking 1                     (optional: absent = no online friction tracking, friction_tracking.hpp)
 //     enabled 1                              0 or 1
-//     forgetting 0.9998                      λ [-] in (0.9, 1]
+//     forgetting 0.9999                      λ [-] in (0.9, 1]
 //     velocity_min 2                         [rad/s], no update below
-//     acceleration_max 50                    [rad/s²], no update above
+//     acceleration_max 10                    [rad/s²], no update above
 //     scale_min 0.2                          bounds of the tracked scales [-]
 //     scale_max 3
 //     covariance_max 1                       bound on trace(P) [-]
-//     regression_cutoff_hz 2                 low-pass on the regression [Hz]
+//     regression_cutoff_hz 0                 low-pass on the regression [Hz]
 //
-// Every field of the chain and compensator sections is required, once (of the passivity and tracking sections
-// too, when they are there; files without them, written before they existed, still load); unknown sections, versions or fields, wrong counts,
+// Section losses records one loss model at a time (CompensatorModel::loss_source): identified and device terms
+// never mix, and a term recorded as none must be lossless in the transmission part; a file that breaks this is
+// refused. Every field of the chain and compensator sections is required, once (of section losses: the five
+// terms; of sections passivity and tracking, when there, every field: files without them still load); unknown sections, versions or fields, wrong counts,
 // values that are not numbers (NaN and Inf are refused) and a model that fails validation are errors whose
 // message names the file, the line and the field (`lexos.comp: line 31: mass: 3 values, expected 4`).
 // A caller may name the device it expects: a file for another device is refused, naming `device`.
@@ -61,6 +70,7 @@ namespace tendyn {
 
 inline constexpr int chain_section_version = 1;
 inline constexpr int compensator_section_version = 1;
+inline constexpr int losses_section_version = 1;
 inline constexpr int passivity_section_version = 1;
 inline constexpr int tracking_section_version = 1;
 
@@ -107,6 +117,11 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
   line("velocity_band", &m.velocity_band, 1);
   line("velocity_cutoff_hz", &m.velocity_cutoff_hz, 1);
   line("rate_hz", &m.rate_hz, 1);
+  out += "section losses " + std::to_string(losses_section_version) + "\n";
+  out += "# source of each loss term: device (the device file), identified (FRICTION.json), none (lossless)\n";
+  for (int k = 0; k < loss_term_count; ++k)
+    out += std::string(loss_terms[k]) + " " + loss_source_names[static_cast<int>(m.loss_source[k])] + "\n";
+  if (!m.friction_source.empty()) out += "friction " + m.friction_source + "\n";
   const PassivityModel& p = m.passivity;
   if (p.enabled) {  // written only when on: files of compensators without it stay as they were
     out += "section passivity " + std::to_string(passivity_section_version) + "\n";
@@ -159,13 +174,14 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
                                      "prismatic", "mass", "com", "ee_joint", "ee_point"};
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
   static const char* pass_keys[] = {"enabled", "dissipation_coulomb", "dissipation_viscous", "reserve", "damping_max"};
-  static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min",  "acceleration_max",
+  static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min",   "acceleration_max",
                                      "scale_min", "scale_max",  "covariance_max", "regression_cutoff_hz"};
   constexpr int n_chain = 11, n_comp = 4, n_pass = 5, n_track = 8;
   int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0}, track_seen[n_track] = {0};
-  static const char* section_names[] = {"", "chain", "compensator", "passivity", "tracking"};
-  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 passivity, 4 tracking
-  int section_line[5] = {0, 0, 0, 0, 0};
+  static const char* section_names[] = {"", "chain", "compensator", "losses", "passivity", "tracking"};
+  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 losses, 4 passivity, 5 tracking
+  int section_line[6] = {0, 0, 0, 0, 0, 0};
+  int loss_seen[loss_term_count + 1] = {0};  // the five terms, then `friction`
   int n = -1;
   std::istringstream in(text);
   std::string line;
@@ -182,11 +198,12 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       int version = 0;
       if (!(ls >> sname >> version)) return fail(lineno, "section: expected 'section <name> <version>'");
       int which = 0;
-      for (int k = 1; k < 5; ++k)
+      for (int k = 1; k < 6; ++k)
         if (sname == section_names[k]) which = k;
       if (!which)
-        return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator, passivity, tracking)");
-      static const int versions[] = {0, chain_section_version, compensator_section_version,
+        return fail(lineno, "section " + sname +
+                                ": unknown section (known: chain, compensator, losses, passivity, tracking)");
+      static const int versions[] = {0, chain_section_version, compensator_section_version, losses_section_version,
                                      passivity_section_version, tracking_section_version};
       const int want = versions[which];
       if (version != want)
@@ -198,9 +215,34 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       continue;
     }
     if (section == 0) continue;  // the transmission part, parsed above
-    const char* const* all_keys[] = {nullptr, chain_keys, comp_keys, pass_keys, track_keys};
-    const int counts[] = {0, n_chain, n_comp, n_pass, n_track};
-    int* all_seen[] = {nullptr, chain_seen, comp_seen, pass_seen, track_seen};
+    if (section == 3) {          // loss sources: `<term> device|identified|none`, `friction <origin>`
+      std::string rest;
+      std::getline(ls, rest);
+      const auto b = rest.find_first_not_of(" \t"), e = rest.find_last_not_of(" \t\r");
+      rest = b == std::string::npos ? std::string() : rest.substr(b, e - b + 1);
+      int idx = -1;
+      for (int k = 0; k < loss_term_count; ++k)
+        if (key == loss_terms[k]) idx = k;
+      if (key == "friction") idx = loss_term_count;
+      if (idx < 0)
+        return fail(lineno, key + ": unknown field of section losses (known: tau0, nu, beta, bearings, "
+                                  "reducer_efficiency, friction)");
+      if (loss_seen[idx]) return fail(lineno, key + ": given twice (first on line " + std::to_string(loss_seen[idx]) + ")");
+      loss_seen[idx] = lineno;
+      if (idx == loss_term_count) {
+        m.friction_source = rest;
+        continue;
+      }
+      int src = -1;
+      for (int k = 0; k < 3; ++k)
+        if (rest == loss_source_names[k]) src = k;
+      if (src < 0) return fail(lineno, key + ": '" + rest + "' is not a source (device, identified or none)");
+      m.loss_source[idx] = static_cast<LossSource>(src);
+      continue;
+    }
+    const char* const* all_keys[] = {nullptr, chain_keys, comp_keys, nullptr, pass_keys, track_keys};
+    const int counts[] = {0, n_chain, n_comp, 0, n_pass, n_track};
+    int* all_seen[] = {nullptr, chain_seen, comp_seen, nullptr, pass_seen, track_seen};
     const char* const* keys = all_keys[section];
     const int count = counts[section];
     int* seen = all_seen[section];
@@ -233,7 +275,7 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       return false;
     };
     auto integer = [](double v) { return v == std::floor(v) && std::abs(v) < 1e9; };
-    if (section == 4) {
+    if (section == 5) {
       if (!expect(1, "one number")) return false;
       FrictionTrackingModel& t = m.tracking;
       if (idx == 0) {
@@ -246,7 +288,7 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       *dst[idx] = values[0];
       continue;
     }
-    if (section == 3) {
+    if (section == 4) {
       PassivityModel& p = m.passivity;
       const int nt = m.transmission.n;
       if (idx == 1 || idx == 2) {
@@ -331,9 +373,12 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   for (int k = 0; k < n_comp; ++k)
     if (!comp_seen[k]) return fail(0, std::string(comp_keys[k]) + ": missing required field");
   if (section_line[3])
+    for (int k = 0; k < loss_term_count; ++k)
+      if (!loss_seen[k]) return fail(0, std::string("losses.") + loss_terms[k] + ": missing required field");
+  if (section_line[4])
     for (int k = 0; k < n_pass; ++k)
       if (!pass_seen[k]) return fail(0, std::string("passivity.") + pass_keys[k] + ": missing required field");
-  if (section_line[4])
+  if (section_line[5])
     for (int k = 0; k < n_track; ++k)
       if (!track_seen[k]) return fail(0, std::string("tracking.") + track_keys[k] + ": missing required field");
   const std::string problem = m.first_issue();

@@ -17,10 +17,12 @@ import os
 import re
 import sys
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from tendyn.errors import CheckFailed, UsageError, flag
+
+if TYPE_CHECKING:  # numpy is imported by the commands that compute (`tendyn config` must start fast)
+    import numpy as np
 
 
 # ---- parsing --------------------------------------------------------------------------------------
@@ -383,22 +385,37 @@ def _quiet_stdout() -> None:
         pass
 
 
-def main(argv: list[str] | None = None) -> int:
-    from tendyn.device import DeviceError
-    from tendyn.io.logs import LogError
-    from tendyn.sim import catalogue
+def _config_parser() -> argparse.ArgumentParser:
+    """The parser of `tendyn config` alone: answers in milliseconds (no numpy, no device or simulator module)."""
+    from tendyn.commands import config
 
+    p = _Parser(prog="tendyn")
+    config.register(p.add_subparsers(dest="command", required=True, parser_class=_Parser))
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
-    argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
     command = next((a for a in argv if not a.startswith("-")), "tendyn")
+    input_errors: tuple[type[Exception], ...] = (UsageError,)
     try:
-        args = build_parser().parse_args(argv)
+        if argv[:1] == ["config"]:
+            parser = _config_parser()
+        else:
+            from tendyn.device import DeviceError
+            from tendyn.io.logs import LogError
+            from tendyn.sim import catalogue
+
+            input_errors = (UsageError, DeviceError, LogError)
+            argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
+            parser = build_parser()
+        args = parser.parse_args(argv)
         code = args.func(args)
         sys.stdout.flush()
         return code
-    except (UsageError, DeviceError, LogError) as exc:
+    except input_errors as exc:
         print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
         return 2
     except CheckFailed as exc:

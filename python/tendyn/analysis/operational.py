@@ -40,6 +40,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from tendyn.analysis.handle_point import HandlePoint
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.results import Result, format_table, new_figure
 
@@ -224,9 +225,7 @@ class OperationalModel:
     """
 
     def __init__(self, device, params=None, stiffness_motor=None):
-        import pinocchio as pin
-
-        from tendyn.device.closed_loop import drive_parameters, end_effector_point
+        from tendyn.device.closed_loop import drive_parameters
         from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
 
         self.compiled = compile_device(device)
@@ -275,91 +274,32 @@ class OperationalModel:
         self.servo_stiffness_motor = ke
         self.total_stiffness_motor = 1.0 / (1.0 / kt + 1.0 / ke)          # S2 eq. 19 (motor side)
         self.joint_stiffness = self.ratio ** 2 * self.total_stiffness_motor  # N² K_tot (ERRATA eq. 19)
-        # handle point: a frame on a copy of the tree (the handle support, see end_effector_point)
-        L, c = self.compiled.active_map
-        self.L, self.c = np.asarray(L), np.asarray(c)
-        joint, point = end_effector_point(self.compiled)
-        self._pin = pin
-        self._model = pin.Model(self.compiled.pinocchio_model)
-        self._frame = self._model.addFrame(pin.Frame("handle", joint + 1, 0, pin.SE3(np.eye(3), np.asarray(point)),
-                                                     pin.FrameType.OP_FRAME))
-        self._data = self._model.createData()
-        # operator frame: z against gravity, x the horizontal part of the base x axis
-        g = np.asarray(dev.kinematics.gravity, float)
-        up = -g / np.linalg.norm(g) if np.linalg.norm(g) > 0 else np.array([0.0, 0.0, 1.0])
-        ex = np.array([1.0, 0.0, 0.0]) - up[0] * up
-        if np.linalg.norm(ex) < 1e-6:
-            ex = np.array([0.0, 1.0, 0.0]) - up[1] * up
-        ex /= np.linalg.norm(ex)
-        self.frame = np.column_stack([ex, np.cross(up, ex), up])   # base ← operator
-        self._limits = self._tree_limits()
+        # the handle point and its kinematics (tendyn.analysis.handle_point, shared with the cable maps)
+        self.handle = HandlePoint(self.compiled)
+        self.L, self.c = self.handle.L, self.handle.c
+        self.frame = self.handle.frame   # base ← operator
 
-    # ---- kinematics ----------------------------------------------------------------------------------
-    def _tree(self, qa):
-        return self.L @ np.asarray(qa, float) + self.c
-
+    # ---- kinematics (the handle point) -----------------------------------------------------------------
     def position(self, qa) -> np.ndarray:
-        """Handle position [m], operator frame (origin: the base origin)."""
-        pin = self._pin
-        pin.framesForwardKinematics(self._model, self._data, self._tree(qa))
-        return self.frame.T @ np.array(self._data.oMf[self._frame].translation)
+        """Handle position [m], operator frame (:meth:`HandlePoint.position`)."""
+        return self.handle.position(qa)
 
     def jacobian(self, qa) -> np.ndarray:
-        """J = ∂X/∂q_a [m/rad] (3 × n_active), operator frame: the tree's frame Jacobian times L."""
-        pin = self._pin
-        pin.computeJointJacobians(self._model, self._data, self._tree(qa))
-        pin.updateFramePlacements(self._model, self._data)
-        J = pin.getFrameJacobian(self._model, self._data, self._frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
-        return self.frame.T @ np.asarray(J) @ self.L
+        """J = ∂X/∂q_a [m/rad] (3 × n_active), operator frame (:meth:`HandlePoint.jacobian`)."""
+        return self.handle.jacobian(qa)
 
     def jdot_qd(self, qa, qd) -> np.ndarray:
-        """J̇ q̇ [m/s²], operator frame: the classical acceleration of the handle point at q̈ = 0."""
-        pin = self._pin
-        v = self.L @ np.asarray(qd, float)
-        pin.forwardKinematics(self._model, self._data, self._tree(qa), v, np.zeros_like(v))
-        pin.updateFramePlacements(self._model, self._data)
-        a = pin.getFrameClassicalAcceleration(self._model, self._data, self._frame,
-                                              pin.ReferenceFrame.LOCAL_WORLD_ALIGNED).linear
-        return self.frame.T @ np.asarray(a)
-
-    def _tree_limits(self):
-        from tendyn.device.rigid_body import tree_joint_numbers
-
-        joints = self.device.kinematics.joints
-        lo, hi = [], []
-        for num in tree_joint_numbers(self.device):
-            js = joints[num - 1]
-            lo.append(-np.inf if js.lower is None else js.lower)
-            hi.append(np.inf if js.upper is None else js.upper)
-        return np.array(lo), np.array(hi)
+        """J̇ q̇ [m/s²], operator frame (:meth:`HandlePoint.jdot_qd`)."""
+        return self.handle.jdot_qd(qa, qd)
 
     def within_limits(self, qa, margin: float = 0.0) -> bool:
-        """Every tree joint (active and passive, q_tree = L q_a + c) inside its limits [rad]."""
-        q = self._tree(qa)
-        lo, hi = self._limits
-        return bool(np.all(q >= lo + margin) and np.all(q <= hi - margin))
+        """Every tree joint inside its limits [rad] (:meth:`HandlePoint.within_limits`)."""
+        return self.handle.within_limits(qa, margin)
 
     def inverse_kinematics(self, x, q_start, step: float = 0.01, tol: float = 1e-10):
-        """Active joints [rad] putting the handle at x [m] (operator frame), by Newton steps along the straight
-        path from the handle position at q_start (continuation, at most ``step`` [m] per leg, so the solution
-        stays on q_start's branch). None when it does not converge or crosses a singularity."""
-        q = np.array(q_start, float)
-        x0 = self.position(q)
-        x = np.asarray(x, float)
-        legs = max(1, int(math.ceil(np.linalg.norm(x - x0) / step)))
-        for k in range(1, legs + 1):
-            target = x0 + (x - x0) * k / legs
-            for _ in range(25):
-                e = target - self.position(q)
-                if np.linalg.norm(e) < tol:
-                    break
-                J = self.jacobian(q)
-                if np.linalg.cond(J) > 1e6:
-                    return None
-                q = q + np.linalg.solve(J, e)
-            else:
-                return None
-        return q
+        """Active joints [rad] putting the handle at x [m] on q_start's branch
+        (:meth:`HandlePoint.inverse_kinematics`)."""
+        return self.handle.inverse_kinematics(x, q_start, step, tol)
 
     # ---- joint-space dynamics from the base parameters ---------------------------------------------------
     def regressor(self, q, qd, qdd) -> np.ndarray:

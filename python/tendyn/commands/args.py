@@ -45,3 +45,19 @@ def existing_file(text: str) -> Path:
     if not p.is_file():
         raise argparse.ArgumentTypeError(f"{text}: not a regular file")
     return p
+
+
+def out_path(suffixes):
+    """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
+    def convert(text: str) -> Path:
+        p = Path(text)
+        if p.suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(f"must end in {' or '.join(suffixes)} (got {text!r})")
+        if p.exists() and p.is_dir():
+            raise argparse.ArgumentTypeError(f"{text} is a folder")
+        parent = p.parent if str(p.parent) else Path(".")
+        if not parent.is_dir():
+            raise argparse.ArgumentTypeError(f"folder {parent} does not exist")
+        return p
+    convert.__name__ = "path"
+    return convert

@@ -1,6 +1,10 @@
-"""`tendyn maps DEVICE PARAMS.json [--json] [--report DIR] [--stiffness K1,K2,K5]`: apparent mass, friction
-and stiffness felt at the handle over a workspace grid, from identified base parameters (S2 §VII, C41–C45;
-:mod:`tendyn.analysis.operational`)."""
+"""`tendyn maps DEVICE [PARAMS.json] [--friction FRICTION.json] [--json] [--report DIR]`: apparent mass, friction
+and stiffness felt at the handle over the workspace.
+
+Capstan drives (``[[drives]]``, the CEA branch): from identified base parameters over a Cartesian grid around the
+natural pose (S2 §VII, C41–C45; :mod:`tendyn.analysis.operational`; PARAMS.json required). Cable transmissions
+and geared actuators (``[[transmissions]]``, ``[[actuators]]``): over a grid of the joint limits, inertia from the
+device file or PARAMS.json, friction from the device file or FRICTION.json (:mod:`tendyn.analysis.handle_maps`)."""
 
 from __future__ import annotations
 
@@ -9,18 +13,24 @@ from tendyn.errors import UsageError
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("maps", help="operational maps (apparent mass, friction, stiffness) from identified "
-                                           "parameters")
-    p.add_argument("device", help="device file (.toml) or bundled twin with capstan drives (cea_branch)")
-    p.add_argument("params", type=existing_file, metavar="PARAMS.json",
-                   help="base parameters: the document of `tendyn identify --json` (or --out)")
+    p = subparsers.add_parser("maps", help="apparent mass, friction and stiffness at the handle over the workspace")
+    p.add_argument("device", help="device file (.toml) or bundled twin: cable transmissions (lexos), geared "
+                                  "actuators (tx40) or capstan drives (cea_branch)")
+    p.add_argument("params", type=existing_file, metavar="PARAMS.json", nargs="?", default=None,
+                   help="base parameters: the document of `tendyn identify --json` (or --out); required for capstan "
+                        "drives, else the inertia [default: the device file's links and rotors]")
+    p.add_argument("--friction", type=existing_file, metavar="FRICTION.json", default=None,
+                   help="identified friction per transmission (`tendyn identify-friction --out`) [default: the "
+                        "device file's loss model at zero load]; cable devices")
     p.add_argument("--stiffness", type=numbers(0.0, lo_open=True, unit="N·m/rad"), default=None, metavar="K1,K2,…",
                    help="capstan stiffness K_T per drive, motor side [N·m/rad] [default: the device's]")
     p.add_argument("--half-width", type=number(0.0, 0.5, lo_open=True, unit="m"), default=None,
                    help="half-width of the grid cube around the natural pose [m] [default: 0.05]")
-    p.add_argument("--points", type=number(3, 41, integer=True), default=None,
-                   help="grid points per axis, odd [default: 11]")
-    p.add_argument("--report", default=None, metavar="DIR", help="write fig8.png, fig9.png and maps.json into DIR")
+    p.add_argument("--points", type=number(2, 41, integer=True), default=None,
+                   help="capstan drives: Cartesian grid points per axis, odd [default: 11]; cable and geared: grid "
+                        "points per active joint [default: ⌊2000^(1/n)⌋ within 2–21]")
+    p.add_argument("--report", default=None, metavar="DIR",
+                   help="write the figures (fig8.png, fig9.png; handle_maps.png), maps.json and maps.txt into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     p.set_defaults(func=run)
 
@@ -32,9 +42,17 @@ def run(args) -> int:
     from tendyn.commands.pipeline import publish
 
     dev = _load(args.device)
+    if dev.kind == "serial" and not dev.drives and (dev.transmissions or dev.actuators):
+        return _run_handle(args, dev)
     if dev.kind != "serial" or not dev.drives:
-        raise UsageError(f"{dev.name} has no capstan drives ([[drives]]: ratio, K_T, K_E); the maps need them",
-                         "device")
+        raise UsageError(f"{dev.name} is a {dev.kind} device without transmissions, actuators or capstan drives: "
+                         "it has no handle to map", "device")
+    if args.params is None:
+        raise UsageError(f"PARAMS.json: missing; {dev.name} has capstan drives, whose maps need the identified base "
+                         "parameters (`tendyn identify --out`)")
+    if args.friction is not None:
+        raise UsageError(f"applies to cable transmissions; {dev.name}'s capstan friction is in PARAMS.json",
+                         "friction")
     points = DEFAULT_POINTS if args.points is None else args.points
     if points % 2 == 0:
         raise UsageError(f"must be odd, so that the lines through the natural pose are on the grid (got {points})",
@@ -53,3 +71,61 @@ def run(args) -> int:
     doc = maps.to_dict()
     doc["params_file"] = str(args.params)
     return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")
+
+
+def _run_handle(args, dev) -> int:
+    """Cable transmissions or geared actuators: the maps of :mod:`tendyn.analysis.handle_maps`."""
+    from tendyn.analysis.handle_maps import handle_maps
+    from tendyn.cli import _check_out_folder
+    from tendyn.commands.pipeline import publish
+
+    for opt in ("stiffness", "half_width"):
+        if getattr(args, opt) is not None:
+            raise UsageError(f"applies to capstan drives only; {dev.name} has "
+                             f"{'cable transmissions' if dev.transmissions else 'geared actuators'}", opt)
+    out = _check_out_folder(args.report) if args.report else None
+    kw, sources = {}, {}
+    if args.friction is not None:
+        from tendyn.ident.friction_file import FrictionFileError, read_friction
+
+        if not dev.transmissions:
+            raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
+        try:
+            doc = read_friction(args.friction, device=dev)
+        except FrictionFileError as exc:
+            raise UsageError(str(exc)) from None
+        for key in ("coulomb_motor", "viscous_motor"):
+            bad = [k + 1 for k, v in enumerate(doc[key]) if v < 0]
+            if bad:
+                raise UsageError(f"{args.friction}: {key}[{bad[0]}]: must be >= 0 (got {doc[key][bad[0] - 1]!r})")
+        kw.update(coulomb_motor=doc["coulomb_motor"], viscous_motor=doc["viscous_motor"])
+        sources["friction"] = f"identified: {args.friction} ({doc['format']})"
+    if args.params is not None:
+        kw["mass_matrix"] = _identified_mass_matrix(dev, args.params)
+        sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
+    try:
+        maps = handle_maps(dev, points=args.points, sources=sources, **kw)
+    except ValueError as exc:      # a device whose handle cannot be mapped (no motor per joint, always singular)
+        raise UsageError(str(exc), "device") from None
+    doc = maps.to_dict()
+    doc["params_file"] = None if args.params is None else str(args.params)
+    doc["friction_file"] = None if args.friction is None else str(args.friction)
+    return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")
+
+
+def _identified_mass_matrix(dev, path):
+    """q ↦ A(q) [kg·m²] from the base parameters of PARAMS.json, through the identification model's regressor."""
+    from tendyn.analysis.operational import ParamsError, read_params
+    from tendyn.ident import IdentModel
+
+    try:
+        params = read_params(str(path))
+    except ParamsError as exc:
+        where = ": ".join(p for p in (exc.file or str(path), exc.field) if p)
+        raise UsageError(f"{where}: {exc.problem}") from None
+    model = IdentModel(dev)
+    try:
+        x = model.parameter_vector(params)
+    except ValueError as exc:
+        raise UsageError(f"{path}: {exc}") from None
+    return lambda q: model.mass_matrix(q, x)

@@ -23,28 +23,10 @@ import numpy as np
 
 from tendyn.commands import args as conv
 from tendyn.errors import UsageError
+from tendyn.protocols import MIN_SPEEDS
 
 PLAN_EXPERIMENTS = ("constant-velocity",)
-DEFAULT_PLAN_SPEEDS = (2.0, 4.0, 6.0, 8.0, 10.0)
 LOG_SUFFIXES = (".csv", ".parquet")
-
-
-# ---- argparse converters (shared ones from tendyn.commands.args; messages without the option name) ------
-
-def _out_path(suffixes):
-    """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
-    def convert(text: str) -> Path:
-        p = Path(text)
-        if p.suffix.lower() not in suffixes:
-            raise argparse.ArgumentTypeError(f"must end in {' or '.join(suffixes)} (got {text!r})")
-        if p.exists() and p.is_dir():
-            raise argparse.ArgumentTypeError(f"{text} is a folder")
-        parent = p.parent if str(p.parent) else Path(".")
-        if not parent.is_dir():
-            raise argparse.ArgumentTypeError(f"folder {parent} does not exist")
-        return p
-    convert.__name__ = "path"
-    return convert
 
 
 def _load_device(text: str):
@@ -68,6 +50,8 @@ def _print_json(doc) -> None:
 
 def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     """``tendyn plan constant-velocity DEVICE --transmission I --strategy S1|S2 [...] --out REF.csv``."""
+    from tendyn import protocols as pr
+
     p = subparsers.add_parser("plan", help="write the references of a twin experiment for a real controller")
     p.add_argument("experiment", choices=PLAN_EXPERIMENTS, help="the experiment to plan")
     p.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
@@ -75,66 +59,66 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--strategy", choices=("S1", "S2"), default="S2",
                    help="S1 holds the other motors (motor-space references), S2 the other joints (joint-space); "
                         "default S2")
-    p.add_argument("--speeds", type=conv.numbers(0.0, 1000.0, lo_open=True, unit="rad/s"), default=DEFAULT_PLAN_SPEEDS,
-                   help="motor speeds [rad/s], comma-separated; one forward and one backward pass each "
-                        "(identify-friction needs >= 5; default 2,4,6,8,10)")
-    p.add_argument("--travel", type=conv.number(0.0, 1e4, lo_open=True, unit="rad"), default=20.0,
-                   help="motor travel per pass [rad] (default 20, as the twin's experiment)")
-    p.add_argument("--accel", type=conv.number(0.0, 1e6, lo_open=True, unit="rad/s²"), default=200.0,
-                   help="motor acceleration of the ramps [rad/s^2] (default 200)")
-    p.add_argument("--q0", type=conv.numbers(-10.0, 10.0, unit="rad"), default=None,
-                   help="start joint positions [rad], comma-separated (default 0)")
+    p.add_argument("--speeds", type=conv.numbers(0.0, 1000.0, lo_open=True, unit="rad/s"), default=None,
+                   help=f"motor speeds [rad/s], comma-separated; one forward and one backward pass each "
+                        f"(identify-friction needs >= {pr.MIN_SPEEDS}; default "
+                        f"{','.join(f'{v:g}' for v in pr.DEFAULT_SPEEDS)})")
+    p.add_argument("--travel", type=conv.number(0.0, 1e4, lo_open=True, unit="rad"), default=None,
+                   help=f"motor travel per pass [rad] (default: the longest stroke inside the joint limits, at "
+                        f"most {pr.DEFAULT_TRAVEL:g})")
+    p.add_argument("--accel", type=conv.number(1e-3, 1e6, unit="rad/s²"), default=None,
+                   help=f"motor acceleration of the ramps [rad/s^2] (default {pr.DEFAULT_ACCEL:g})")
+    p.add_argument("--loads", type=conv.number(1, 10, integer=True), default=pr.DEFAULT_LOADS,
+                   help=f"poses (gravity loads) of the test, chosen from the limits and gravity model (default "
+                        f"{pr.DEFAULT_LOADS}: the load-dependent friction needs two)")
+    p.add_argument("--q0", type=conv.numbers(-1e3, 1e3, unit="rad"), default=None,
+                   help="start joint positions of the first pose [rad], comma-separated (default: mid-range)")
     p.add_argument("--rate", type=conv.number(0.0, 1e6, lo_open=True, unit="Hz"), default=1000.0,
                    help="sample rate of the references [Hz] (the controller's rate; default 1000)")
-    p.add_argument("--out", type=_out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
+    p.add_argument("--out", type=conv.out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
     p.set_defaults(func=run_plan)
     return p
 
 
-def plan_constant_velocity(device, transmission: int, strategy: str, speeds, travel: float, accel: float,
-                           q0, rate_hz: float):
-    """The reference log of the constant-velocity test: time, position and speed references of every motor
-    (S1) or joint (S2); ``options`` says which are held. Same references as
-    :func:`tendyn.sim.experiments.constant_velocity` with the same settings (at ``rate_hz``)."""
+def plan_constant_velocity(device, test, rate_hz: float):
+    """The reference log of a planned constant-velocity test (:func:`tendyn.protocols.plan_test`): time,
+    position and speed references of every motor (S1) or joint (S2); ``options`` says which are held and
+    where. The same references as the twin's :func:`tendyn.sim.experiments.constant_velocity` with that test
+    (at ``rate_hz``)."""
+    from tendyn.device import compile_device
     from tendyn.io import make_log
-    from tendyn.sim.experiments import constant_velocity_references
-    from tendyn.transmission import Transmission
+    from tendyn.protocols import references
 
-    Gm = Transmission.from_device(device).matrices()["motor_from_joint_position"]
+    Gm = compile_device(device).transmission.matrices()["motor_from_joint_position"]
     n = Gm.shape[0]
-    q0 = np.zeros(n) if q0 is None else np.asarray(q0, float)
-    ref_q, ref_v, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0,
-                                                       1.0 / rate_hz)
+    ref_q, ref_v, space = references(Gm, test, 1.0 / rate_hz)
     cols = {"time": np.arange(ref_q.shape[0]) / rate_hz}
     prefix, vprefix = ("q_motor_ref_", "qd_motor_ref_") if space == "motor" else ("q_ref_", "qd_ref_")
     for i in range(n):
         cols[f"{prefix}{i + 1}"] = ref_q[:, i]
         cols[f"{vprefix}{i + 1}"] = ref_v[:, i]
-    held = [i + 1 for i in range(n) if i != transmission - 1]
-    options = {"transmission": transmission, "strategy": strategy, "space": space,
-               "held_motors" if space == "motor" else "held_joints": held,
-               "speeds_motor": [float(v) for v in speeds], "travel_motor": travel, "accel_motor": accel,
-               "q0": q0.tolist(), "note": ("hold the listed motors at their start; drive motor "
-                                           f"{transmission} along q_motor_ref_{transmission}") if space == "motor"
-               else (f"hold the listed joints at q0; drive joint {transmission} along q_ref_{transmission}")}
+    t = test.transmission
+    held = [i + 1 for i in range(n) if i != t - 1]
+    options = {**test.options(), "space": space, "held_motors" if space == "motor" else "held_joints": held,
+               "note": (f"hold the listed motors; drive motor {t} along q_motor_ref_{t}" if space == "motor" else
+                        f"hold the listed joints; drive joint {t} along q_ref_{t}") +
+               (f"; {len(test.poses)} poses (loads), moved between along the references" if len(test.poses) > 1
+                else "")}
     return make_log(cols, device=device.name, rate_hz=rate_hz, seed=None,
-                    experiment=f"plan_constant_velocity_{strategy}", options=options)
+                    experiment=f"plan_constant_velocity_{test.strategy}", options=options)
 
 
 def run_plan(args) -> int:
     from tendyn.io import write_log
+    from tendyn.protocols import plan_test
 
     dev = _load_device(args.device)
-    n = dev.n_transmissions
-    if n == 0:
+    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
         raise UsageError(f"{dev.name} has no tendon transmissions to plan a constant-velocity test for", "device")
-    if not 1 <= args.transmission <= n:
-        raise UsageError(f"must be 1…{n} (got {args.transmission})", "transmission")
-    if args.q0 is not None and len(args.q0) != dev.n_joints:
-        raise UsageError(f"{len(args.q0)} values, {dev.name} has {dev.n_joints} joints", "q0")
-    log = plan_constant_velocity(dev, args.transmission, args.strategy, args.speeds, args.travel, args.accel,
-                                 args.q0, args.rate)
+    test = plan_test(dev, args.transmission, args.strategy, args.speeds, args.travel, args.accel, args.q0,
+                     args.loads)
+    log = plan_constant_velocity(dev, test, args.rate)
     write_log(log, args.out)
     summary = {"out": str(args.out), "device": dev.name, "samples": log.n_samples,
                "duration_s": float(log.time[-1]), **log.meta["options"]}
@@ -144,7 +128,11 @@ def run_plan(args) -> int:
         held = summary.get("held_motors", summary.get("held_joints"))
         what = "motors" if "held_motors" in summary else "joints"
         print(f"{args.out}: {log.n_samples} samples, {summary['duration_s']:.1f} s; transmission "
-              f"{args.transmission} ({args.strategy}), held {what}: {', '.join(map(str, held))}")
+              f"{args.transmission} ({args.strategy}), held {what}: {', '.join(map(str, held)) or 'none'}; "
+              f"{len(test.poses)} pose(s), motor load "
+              f"{', '.join(f'{x:+.3g}' for x in test.load_motor)} N·m; travel {test.travel:.3g} rad")
+        for note in test.notes:
+            print(f"  note: {note}")
     return 0
 
 
@@ -158,11 +146,14 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("logs", nargs="+", type=conv.existing_file, metavar="LOG",
                    help="constant-velocity logs (.csv/.parquet), one or more per transmission; every "
                         "transmission of the device must be covered")
-    p.add_argument("--out", type=_out_path((".json",)), required=True, help="FRICTION.json to write")
+    p.add_argument("--out", type=conv.out_path((".json",)), required=True, help="FRICTION.json to write")
     p.add_argument("--gravity", choices=("pairs", "model", "both"), default="pairs",
                    help="gravity removal: forward/backward pairs (S0, default), the device's gravity model, or both")
-    p.add_argument("--min-speeds", type=conv.number(2, 1000, integer=True), default=5,
-                   help="fewest distinct speeds per direction accepted (default 5)")
+    p.add_argument("--min-speeds", type=conv.number(2, 1000, integer=True), default=None,
+                   help="fewest distinct speeds per direction accepted (default 5, what plan writes)")
+    p.add_argument("--load", choices=("auto", "fit", "none"), default="auto",
+                   help="load-dependent term c_L |C_0|: fit it when the logs determine it (auto, default), always, "
+                        "or never (S0's law)")
     p.add_argument("--json", action="store_true", help="print FRICTION.json on stdout too")
     from tendyn.commands.history import add_record_arguments
 
@@ -171,7 +162,8 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
     return p
 
 
-def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int = 5, names=None) -> dict:
+def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | None = None, names=None,
+                      load: str = "auto") -> dict:
     """Fit every transmission from ``logs`` (:class:`tendyn.io.Log`), attach the residual-error bounds
     computed from the identified values themselves (decomposed with the default shares) and return the
     FRICTION.json document. Raises UsageError naming the log or transmission when something is missing."""
@@ -201,7 +193,7 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int = 5,
             raise UsageError(f"transmission {t}: logs of different strategies "
                              f"({', '.join(sorted(str(s) for s in strategies))}); give one strategy per transmission")
         est = TransmissionFriction(t, gravity=gravity, device=device if gravity != "pairs" else None,
-                                   min_speeds=min_speeds)
+                                   min_speeds=MIN_SPEEDS if min_speeds is None else min_speeds, load=load)
         try:
             est.fit([lg for _, lg in groups[t]])
         except IdentificationError as exc:
@@ -229,7 +221,8 @@ def run_identify_friction(args) -> int:
         raise UsageError(f"{dev.name} has no tendon transmissions", "device")
     check_record(args)
     logs = [read_log(p) for p in args.logs]
-    doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs])
+    doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
+                            load=args.load)
     write_friction(doc, args.out)
     record_result(args, dev, "identify-friction", doc, source=", ".join(str(p) for p in args.logs))
     if args.json:
@@ -243,15 +236,23 @@ def run_identify_friction(args) -> int:
 def friction_table(doc) -> str:
     """The paper-like table of a FRICTION.json document."""
     lines = [f"{'tr':<4}{'strategy':<10}{'C_m0 [N·m]':>12}{'σ':>11}{'%σ':>7}{'ν [N·m·s/rad]':>15}{'σ':>11}"
-             f"{'%σ':>7}{'bound [N·m]':>13}"]
+             f"{'%σ':>7}{'c_L [-]':>10}{'%σ':>7}{'bound [N·m]':>13}"]
+    warnings = []
     for f in doc["fits"]:
         b = f.get("residual_bound")
         pct = lambda x: float("nan") if x is None else x   # noqa: E731
+        cl = f"{f['load_coefficient']:.4g}" if f.get("load_identified") else "—"
         lines.append(f"{f['transmission']:<4}{str(f.get('strategy')):<10}{f['coulomb_motor']:>12.5g}"
                      f"{f['coulomb_motor_std']:>11.3g}{pct(f.get('coulomb_motor_rel_std_pct')):>7.2f}"
                      f"{f['viscous_motor']:>15.5g}{f['viscous_motor_std']:>11.3g}"
-                     f"{pct(f.get('viscous_motor_rel_std_pct')):>7.2f}{'—' if b is None else f'{b:.3g}':>13}")
-    return "\n".join(lines)
+                     f"{pct(f.get('viscous_motor_rel_std_pct')):>7.2f}{cl:>10}"
+                     f"{pct(f.get('load_coefficient_rel_std_pct')):>7.2f}{'—' if b is None else f'{b:.3g}':>13}")
+        warnings += f.get("warnings", [])
+        for key, name in (("coulomb_motor", "C_m0"), ("viscous_motor", "ν")):
+            if f[key] < 0:
+                warnings.append(f"transmission {f['transmission']}: {name} = {f[key]:.3g} is negative: not a loss; "
+                                "a compensator refuses it (check the logs' torque sign and units)")
+    return "\n".join(lines + [f"warning: {w}" for w in warnings])
 
 
 # ---- decompose ---------------------------------------------------------------------------------------
@@ -283,7 +284,7 @@ def run_decompose(args) -> int:
             p, pp = read_shares(args.shares, dev)
     except (FrictionFileError, SharesError) as exc:
         raise UsageError(str(exc)) from None
-    dec = decompose(dev, doc["coulomb_motor"], doc["viscous_motor"], p, pp)
+    dec = decompose(dev, doc["coulomb_motor"], doc["viscous_motor"], p, pp, doc.get("load_coefficient"))
     if args.json:
         _print_json(dec.to_dict())
     else:

@@ -17,9 +17,7 @@ back. :meth:`Compensator.export` writes the model file a C controller loads with
 
 from __future__ import annotations
 
-import json
-from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -29,10 +27,15 @@ from tendyn.device.closed_loop import end_effector_point
 from tendyn.transmission import Transmission, as_vector
 
 __all__ = ["Compensator", "chain_model", "end_effector_point", "transmission_with_friction",
-           "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ"]
+           "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ",
+           "IDENTIFIED_UNDERESTIMATION"]
 
 DEFAULT_UNDERESTIMATION = 0.9
 """k [-]: friction compensated with under-estimated coefficients (C46), 10 % below the model."""
+IDENTIFIED_UNDERESTIMATION = 0.7
+"""k [-] for a compensator built from identified friction (``tendyn export compensator``): identification errs by a
+few per cent, friction drifts with temperature and wear, and an over-estimate makes a haptic device active, so
+S2's 20–30 % margin (C46) is kept."""
 DEFAULT_VELOCITY_BAND = 0.5
 """v_band [rad/s], motor side: below it the friction feedforward fades to zero (2 % of a slow 25 rad/s move)."""
 DEFAULT_VELOCITY_CUTOFF_HZ = 30.0
@@ -60,57 +63,28 @@ def chain_model(device: Device | CompiledDevice) -> Any:
     return c
 
 
-def _read_friction(friction) -> Mapping:
-    if isinstance(friction, (str, Path)):
-        path = Path(friction)
-        try:
-            return json.loads(path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"{path}: cannot read the friction file: {exc}") from None
-    if not isinstance(friction, Mapping):
-        raise TypeError(f"friction must be a mapping or a path to FRICTION.json (got {type(friction).__name__})")
-    return friction
+def transmission_with_friction(device: Device | CompiledDevice, friction=None, shares=None) -> Transmission:
+    """The device's transmission with one loss model: its own (``friction=None``) or the identified one.
 
-
-def transmission_with_friction(device: Device | CompiledDevice, friction=None) -> Transmission:
-    """The device's transmission with its branch losses replaced by identified ones.
-
-    Parameters
-    ----------
-    friction : None, mapping or path to FRICTION.json
-        None keeps the device's own losses. Otherwise per-branch arrays (n, n), 0-based
-        ``[transmission, branch]`` as the core fields: ``tau0`` [N], ``nu`` [N·s/m] and optionally ``beta`` [-]
-        (the loss decomposition of S0 eqs. 18–21, corrected: ERRATA), either at the top level or under a
-        ``"branch_losses"`` key; ``reducer_efficiency`` (n,) η_d [-] may be given too (1 = a lossless reducer,
-        the S0 hypothesis that efficiencies are negligible, C12). Fields not given keep the device's values.
+    Identified friction (FRICTION.json, a decomposition, or per-branch arrays: see
+    :func:`tendyn.ident.loss_model.identified_losses`) *replaces* every loss term of the device file —
+    bearings, β, τ0, ν and the reducer efficiency — since friction identified at the motor already contains
+    them all (one loss model at a time; stacking both over-compensates and makes a haptic device active).
 
     Raises
     ------
     ValueError
-        A file that cannot be read, a wrong shape or a value the core refuses (naming the field).
+        (:class:`tendyn.ident.loss_model.LossModelError`) a file of another device or transmission count, or
+        a negative or non-finite value, naming the source and field.
     """
     compiled = compile_device(device)
-    base = compiled.transmission
-    if base is None:
+    if compiled.transmission is None:
         raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
     if friction is None:
-        return base
-    data = _read_friction(friction)
-    data = data.get("branch_losses", data)
-    arrays = base.to_dict()
-    n = base.n
-    given = [k for k in ("tau0", "nu", "beta", "reducer_efficiency") if k in data]
-    if not given:
-        raise ValueError("friction: expected per-branch arrays 'tau0' and/or 'nu' (n, n) [N, N s/m]")
-    for key in given:
-        a = np.asarray(data[key], float)
-        shape = (n,) if key == "reducer_efficiency" else (n, n)
-        if a.shape != shape:
-            raise ValueError(f"friction: {key} must have shape {shape} (got {a.shape})")
-        arrays[key] = a
-    losses = {k: arrays[k] for k in arrays if k in ("tau0", "nu", "beta") or k.startswith("bearing_")}
-    return Transmission.from_arrays(arrays["motor_radius"], arrays["K"], arrays["reducer_ratio"],
-                                    arrays["reducer_efficiency"], arrays["pretension"], **losses)
+        return compiled.transmission
+    from tendyn.ident.loss_model import identified_losses
+
+    return identified_losses(compiled, friction, shares).transmission(compiled.device)
 
 
 def _passivity(compiled: CompiledDevice, passivity, friction, rate_hz: float) -> Any:
@@ -163,7 +137,7 @@ class Compensator:
 
     # ---- construction ------------------------------------------------------------------------
     @classmethod
-    def from_device(cls, device: Device | CompiledDevice, friction=None,
+    def from_device(cls, device: Device | CompiledDevice, friction=None, shares=None,
                     underestimation: float = DEFAULT_UNDERESTIMATION,
                     velocity_band: float = DEFAULT_VELOCITY_BAND,
                     velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ,
@@ -172,8 +146,12 @@ class Compensator:
 
         Parameters
         ----------
-        friction : None, mapping or path to FRICTION.json
-            identified branch losses (:func:`transmission_with_friction`); None uses the device's own
+        friction : None, or identified friction: FRICTION.json (path or dict), ``tendyn decompose --json``
+            output, or per-branch arrays (:func:`tendyn.ident.loss_model.identified_losses`). It replaces every
+            loss term of the device file (one loss model at a time); the model records each term's source.
+            None uses the device file's losses.
+        shares : loss shares (p, p') or a ``tendyn.shares/1`` file for decomposing FRICTION.json over the
+            branches (default: from the construction)
         underestimation : k [-] in [0, 1.5], scales the friction part (0: gravity compensation only)
         velocity_band : v_band [rad/s], motor side; the friction feedforward fades linearly to zero below it
         velocity_cutoff_hz : first-order velocity-filter cut-off [Hz] (0: raw difference)
@@ -187,8 +165,18 @@ class Compensator:
             ``covariance_max``) or a ``_core.FrictionTrackingModel``: online friction tracking (RLS)
         """
         compiled = compile_device(device)
+        if compiled.transmission is None:
+            raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
         m = _core.CompensatorModel()
-        m.transmission = transmission_with_friction(compiled, friction).model
+        if friction is None:
+            m.transmission = compiled.transmission.model
+        else:
+            from tendyn.ident.loss_model import identified_losses
+
+            losses = identified_losses(compiled, friction, shares)
+            m.transmission = losses.transmission(compiled.device).model
+            m.loss_source = losses.source_list()
+            m.friction_source = losses.origin
         m.chain = chain_model(compiled)
         m.underestimation = float(underestimation)
         m.velocity_band = float(velocity_band)
@@ -216,6 +204,7 @@ class Compensator:
         else:
             m.passivity = self._model.passivity
         m.tracking = _tracking(settings.pop("tracking")) if "tracking" in settings else self._model.tracking
+        m.loss_source, m.friction_source = self._model.loss_source, self._model.friction_source
         for key in ("underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"):
             value = settings.pop(key, getattr(self._model, key))
             setattr(m, key, float(value))
@@ -247,6 +236,14 @@ class Compensator:
     @property
     def device(self) -> str:
         return self._model.device
+
+    @property
+    def loss_sources(self) -> dict:
+        """Source of each loss term: {"tau0": "device" | "identified" | "none", "nu": …, "beta": …,
+        "bearings": …, "reducer_efficiency": …} (the model file's ``section losses``)."""
+        from tendyn.ident.loss_model import LOSS_TERMS
+
+        return dict(zip(LOSS_TERMS, self._model.loss_source))
 
     # ---- cycles ------------------------------------------------------------------------------
     def reset(self) -> None:

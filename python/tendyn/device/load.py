@@ -276,9 +276,19 @@ class _Parser:
         else:
             raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
                                             "joint (or [[drives]] for elastic capstan drives)")
+        home = dev["home_pose"]
+        if home is not None:
+            joints = kin.joints
+            if len(home) != len(joints):
+                raise self.err("device.home_pose", f"{len(home)} values, the device has {len(joints)} joints")
+            for k, (q, j) in enumerate(zip(home, joints)):
+                if j.lower is not None and j.upper is not None and not j.lower <= q <= j.upper:
+                    raise self.err(f"device.home_pose[{k + 1}]", f"{q:g} rad is outside joint {k + 1}'s limits "
+                                                                 f"[{j.lower:g}, {j.upper:g}]")
+            home = tuple(float(q) for q in home)
         return SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
                             kinematics=kin, transmissions=trans, drives=drives, actuators=actuators,
-                            bandwidth_hz=dev["bandwidth_hz"])
+                            bandwidth_hz=dev["bandwidth_hz"], home_pose=home)
 
     def driven_joint(self, f: dict, section: str, what: str, default_prefix: str, i: int, kin: Kinematics,
                      driven_by: dict[int, int], names: dict[str, int]) -> tuple[int, str]:

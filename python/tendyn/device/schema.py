@@ -168,6 +168,9 @@ DEVICE_FIELDS = (
       "tendyn.device.tendon_bench.load_tendon_bench", required=False, default="serial", choices=DEVICE_KINDS),
     _spec("bandwidth_hz", "float", "Hz", "dynamic bandwidth of the joint motions (position loops); sets the "
       "default filters of identification (absent: 10 Hz)", required=False, lo=0.0, lo_open=True, hi=1e4),
+    _spec("home_pose", "float_list", "rad", "joint positions where the hand and wall experiments start "
+      "(pipeline s0, demo), one per joint, inside the limits (absent: the pose of best handle mobility on a "
+      "grid of the joint ranges)", required=False),
 )
 
 KINEMATICS_FIELDS = (
@@ -711,6 +714,7 @@ class SerialDevice(Device):
     drives: tuple[Drive, ...] = field(default_factory=tuple)
     actuators: tuple[Actuator, ...] = field(default_factory=tuple)
     bandwidth_hz: float | None = None
+    home_pose: tuple | None = None
     kind: ClassVar[str] = "serial"
     experiments: ClassVar[tuple[str, ...]] = ("constant-velocity", "exciting", "blocked-link", "stepped-sine",
                                               "swept-sine")

@@ -97,6 +97,7 @@ class LossDecomposition(Result):
     viscous_motor: np.ndarray        # global ν^i given [N·m·s/rad]
     coulomb_motor: np.ndarray        # global C_m0^i given [N·m]
     branches: list
+    load_coefficient: np.ndarray | None = None   # c_L^i [-] when identified (carried to the reducer, loss_model)
 
     def reproduced(self) -> tuple[np.ndarray, np.ndarray]:
         """(ν, C_m0) recomputed from the branch values through S0 eqs. (18)–(19)."""
@@ -119,8 +120,11 @@ class LossDecomposition(Result):
                          "p_prime": self.p_prime[i, :nb].tolist(), "gamma": self.gamma[i, :nb].tolist(),
                          "alpha": self.alpha[i, :nb].tolist(), "nu_branch": self.nu_branch[i, :nb].tolist(),
                          "tau0_branch": self.tau0_branch[i, :nb].tolist()})
-        return {"device": self.device, "units": {"kprime": "m/rad", "nu_branch": "N·s/m", "tau0_branch": "N",
-                                                 "gamma": "1/m^2", "alpha": "rad/m"},
+            if self.load_coefficient is not None:
+                rows[-1]["load_coefficient"] = float(self.load_coefficient[i])
+        return {"format": "tendyn.decomposition/1", "device": self.device,
+                "units": {"kprime": "m/rad", "nu_branch": "N·s/m", "tau0_branch": "N", "gamma": "1/m^2",
+                          "alpha": "rad/m", "load_coefficient": "-"},
                 "max_relative_mismatch": self.max_mismatch(), "transmissions": rows}
 
     def table(self) -> str:
@@ -144,9 +148,11 @@ class LossDecomposition(Result):
         ax.legend(fontsize=8)
 
 
-def decompose(device, coulomb_motor, viscous_motor, p=None, p_prime=None) -> LossDecomposition:
+def decompose(device, coulomb_motor, viscous_motor, p=None, p_prime=None, load_coefficient=None) -> LossDecomposition:
     """Per-branch τ̂_0 and ν̂ from global C_m0^i [N·m], ν^i [N·m·s/rad] (one per transmission) and the
-    shares (default :func:`default_shares`). S0 eqs. 20–21, corrected: ERRATA."""
+    shares (default :func:`default_shares`). S0 eqs. 20–21, corrected: ERRATA. An identified load coefficient
+    c_L^i [-] is carried as it is: it belongs to the cable's tension, not to a branch's speed, and the loss model
+    places it at the reducer (:mod:`tendyn.ident.loss_model`)."""
     arr = device.routing_arrays()
     K, r_m = arr["K"], arr["motor_radius"]
     kp = kinematic_coefficients(K, r_m)
@@ -163,8 +169,9 @@ def decompose(device, coulomb_motor, viscous_motor, p=None, p_prime=None) -> Los
     with np.errstate(divide="ignore", invalid="ignore"):
         gamma = np.where(kp != 0, p / kp ** 2, 0.0)
         alpha = np.where(kp != 0, p_prime / np.abs(kp), 0.0)
+    load = None if load_coefficient is None else np.asarray(load_coefficient, float)
     return LossDecomposition(device.name, kp, p, p_prime, gamma, alpha, gamma * nu[:, None],
-                             alpha * c0[:, None], nu, c0, branches)
+                             alpha * c0[:, None], nu, c0, branches, load)
 
 
 def check_shares(p, p_prime, branches, source=None) -> None:

@@ -1,8 +1,18 @@
 """Global friction of one tendon transmission from constant-velocity logs (S0 §III-A, claim C7).
 
-Model (S0 eq. 13, corrected: ERRATA — the motion sign restored)::
+Model (S0 eq. 13, corrected: ERRATA — the motion sign restored — with a load-dependent term)::
 
-    C_m = C_m0 sgn(q̇_m) + ν q̇_m          [N·m] at the motor, q̇_m [rad/s]
+    C_m − C_0 = (C_m0 + c_L |C_0|) sgn(q̇_m) + ν q̇_m          [N·m] at the motor, q̇_m [rad/s]
+
+C_0 is the lossless torque of the load at the motor (gravity under the test). S0's law is c_L = 0; the
+tension-proportional losses of the device — β along the cable (eq. 11), the reducer's efficiency (eqs. 9–10),
+the load part of the bearings (eq. 7) — make the friction grow with the load the cable carries, so a test at
+one load puts them into C_m0 and a compensator then over- or under-compensates at every other load. With tests
+at two or more loads (``tendyn plan`` plans them) c_L [-] is identified beside C_m0 and ν: with the reducer's
+η_i = (2η_d − 1)/η_d (S0 eq. 10) its loss is exactly (1/η_d − 1)|C_0| in both directions of power flow, and a
+β loss is the same to first order, so one coefficient holds both (they cannot be told apart at the motor:
+:mod:`tendyn.ident.loss_model`). With ``pairs`` the load comes from the logs themselves: the half-sum of the
+forward and backward torques at the same position is C_0.
 
 The estimator reads only what a bench records: the motor encoder ``q_motor_<i>`` and the measured
 motor torque ``torque_motor_<i>`` (plus, for the gravity model, the other motor encoders). It finds the
@@ -32,9 +42,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tendyn.ident.plateaus import Plateau, find_plateaus
+from tendyn.protocols import MIN_SPEEDS, PLATEAU
 from tendyn.results import Result
 
 GRAVITY_MODES = ("pairs", "model", "both")
+LOAD_MODES = ("auto", "fit", "none")
 STRATEGIES = ("S1", "S2")
 
 
@@ -65,18 +77,37 @@ class FrictionFit(Result):
     gravity: str
     speeds_motor: list
     n_points: int
-    points: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 3)))
+    points: np.ndarray = field(repr=False, default_factory=lambda: np.zeros((0, 4)))
     residual_bound: float | None = None
+    load_coefficient: float = 0.0          # c_L [-] (0 when not identified)
+    load_coefficient_std: float | None = None
+    load_identified: bool = False
+    load_range_motor: tuple = (0.0, 0.0)   # smallest and largest |C_0| of the observations [N·m]
+    warnings: list = field(default_factory=list)
 
     @property
     def rel_std_pct(self) -> tuple[float, float]:
         """%σ of (C_m0, ν) (S2 eq. 7)."""
         return (_pct(self.coulomb_motor_std, self.coulomb_motor), _pct(self.viscous_motor_std, self.viscous_motor))
 
-    def predict(self, qd_motor) -> np.ndarray:
-        """C_m [N·m] at motor speeds [rad/s] (zero at zero speed)."""
+    @property
+    def mean_load_motor(self) -> float:
+        """Mean |C_0| [N·m] over the observations (weighted as the fit): the load of the test."""
+        if self.points.shape[1] < 4 or self.points.shape[0] == 0:
+            return 0.0
+        return float(np.average(np.abs(self.points[:, 3]), weights=self.points[:, 2]))
+
+    def coulomb_at_load(self, load_motor: float | None = None) -> float:
+        """C_m0 + c_L |C_0| [N·m]: the Coulomb part at a load (default: the test's mean load), what S0's
+        load-free law (c_L = 0) identifies as C_m0 from a test at that load."""
+        load = self.mean_load_motor if load_motor is None else load_motor
+        return self.coulomb_motor + self.load_coefficient * abs(load)
+
+    def predict(self, qd_motor, load_motor=0.0) -> np.ndarray:
+        """Friction torque C_m − C_0 [N·m] at motor speeds [rad/s] under a lossless load torque C_0 [N·m] at
+        the motor (default 0; zero at zero speed)."""
         v = np.asarray(qd_motor, float)
-        return self.coulomb_motor * np.sign(v) + self.viscous_motor * v
+        return (self.coulomb_motor + self.load_coefficient * np.abs(load_motor)) * np.sign(v) + self.viscous_motor * v
 
     def to_dict(self) -> dict:
         """The FRICTION.json entry of this transmission (see docs/friction-file.md)."""
@@ -87,7 +118,13 @@ class FrictionFit(Result):
                 "viscous_motor_rel_std_pct": rv, "residual_std": self.residual_std, "cond": self.cond,
                 "strategy": self.strategy, "gravity": self.gravity,
                 "speeds_motor": [float(v) for v in self.speeds_motor], "n_points": self.n_points,
-                "residual_bound": self.residual_bound}
+                "residual_bound": self.residual_bound,
+                "load_coefficient": self.load_coefficient, "load_coefficient_std": self.load_coefficient_std,
+                "load_coefficient_rel_std_pct": (None if self.load_coefficient_std is None or self.load_coefficient == 0
+                                                 else _pct(self.load_coefficient_std, self.load_coefficient)),
+                "load_identified": self.load_identified,
+                "load_range_motor": [float(x) for x in self.load_range_motor],
+                "warnings": list(self.warnings)}
 
     def table(self) -> str:
         rc, rv = self.rel_std_pct
@@ -98,16 +135,23 @@ class FrictionFit(Result):
             f"{'parameter':<22}{'value':>12}{'σ':>12}{'%σ':>8}",
             f"{'C_m0 [N·m]':<22}{self.coulomb_motor:>12.5g}{self.coulomb_motor_std:>12.3g}{rc:>8.2f}",
             f"{'ν [N·m·s/rad]':<22}{self.viscous_motor:>12.5g}{self.viscous_motor_std:>12.3g}{rv:>8.2f}",
+            (f"{'c_L [-]':<22}{self.load_coefficient:>12.5g}{self.load_coefficient_std:>12.3g}"
+             f"{_pct(self.load_coefficient_std, self.load_coefficient):>8.2f}" if self.load_identified else
+             f"c_L [-] not identified (loads {self.load_range_motor[0]:.3g}…{self.load_range_motor[1]:.3g} N·m)"),
             f"residual σ̂ {self.residual_std:.3g} N·m; residual-error bound (ERRATA eq. 15) {bound} N·m",
-        ])
+        ] + [f"warning: {w}" for w in self.warnings])
 
     def _draw(self, ax) -> None:
         """Observations and the fitted law C_m0 sgn(v) + νv."""
         v, c = self.points[:, 0], self.points[:, 1]
-        ax.plot(v, c, ".", ms=3, alpha=0.5, label="plateau bins")
+        load = self.points[:, 3] if self.points.shape[1] > 3 else np.zeros_like(v)
+        ax.plot(v, c - self.load_coefficient * load * np.sign(v), ".", ms=3, alpha=0.5,
+                label="plateau bins" + (" − c_L |C_0|" if self.load_identified else ""))
         vv = np.linspace(min(0.0, v.min()), v.max(), 200)
         vv = vv[vv != 0]
-        ax.plot(vv, self.predict(vv), "-", label=f"fit C_m0={self.coulomb_motor:.4g}, ν={self.viscous_motor:.3g}")
+        ax.plot(vv, self.predict(vv), "-", label=f"fit C_m0={self.coulomb_motor:.4g} N·m, "
+                f"ν={self.viscous_motor:.3g} N·m·s/rad" + (f", c_L={self.load_coefficient:.3g}"
+                                                          if self.load_identified else ""))
         ax.set_xlabel(f"motor {self.transmission} speed [rad/s]")
         ax.set_ylabel("friction torque at the motor [N·m]")
         ax.grid(alpha=0.3)
@@ -203,6 +247,7 @@ class _Stroke:
     q: np.ndarray        # motor position of the transmission [rad]
     c: np.ndarray        # torque (gravity model removed when asked) [N·m]
     log_index: int
+    load: np.ndarray     # the lossless load torque at the motor where known (gravity model), else the torque [N·m]
 
 
 class TransmissionFriction:
@@ -217,13 +262,21 @@ class TransmissionFriction:
     device : tendyn.device.Device or None
         For the gravity model only (its rigid body and routing; never its friction values).
     min_speeds : int
-        Fewest distinct speeds per direction accepted (issue 8: 5).
+        Fewest distinct speeds per direction accepted (:data:`tendyn.protocols.MIN_SPEEDS`, the rule the planner
+        follows).
     bins : int
         Position bins per plateau (pair); each bin is one observation.
     window_s, tol, min_speed, min_duration_s, trim_s :
         Plateau detection, see :func:`tendyn.ident.plateaus.find_plateaus`.
     speed_match : float
-        Relative speed difference allowed between the two passes of a pair [-].
+        Relative speed difference allowed between the two passes of a pair [-] (the pair's mean speed is the
+        observation's; a position loop holds a light distal link's high speeds within a few per cent only).
+    load : {"auto", "fit", "none"}
+        The load-dependent term c_L |C_0| (module docstring): "fit" always; "none" never (S0's law);
+        "auto" (default) keeps it when the data determine it — |ĉ_L| > ``load_significance`` σ — and when it is
+        not negative (a friction that falls with the load is no loss law); otherwise c_L = 0 and the fit says why.
+    load_significance : float
+        The t-value [-] above which "auto" keeps c_L.
     bound_tau0, bound_nu : (n, n) arrays or None
         Per-branch Coulomb [N] and viscous [N·s/m] values of the device's transmissions (nominal, or
         decomposed from identified global values: :func:`tendyn.ident.decompose`); with ``device`` they give
@@ -231,17 +284,19 @@ class TransmissionFriction:
 
     Learned attributes
     ------------------
-    params_ : (2,) [C_m0 N·m, ν N·m·s/rad];  stderr_ : (2,) their σ;  rel_stderr_ : (2,) %σ;
-    cond_ : cond(W);  coulomb_motor_, viscous_motor_ ;  residual_std_ : σ̂ [N·m];
+    params_ : (2,) [C_m0 N·m, ν N·m·s/rad], or (3,) with c_L [-] when the load term is kept;
+    stderr_ : their σ;  rel_stderr_ : %σ;  load_coefficient_ : c_L [-] (0 when not kept);  load_identified_ ;
+    cond_ : cond(W);  coulomb_motor_, viscous_motor_ ;  residual_std_ : σ̂ [N·m];  warnings_ : list of text;
     speeds_ : distinct speed magnitudes used [rad/s];  plateaus_ : per log, the plateaus found;
     strategy_ : "S1", "S2" or None (from the logs' meta);  residual_bound_ : [N·m] or None;
     result_ : :class:`FrictionFit`.
     """
 
-    def __init__(self, transmission: int, gravity: str = "pairs", device=None, min_speeds: int = 5,
-                 bins: int = 16, window_s: float = 0.04, tol: float = 0.02, min_speed: float = 0.2,
-                 min_duration_s: float = 0.15, trim_s: float = 0.05, speed_match: float = 0.05,
-                 bound_tau0=None, bound_nu=None):
+    def __init__(self, transmission: int, gravity: str = "pairs", device=None, min_speeds: int = MIN_SPEEDS,
+                 bins: int = 16, window_s: float = PLATEAU["window_s"], tol: float = PLATEAU["tol"],
+                 min_speed: float = PLATEAU["min_speed"], min_duration_s: float = PLATEAU["min_duration_s"],
+                 trim_s: float = PLATEAU["trim_s"], speed_match: float = 0.1,
+                 bound_tau0=None, bound_nu=None, load: str = "auto", load_significance: float = 3.0):
         self.transmission = transmission
         self.gravity = gravity
         self.device = device
@@ -255,11 +310,14 @@ class TransmissionFriction:
         self.speed_match = speed_match
         self.bound_tau0 = bound_tau0
         self.bound_nu = bound_nu
+        self.load = load
+        self.load_significance = load_significance
 
     def get_params(self, deep: bool = True) -> dict:
         return {k: getattr(self, k) for k in ("transmission", "gravity", "device", "min_speeds", "bins",
                                               "window_s", "tol", "min_speed", "min_duration_s", "trim_s",
-                                              "speed_match", "bound_tau0", "bound_nu")}
+                                              "speed_match", "bound_tau0", "bound_nu", "load",
+                                              "load_significance")}
 
     # ---- fit ----
     def fit(self, logs) -> "TransmissionFriction":
@@ -268,6 +326,8 @@ class TransmissionFriction:
             raise ValueError(f"gravity must be one of {GRAVITY_MODES} (got {self.gravity!r})")
         if self.gravity != "pairs" and self.device is None:
             raise ValueError(f"gravity={self.gravity!r} needs the device (its gravity model)")
+        if self.load not in LOAD_MODES:
+            raise ValueError(f"load must be one of {LOAD_MODES} (got {self.load!r})")
         if not isinstance(logs, (list, tuple)):
             logs = [logs]
         logs = [_as_log(lg) for lg in logs]
@@ -281,12 +341,14 @@ class TransmissionFriction:
                 if name not in log:
                     raise IdentificationError(f"log {n + 1}: no column {name} (transmission {i})")
             t, q, c = log.time, log[qname], log[cname]
+            load = c
             if self.gravity != "pairs":
-                c = c - gravity_motor_torque(self.device, log.stack("q_motor_"))[:, i - 1]
+                load = gravity_motor_torque(self.device, log.stack("q_motor_"))[:, i - 1]
+                c = c - load
             ps = find_plateaus(t, q, window_s=self.window_s, tol=self.tol, min_speed=self.min_speed,
                                min_duration_s=self.min_duration_s, trim_s=self.trim_s)
             self.plateaus_.append(ps)
-            strokes += [_Stroke(p, q[p.slice], c[p.slice], n) for p in ps]
+            strokes += [_Stroke(p, q[p.slice], c[p.slice], n, load[p.slice]) for p in ps]
             strategies.add(log_strategy(log))
         if not strokes:
             raise IdentificationError(f"transmission {i}: no constant-speed plateau in the logs")
@@ -303,24 +365,33 @@ class TransmissionFriction:
                 raise IdentificationError(f"transmission {i}: {len(pos)} positive and {len(neg)} negative "
                                           f"speeds found, need at least {need} per direction")
         elif len(speeds) < need:
-            raise IdentificationError(f"transmission {i}: forward/backward pairs at {len(speeds)} speeds, "
-                                      f"need at least {need} per direction")
-        v, y, w = points[:, 0], points[:, 1], points[:, 2]
-        W = np.column_stack([np.sign(v), v])
-        x, cov, s, cond = least_squares(W, y, w / w.mean())
+            seen = sorted({round(abs(s.plateau.speed), 3) for s in strokes})
+            raise IdentificationError(f"transmission {i}: forward/backward pairs at {len(speeds)} speeds, need at "
+                                      f"least {need} per direction (pairs at {', '.join(f'{v:.3g}' for v in speeds)}"
+                                      f" rad/s; plateaus at {', '.join(f'{v:g}' for v in seen)} rad/s): plan the "
+                                      "test with tendyn plan constant-velocity (its strokes hold each speed long "
+                                      "enough) or lower --min-speeds")
+        x, cov, s, cond, kept, self.warnings_ = self._fit_law(points, i)
+        x, cov = self._nonnegative(points, x, cov, kept, i)
         self.params_ = x
         self.stderr_ = np.sqrt(np.diag(cov))
-        self.rel_stderr_ = np.array([_pct(self.stderr_[k], x[k]) for k in range(2)])
+        self.rel_stderr_ = np.array([_pct(self.stderr_[k], x[k]) for k in range(x.size)])
         self.cond_ = cond
         self.coulomb_motor_, self.viscous_motor_ = float(x[0]), float(x[1])
+        self.load_identified_ = kept
+        self.load_coefficient_ = float(x[2]) if kept else 0.0
         self.residual_std_ = s
         self.speeds_ = speeds
         self.points_ = points
         strategies.discard(None)
         self.strategy_ = strategies.pop() if len(strategies) == 1 else None
+        loads = np.abs(points[:, 3])
         self.result_ = FrictionFit(i, float(x[0]), float(x[1]), float(self.stderr_[0]), float(self.stderr_[1]),
                                    s, cond, self.strategy_, self.gravity, [float(u) for u in speeds],
-                                   int(points.shape[0]), points)
+                                   int(points.shape[0]), points, load_coefficient=self.load_coefficient_,
+                                   load_coefficient_std=float(self.stderr_[2]) if kept else None,
+                                   load_identified=kept, load_range_motor=(float(loads.min()), float(loads.max())),
+                                   warnings=list(self.warnings_))
         self.residual_bound_ = None
         if self.device is not None and self.bound_tau0 is not None and self.strategy_ in STRATEGIES:
             arr = self.device.routing_arrays()
@@ -329,8 +400,62 @@ class TransmissionFriction:
         self.result_.residual_bound = self.residual_bound_
         return self
 
-    def predict(self, qd_motor) -> np.ndarray:
-        return self.result_.predict(qd_motor)
+    def predict(self, qd_motor, load_motor=0.0) -> np.ndarray:
+        return self.result_.predict(qd_motor, load_motor)
+
+    def _fit_law(self, points, i):
+        """Weighted least squares of the law (module docstring) on the bins: (x, Cov, σ̂, cond, load kept,
+        warnings). Columns sgn v, v and, for the load term, |C_0| sgn v."""
+        v, y, w, load = points[:, 0], points[:, 1], points[:, 2], np.abs(points[:, 3])
+        W = np.column_stack([np.sign(v), v])
+        weights = w / w.mean()
+        warnings = []
+        if self.load != "none":
+            W3 = np.column_stack([W, load * np.sign(v)])
+            if np.linalg.matrix_rank(W3 * np.sqrt(weights)[:, None], tol=1e-9 * np.abs(W3).max()) == 3:
+                x, cov, s, cond = least_squares(W3, y, weights)
+                sc = math.sqrt(cov[2, 2])
+                if self.load == "fit":
+                    return x, cov, s, cond, True, warnings
+                if x[2] >= 0 and abs(x[2]) > self.load_significance * sc:
+                    return x, cov, s, cond, True, warnings
+                why = (f"c_L = {x[2]:.3g} ± {sc:.2g} is negative: no loss law falls with the load (the tests' "
+                       "loads or speeds may be inconsistent)" if x[2] < 0 and abs(x[2]) > self.load_significance * sc
+                       else f"c_L = {x[2]:.3g} ± {sc:.2g} is not significant (loads {load.min():.3g}…"
+                       f"{load.max():.3g} N·m)")
+            else:
+                why = f"one load only ({load.min():.3g}…{load.max():.3g} N·m)"
+            warnings.append(f"transmission {i}: load term not identified, c_L = 0: {why}; plan tests at two or "
+                            "more loads (tendyn plan constant-velocity --loads 2) to identify it")
+        x, cov, s, cond = least_squares(W, y, weights)
+        return x, cov, s, cond, False, warnings
+
+    def _nonnegative(self, points, x, cov, kept, i):
+        """A loss law has no negative term: a coefficient that comes out negative (the S2 residual of held distal
+        cables can exceed a small ν, ERRATA eq. 15) is fixed at 0 and the others refitted; the fit says so.
+        Returns (x, Cov) with the fixed entries 0 (σ 0)."""
+        names = ["C_m0", "ν", "c_L"][:x.size]
+        fixed = [k for k in range(x.size) if x[k] < 0]
+        if not fixed:
+            return x, cov
+        v, y, w, load = points[:, 0], points[:, 1], points[:, 2], np.abs(points[:, 3])
+        cols = [np.sign(v), v, load * np.sign(v)][:x.size]
+        while True:
+            free = [k for k in range(x.size) if k not in fixed]
+            xf = np.zeros(x.size)
+            covf = np.zeros((x.size, x.size))
+            if free:
+                xs, cs, _, _ = least_squares(np.column_stack([cols[k] for k in free]), y, w / w.mean())
+                xf[free] = xs
+                covf[np.ix_(free, free)] = cs
+            more = [k for k in free if xf[k] < 0]
+            if not more:
+                break
+            fixed += more
+        self.warnings_.append(f"transmission {i}: {', '.join(f'{names[k]} = {x[k]:.3g}' for k in fixed)} came out "
+                              "negative: fixed at 0 and the rest refitted (a friction term cannot feed energy; the "
+                              "S2 residual of held distal cables, ERRATA eq. 15, or a torque offset can cause it)")
+        return xf, covf
 
     def _bins_model(self, strokes):
         rows = []
@@ -340,22 +465,29 @@ class TransmissionFriction:
             for b in range(self.bins):
                 sel = idx == b
                 if sel.sum() >= 3:
-                    rows.append((s.plateau.speed, float(s.c[sel].mean()), float(sel.sum())))
-        return np.array(rows, float).reshape(-1, 3)
+                    rows.append((s.plateau.speed, float(s.c[sel].mean()), float(sel.sum()),
+                                 abs(float(s.load[sel].mean()))))
+        return np.array(rows, float).reshape(-1, 4)
 
     def _bins_pairs(self, strokes):
-        """Half-differences of forward and backward passes, bin by bin over their common path."""
+        """Half-differences of forward and backward passes, bin by bin over their common path; the load of a
+        bin is its half-sum (pairs) or the gravity model's torque (both). A forward pass pairs with the
+        backward pass of matching speed that overlaps it, the nearest in time (tests at several loads run the
+        same speeds at several poses)."""
         rows = []
         neg = [s for s in strokes if s.plateau.speed < 0]
         for s in (s for s in strokes if s.plateau.speed > 0):
             v = s.plateau.speed
-            best, overlap = None, 0.0
+            best, gap = None, math.inf
             for o in neg:
                 if o.log_index != s.log_index or abs(-o.plateau.speed - v) > self.speed_match * v:
                     continue
                 lo, hi = max(s.q.min(), o.q.min()), min(s.q.max(), o.q.max())
-                if hi - lo > overlap:
-                    best, overlap = o, hi - lo
+                if hi - lo < 0.5 * min(np.ptp(s.q), np.ptp(o.q)):
+                    continue
+                d = abs(o.plateau.start - s.plateau.start)
+                if d < gap:
+                    best, gap = o, d
             if best is None:
                 continue
             lo, hi = max(s.q.min(), best.q.min()), min(s.q.max(), best.q.max())
@@ -368,8 +500,9 @@ class TransmissionFriction:
                 if na >= 3 and nb >= 3:
                     # weight ∝ 1 / variance of the half-difference of two means: 1 / (1/na + 1/nb)
                     rows.append((vbar, 0.5 * float(s.c[a_sel].mean() - best.c[b_sel].mean()),
-                                 1.0 / (1.0 / na + 1.0 / nb)))
-        return np.array(rows, float).reshape(-1, 3)
+                                 1.0 / (1.0 / na + 1.0 / nb),
+                                 abs(0.5 * float(s.load[a_sel].mean() + best.load[b_sel].mean()))))
+        return np.array(rows, float).reshape(-1, 4)
 
 
 def _distinct(values, rel: float) -> list[float]:

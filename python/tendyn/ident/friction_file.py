@@ -38,12 +38,16 @@ def friction_document(device_name: str, fits) -> dict:
     nums = [f.transmission for f in fits]
     if nums != list(range(1, len(fits) + 1)):
         raise ValueError(f"fits must cover transmissions 1…{len(fits)} once each (got {nums})")
-    return {"format": FORMAT, "device": device_name, "created_by": f"tendyn {__version__}",
-            "n_transmissions": len(fits),
-            "units": {"coulomb_motor": "N·m", "viscous_motor": "N·m·s/rad", "speeds_motor": "rad/s"},
-            "coulomb_motor": [f.coulomb_motor for f in fits],
-            "viscous_motor": [f.viscous_motor for f in fits],
-            "fits": [f.to_dict() for f in fits]}
+    doc = {"format": FORMAT, "device": device_name, "created_by": f"tendyn {__version__}",
+           "n_transmissions": len(fits),
+           "units": {"coulomb_motor": "N·m", "viscous_motor": "N·m·s/rad", "speeds_motor": "rad/s",
+                     "load_coefficient": "-", "load_range_motor": "N·m"},
+           "coulomb_motor": [f.coulomb_motor for f in fits],
+           "viscous_motor": [f.viscous_motor for f in fits],
+           "fits": [f.to_dict() for f in fits]}
+    if any(getattr(f, "load_identified", False) for f in fits):
+        doc["load_coefficient"] = [f.load_coefficient for f in fits]
+    return doc
 
 
 def write_friction(doc: dict, path) -> Path:
@@ -108,6 +112,13 @@ def validate_friction(doc, device=None, source=None) -> dict:
         for k, x in enumerate(arr):
             if not _finite(x):
                 bad(f"{key}[{k + 1}]", f"must be a finite number (got {x!r})")
+    load = doc.get("load_coefficient")   # optional: files of tendyn < 0.2 and fits without a load term
+    if load is not None:
+        if not isinstance(load, list) or len(load) != n:
+            bad("load_coefficient", f"must be a list of {n} values (one per transmission)")
+        for k, x in enumerate(load):
+            if not _finite(x):
+                bad(f"load_coefficient[{k + 1}]", f"must be a finite number (got {x!r})")
     fits = doc["fits"]
     if not isinstance(fits, list):
         bad("fits", "must be a list")
@@ -127,6 +138,9 @@ def validate_friction(doc, device=None, source=None) -> dict:
                 bad(f"{where}.{key}", "missing")
             if not _finite(f[key]):
                 bad(f"{where}.{key}", f"must be a finite number (got {f[key]!r})")
+        if load is not None and f.get("load_coefficient", 0.0) != load[t - 1]:
+            bad(f"{where}.load_coefficient", f"{f.get('load_coefficient')!r} differs from "
+                f"load_coefficient[{t}] = {load[t - 1]!r}")
         for key in ("coulomb_motor", "viscous_motor"):
             if f[key] != doc[key][t - 1]:
                 bad(f"{where}.{key}", f"{f[key]!r} differs from {key}[{t}] = {doc[key][t - 1]!r}")

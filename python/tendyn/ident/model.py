@@ -223,6 +223,47 @@ class IdentModel:
                       for i, k in enumerate(base))
         return BaseSet(names=names, columns=tuple(base), combination=comb, rank=rank)
 
+    # -- identified values back into the model ----------------------------------------------------------
+    def parameter_vector(self, params) -> np.ndarray:
+        """Identified base parameters as a vector over :attr:`standard_names` (so W x = W_b x_b): each value
+        at the column of the first term of its expression (the standard column kept, the others regrouped into
+        it), 0 elsewhere.
+
+        params : list of {name, value, expression} (the ``params`` of ``tendyn identify --json``).
+        Raises ValueError naming ``params[i].expression`` for a column this device does not have or uses twice.
+        """
+        idx = {n: k for k, n in enumerate(self.standard_names)}
+        x = np.zeros(len(self.standard_names))
+        used = set()
+        for i, p in enumerate(params):
+            lead = str(p["expression"]).split()[0].lstrip("+")
+            if lead not in idx:
+                raise ValueError(f"params[{i}].expression: {lead!r} is not a standard parameter of "
+                                 f"{self.device.name} (known: {', '.join(self.standard_names[:6])}, …)")
+            if idx[lead] in used:
+                raise ValueError(f"params[{i}].expression: two parameters use the column {lead}")
+            used.add(idx[lead])
+            x[idx[lead]] = float(p["value"])
+        return x
+
+    def inertial_columns(self) -> np.ndarray:
+        """Mask over :attr:`standard_names` of the inertial parameters (links, IA, IAm): not FV, FS, OFFSET,
+        FVm, FSm."""
+        return np.array([n.rstrip("0123456789") not in ("FV", "FS", "OFFSET", "FVm", "FSm")
+                         for n in self.standard_names])
+
+    def mass_matrix(self, q, x) -> np.ndarray:
+        """A(q) [kg·m²] (n_active × n_active, rotors included) of the standard-order parameters x: column i is
+        W(q, 0, e_i) x − W(q, 0, 0) x over the inertial columns (gravity cancels; friction and offsets left out).
+
+        q : (n_active,) [rad]; x : (n_standard,) e.g. :meth:`parameter_vector` or :meth:`prior`."""
+        na = self.n_active
+        q = np.tile(np.asarray(q, float), (na + 1, 1))
+        qdd = np.vstack([np.eye(na), np.zeros(na)])
+        xi = np.where(self.inertial_columns(), np.asarray(x, float), 0.0)
+        tau = (self.regressor(q, np.zeros_like(q), qdd, threads=1) @ xi).reshape(na, na + 1)   # joint-major rows
+        return tau[:, :na] - tau[:, na:]
+
     # -- log signals ----------------------------------------------------------------------------------
     def joint_signals(self, log):
         """Active joint positions [rad] and joint torques [N·m] of a log's motor signals.

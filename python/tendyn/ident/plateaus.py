@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from tendyn.protocols import PLATEAU
+
 
 @dataclass(frozen=True)
 class Plateau:
@@ -84,8 +86,9 @@ def _ls_slope(t, q) -> float:
     return float(np.dot(tc, q - q.mean()) / np.dot(tc, tc))
 
 
-def find_plateaus(t, q, *, window_s: float = 0.04, tol: float = 0.02, min_speed: float = 0.2,
-                  min_duration_s: float = 0.15, trim_s: float = 0.05) -> list[Plateau]:
+def find_plateaus(t, q, *, window_s: float = PLATEAU["window_s"], tol: float = PLATEAU["tol"],
+                  min_speed: float = PLATEAU["min_speed"], min_duration_s: float = PLATEAU["min_duration_s"],
+                  trim_s: float = PLATEAU["trim_s"]) -> list[Plateau]:
     """Constant-speed segments of an encoder signal.
 
     Parameters

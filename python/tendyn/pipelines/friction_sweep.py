@@ -72,22 +72,18 @@ def stroke_means(log, transmission: int, speeds, tol: float = 0.03):
     return np.array(v_out), np.array(c_out)
 
 
-BENT_POSE = (0.0, 0.3, 0.0, 0.8)
-"""Default start [rad]: shoulder flexed and elbow bent (L-EXOS joints 2 and 4), so that gravity loads
-the cables differently in S1 and S2; joints past the fourth start at 0."""
-
-
 def friction_sweep(device: Device | CompiledDevice, transmission: int = 2, speeds=(2.0, 5.0, 10.0, 20.0),
                    q0=None, seed: int = 0, progress=None) -> FrictionSweep:
     """Constant-velocity runs under S1 and S2 (one compiled device for both) of one transmission (1-based)
-    at motor speeds [rad/s] from q0 [rad] (default :data:`BENT_POSE`), and their stroke means."""
+    at motor speeds [rad/s] from q0 [rad] (default: the first pose of the planned test,
+    :func:`tendyn.protocols.plan_test`, with its stroke inside the joint limits), and their stroke means."""
+    from tendyn.protocols import plan_test
+
     device = compile_device(device)
-    if q0 is None:
-        n = device.n_active
-        q0 = np.concatenate([BENT_POSE, np.zeros(max(0, n - len(BENT_POSE)))])[:n]
+    test = plan_test(device, transmission, "S2", speeds, q0=q0, loads=1, strict=False)
     out = FrictionSweep(device.name, transmission)
     for strategy in ("S1", "S2"):
-        run = ex.constant_velocity(device, transmission, speeds, strategy=strategy, q0=q0, seed=seed,
-                                   progress=progress)
+        run = ex.constant_velocity(device, transmission, speeds, strategy=strategy, travel=test.travel,
+                                   q0=test.poses[0], seed=seed, progress=progress)
         out.points[strategy] = stroke_means(run.log, transmission, speeds)
     return out

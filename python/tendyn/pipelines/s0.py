@@ -20,12 +20,12 @@ from .s0_compensation import DEFAULT_UNDERESTIMATION, compensation_summary, fig7
 
 __all__ = ["IDENTIFIED_UNDERESTIMATION", "identification_parts", "run_s0"]
 
-IDENTIFIED_UNDERESTIMATION = 0.7
-"""Under-estimation factor k (C46) when the compensator uses the identified losses. S0's load-independent
-branch law over-estimates the losses of transmission 2 under gravity on the twin (τ̂0 ≈ 2.5 N per branch for a
-nominal 1 N: the reducer and β losses grow with the load the test carries), so k = 0.9, right for the true
-losses, makes the device inject energy into the hand (+0.8 J per cycle measured); k = 0.7 keeps it passive
-(−0.06 J per cycle) at a 62 % reduction (seed 7)."""
+IDENTIFIED_UNDERESTIMATION = DEFAULT_UNDERESTIMATION
+"""Under-estimation factor k (C46) of Fig. 7 when the compensator uses the identified losses: the same as with the
+twin's own losses, since the identification now carries the load-dependent term (c_L, reducer and β losses that
+grow with the load). Without it, τ̂0 absorbed the load of the test and k had to drop to 0.7 to stay passive (62 %
+reduction); with it, k = 0.9 gives 72 % and stays passive (L-EXOS twin, seed 7). ``tendyn export compensator``
+keeps the safer 0.7 by default for a lab's own device (:data:`tendyn.control.compensator.IDENTIFIED_UNDERESTIMATION`)."""
 
 
 def identification_parts(device) -> dict:
@@ -38,6 +38,7 @@ def identification_parts(device) -> dict:
     twin's own losses.
     """
     from tendyn.ident.decomposition import decompose
+    from tendyn.ident.friction_file import friction_document
 
     from .s0_friction import compare_strategies
 
@@ -56,12 +57,13 @@ def identification_parts(device) -> dict:
             row[f"{s.lower()}_coulomb_error_pct"], row[f"{s.lower()}_viscous_error_pct"] = cmp.errors_pct(t, s)
         rows.append(row)
     fits = [cmp.fits[(t, "S2")] for t in cmp.transmissions]
-    dec = decompose(device, [f.coulomb_motor for f in fits], [f.viscous_motor for f in fits])   # C9
+    friction = friction_document(device.name, fits)       # what identify-friction writes: C_m0, ν, c_L
+    dec = decompose(device, [f.coulomb_motor for f in fits], [f.viscous_motor for f in fits],
+                    load_coefficient=friction.get("load_coefficient"))   # C9
     branches = [{"transmission": i + 1, "branch": b, "tau0_N": float(dec.tau0_branch[i, b]),
                  "nu_Ns_m": float(dec.nu_branch[i, b]), "p": float(dec.p[i, b]), "p_prime": float(dec.p_prime[i, b])}
                 for i, nb in enumerate(dec.branches) for b in range(nb)]
-    return {"transmissions": rows, "decomposition": branches,
-            "friction": {"tau0": dec.tau0_branch, "nu": dec.nu_branch},
+    return {"transmissions": rows, "decomposition": branches, "friction": friction,
             "identification": {"strategy_for_compensation": "S2", "error_pct": "RMS over the test speeds of the "
                                "fitted minus true motor friction torque, relative to the true RMS",
                                "decomposition_max_relative_mismatch": dec.max_mismatch()}}

@@ -28,11 +28,79 @@ from tendyn.devices import bundled
 from tendyn.results import Result, format_table, new_figure
 from tendyn.sim.model import sim_model
 
-__all__ = ["Fig7Result", "HandRun", "WallRun", "fig7_experiment", "hand_run", "wall_run", "compensation_summary"]
+__all__ = ["Fig7Result", "HandRun", "HandTask", "WallRun", "fig7_experiment", "hand_run", "hand_task", "wall_run",
+           "compensation_summary"]
 
-Q0_LEXOS = (0.3, 1.6, 0.0, 0.5)
-"""Start pose [rad] of the L-EXOS runs: upper arm raised, elbow slightly bent, the handle 0.36 m from the
-joint-1 axis (inside every joint limit)."""
+HAND_RADIUS = 0.04
+"""Radius of the hand's circle [m] (S0 Fig. 7's few-centimetre circle), at most 15 % of the handle's distance from
+the base so that it stays in a small device's workspace."""
+
+
+@dataclass(frozen=True)
+class HandTask:
+    """Where the hand and wall experiments happen on a device, derived from the device alone.
+
+    q0 : start pose [rad] (the device file's ``home_pose``, else the pose of best handle mobility on a grid of the
+        joint ranges); u, v : orthonormal directions of the circle's plane (base frame) [-]; radius [m];
+        wall_normal : unit normal of the virtual floor, pointing from the wall to the handle [-]
+    """
+
+    q0: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    radius: float
+    wall_normal: np.ndarray
+
+
+def _unit(x) -> np.ndarray:
+    x = np.asarray(x, float)
+    return x / np.linalg.norm(x)
+
+
+def hand_task(device) -> HandTask:
+    """The hand task of any serial cable device (:class:`HandTask`).
+
+    Circle plane: horizontal (⊥ gravity) where the handle moves as freely in it as in its best plane (the smaller
+    singular value of the Jacobian restricted to it at least half that of the Jacobian), with u along the base x
+    axis made horizontal; else the plane of the two leading left singular vectors of the handle Jacobian at q0
+    (a planar device moves in its plane whatever gravity does). Wall: a floor (normal −ĝ) where the handle moves
+    vertically, else normal to the direction the handle moves most easily."""
+    compiled = _device(device)
+    dev = compiled.device
+    handle = _Handle(compiled)
+    lo = np.array([j.lower for j in dev.kinematics.joints], float)
+    hi = np.array([j.upper for j in dev.kinematics.joints], float)
+    if dev.home_pose is not None:
+        q0 = np.array(dev.home_pose, float)
+    else:
+        margin = 0.1 * (hi - lo)
+        levels = [np.linspace(a + m, b - m, 3) for a, b, m in zip(lo, hi, margin)]
+        n = lo.size
+        if 3 ** n <= 729:
+            grid = np.stack([g.ravel() for g in np.meshgrid(*levels, indexing="ij")], axis=1)
+        else:
+            rng = np.random.default_rng(0)
+            grid = np.column_stack([rng.choice(lv, 729) for lv in levels])
+        k = min(2, n)
+        score = [np.linalg.svd(handle(q)[1], compute_uv=False)[k - 1] for q in grid]
+        q0 = grid[int(np.argmax(score))]
+    x0, J = handle(q0)
+    U, S, _ = np.linalg.svd(J)
+    g = np.asarray(dev.kinematics.gravity, float)
+    u, v = U[:, 0], U[:, 1] * (1.0 if S.size > 1 and S[1] > 1e-9 * S[0] else 0.0)
+    normal = U[:, 0]
+    if np.linalg.norm(g) > 0:
+        gh = _unit(g)
+        ex = np.array([1.0, 0.0, 0.0]) - gh[0] * gh
+        hu = _unit(ex if np.linalg.norm(ex) > 1e-6 else np.array([0.0, 1.0, 0.0]) - gh[1] * gh)
+        hv = np.cross(gh, hu) * -1.0
+        Sh = np.linalg.svd(np.vstack([hu, hv]) @ J, compute_uv=False)
+        if S.size > 1 and Sh[-1] >= 0.5 * S[1]:
+            u, v = hu, hv
+        if np.linalg.norm(gh @ J) >= 0.3 * S[0]:
+            normal = -gh
+    radius = min(HAND_RADIUS, 0.15 * float(np.linalg.norm(x0)))
+    return HandTask(q0, u, v, radius, normal)
 
 
 def _device(device):
@@ -62,8 +130,8 @@ class _Handle:
         pin.computeJointJacobians(self.model, self.data, q)
         pin.updateFramePlacements(self.model, self.data)
         x = np.array(self.data.oMf[self.frame].translation)
-        J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:3]
-        return x, np.array(J)
+        J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        return x, np.asarray(J).reshape(6, -1)[:3]   # a 1-joint Jacobian comes back as a vector
 
 
 def _reset(sim, data, q0, seed) -> None:
@@ -142,14 +210,15 @@ def windowed_energy(time: np.ndarray, energy: np.ndarray, window: float, start: 
     return np.diff(values)
 
 
-def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float = 0.04,
+def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float | None = None,
              period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
              hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
-             q0=Q0_LEXOS, seed: int = 7, encoders: str = "quantised", velocity_band: float = DEFAULT_VELOCITY_BAND,
+             q0=None, seed: int = 7, encoders: str = "quantised", velocity_band: float = DEFAULT_VELOCITY_BAND,
              velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ, passivity=None, compensator=None,
              twin_friction_scale: float = 1.0) -> HandRun:
-    """The hand pulls the handle around a horizontal circle (radius [m], period [s]) for ``settle`` seconds
-    of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
+    """The hand pulls the handle around a circle (radius [m], period [s]) in the plane of :func:`hand_task` for
+    ``settle`` seconds of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
+    ``q0`` [rad] and ``radius`` default to the hand task's.
 
     The circle starts at the handle's start position; its radius grows smoothly over ``settle`` so the hand
     does not jerk. RMS and energy are taken over the ``cycles`` closed cycles after ``settle``.
@@ -163,9 +232,11 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     if encoders not in ("quantised", "exact"):
         raise ValueError(f"encoders must be 'quantised' or 'exact' (got {encoders!r})")
     compiled = _device(device)
+    task = hand_task(compiled)
+    radius = task.radius if radius is None else radius
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
-    q0 = np.asarray(q0, float)
+    q0 = task.q0 if q0 is None else np.asarray(q0, float)
     if twin_friction_scale != 1.0:
         from tendyn.pipelines.tracking import scale_twin_friction
 
@@ -203,8 +274,8 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
         a = 3 * u * u - 2 * u ** 3
         da = (6 * u - 6 * u * u) / settle if settle > 0 and u < 1 else 0.0
         c, sn = np.cos(omega * t), np.sin(omega * t)
-        path = x0 + radius * a * np.array([c - 1.0, sn, 0.0])
-        path_v = radius * a * omega * np.array([-sn, c, 0.0]) + radius * da * np.array([c - 1.0, sn, 0.0])
+        path = x0 + radius * a * ((c - 1.0) * task.u + sn * task.v)
+        path_v = radius * a * omega * (-sn * task.u + c * task.v) + radius * da * ((c - 1.0) * task.u + sn * task.v)
         x, J = handle(np.array(data.q))
         f = hand_stiffness * (path - x) + hand_damping * (path_v - J @ np.array(data.qd))
         tau = J.T @ f
@@ -249,28 +320,31 @@ class WallRun:
         return windowed_energy(end_of_period, self.energy_to_hand, window, start)
 
 
-def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *, stiffness: float = 3000.0,
-             damping: float = 0.0, push: float = 0.02, duration: float = 1.5, window: float = 0.5,
-             tolerance: float = 2e-4, hand_stiffness: float = 400.0, hand_damping: float = 2.0,
-             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=Q0_LEXOS, seed: int = 7,
-             friction=None, passivity=None) -> WallRun:
-    """A floor 5 mm below the handle; the hand's target is ``push`` [m] below the floor (it presses with about
-    ``hand_stiffness · push`` newtons). Peak-to-peak height over the last ``window`` seconds tells whether the
-    contact settled (passive) or keeps a limit cycle. ``friction`` and ``passivity`` are the compensator's
-    (:meth:`tendyn.control.Compensator.from_device`); the twin keeps its own losses."""
+def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *, friction=None,
+             stiffness: float = 3000.0, damping: float = 0.0, push: float = 0.02, duration: float = 1.5,
+             window: float = 0.5, tolerance: float = 2e-4, hand_stiffness: float = 400.0, hand_damping: float = 2.0,
+             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=None, seed: int = 7,
+             passivity=None) -> WallRun:
+    """A wall 5 mm from the handle, across the hand task's wall normal (a floor where the handle moves
+    vertically); the hand's target is ``push`` [m] inside it (it presses with about ``hand_stiffness · push``
+    newtons). Peak-to-peak height over the last ``window`` seconds tells whether the contact settled (passive) or
+    keeps a limit cycle. ``friction``: the identified losses the compensator uses (as :func:`hand_run`);
+    ``passivity``: the compensator's passivity controller (:meth:`tendyn.control.Compensator.from_device`)."""
     compiled = _device(device)
+    task = hand_task(compiled)
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
-    q0 = np.asarray(q0, float)
+    q0 = task.q0 if q0 is None else np.asarray(q0, float)
     _reset(sim, data, q0, seed)
     comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
                                    passivity=passivity)
     handle = _Handle(compiled)
     x0, _ = handle(q0)
-    floor = x0[2] - 0.005
-    rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane([0.0, 0.0, 1.0], floor)
+    normal = task.wall_normal
+    floor = float(normal @ x0) - 0.005
+    rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane(normal, floor)
     periods = int(round(duration * control_hz))
-    target = x0 - np.array([0.0, 0.0, 0.005 + push])
+    target = x0 - normal * (0.005 + push)
     time, height, forces = np.arange(periods) / control_hz, np.empty(periods), np.empty((periods, 3))
     to_hand = np.empty(periods)
     block = _Block(sim)
@@ -282,7 +356,7 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
         goal = x0 + u * (target - x0)
         f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.qd))
         block.run(data, torque_motor, J.T @ f)
-        height[s] = x[2] - floor
+        height[s] = float(normal @ x) - floor
         to_hand[s] = -data.work_external
     last = time >= duration - window
     osc = float(np.ptp(height[last]))
@@ -375,7 +449,7 @@ def fig7_experiment(device="lexos", *, underestimation: float = DEFAULT_UNDEREST
     g = hand_run(compiled, 0.0, cycles=cycles, seed=seed, **hand)
     c = hand_run(compiled, underestimation, friction=friction, cycles=cycles, seed=seed, **hand)
     o = [hand_run(compiled, k, friction=friction, cycles=cycles, seed=seed, **hand) for k in over]
-    w = [wall_run(compiled, k, seed=seed) for k in ((underestimation,) + tuple(over))] if walls else []
+    w = [wall_run(compiled, k, friction=friction, seed=seed) for k in ((underestimation,) + tuple(over))] if walls else []
     return Fig7Result(g, c, o, w, device=compiled.name)
 
 

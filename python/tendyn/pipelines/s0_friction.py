@@ -23,20 +23,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tendyn.ident.friction import (FrictionFit, TransmissionFriction, isolated_move_joint_speeds,
-                                   residual_error_bound)
+from tendyn.protocols import DEFAULT_SPEEDS, LOOP_BANDWIDTH_HZ
+from tendyn.ident.friction import FrictionFit, TransmissionFriction, residual_error_bound
 from tendyn.results import Result
 from tendyn.sim import experiments as ex
 
-BENT_POSE = (0.0, 0.3, 0.0, 0.8)
-"""Centre of the strokes [rad] (shoulder flexed, elbow bent: gravity loads the cables)."""
 
-DEFAULT_SPEEDS = (2.0, 4.0, 6.0, 8.0, 10.0)
-"""Motor speeds [rad/s], one forward and one backward pass each (≥ 5 per direction, issue 8)."""
-
-BANDWIDTH_HZ = 12.0
-"""Position-loop bandwidth of the tests [Hz]: at the experiment's default (6 Hz) the integral action
-leaves a speed drift of ~10 % over a short stroke; at 12 Hz the speed is flat within 1 % after ~0.1 s."""
+BANDWIDTH_HZ = LOOP_BANDWIDTH_HZ
+"""Position-loop bandwidth of the tests [Hz] (:data:`tendyn.protocols.LOOP_BANDWIDTH_HZ`)."""
 
 
 # ---- truth ---------------------------------------------------------------------------------------
@@ -82,19 +76,17 @@ def true_global_friction(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, flo
 
 
 def true_global_feedforward(arr, i: int, speeds=DEFAULT_SPEEDS) -> tuple[float, float]:
-    """The same from the core's statics with losses (independent route): motor torque of
-    ``Transmission.feedforward(0, q̇)`` with only joint i moving at r_m q̇_m / r_i^i."""
+    """The same from the core's statics with losses (independent route): the device file's equivalent friction
+    of :func:`tendyn.analysis.handle_maps.equivalent_motor_friction` (``Transmission.feedforward(0, ±q̇)`` with only
+    joint i moving at r_m q̇_m / r_i^i), transmission i (0-based)."""
+    from tendyn.analysis.handle_maps import equivalent_motor_friction
     from tendyn.transmission import Transmission
 
     fields = [k for k in arr if k in ("tau0", "nu", "beta") or k.startswith("bearing_")]
     tr = Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"], arr["reducer_efficiency"],
                                   arr["pretension"], **{k: arr[k] for k in fields if k in arr})
-    n = tr.n
-    torques = []
-    for v in speeds:
-        qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], i, "S2", v)
-        torques.append(float(tr.feedforward(np.zeros(n), qd).torque_motor[i]))
-    return _affine(speeds, torques)
+    coulomb, viscous = equivalent_motor_friction(tr, speeds)
+    return float(coulomb[i]), float(viscous[i])
 
 
 def _upstream(x, sdot, a, b, nu):
@@ -197,6 +189,7 @@ class StrategyComparison(Result):
 
     device: str
     speeds_motor: list
+    speeds_by_transmission: dict = field(default_factory=dict)   # transmission -> planned speeds [rad/s]
     truth: dict = field(default_factory=dict)       # transmission -> (C_m0, ν) at the test's load
     truth_zero_load: dict = field(default_factory=dict)  # transmission -> (C_m0, ν) of eqs. 18–19
     fits: dict = field(default_factory=dict)        # (transmission, strategy) -> FrictionFit
@@ -207,16 +200,18 @@ class StrategyComparison(Result):
         return sorted(self.truth)
 
     def torque_error(self, t: int, strategy: str) -> float:
-        """RMS over the test speeds of |Ĉ(v) − C(v)| [N·m] (the residual error C_m,err of S0 §III)."""
+        """RMS over the test speeds of |Ĉ(v) − C(v)| [N·m] at the test's load (the residual error C_m,err of
+        S0 §III); Ĉ includes the identified load term at the test's mean load."""
         f = self.fits[(t, strategy)]
         c0, nu = self.truth[t]
-        v = np.asarray(self.speeds_motor, float)
-        return float(np.sqrt(np.mean(((f.coulomb_motor - c0) + (f.viscous_motor - nu) * v) ** 2)))
+        v = np.asarray(self.speeds_by_transmission.get(t, self.speeds_motor), float)
+        return float(np.sqrt(np.mean(((f.coulomb_at_load() - c0) + (f.viscous_motor - nu) * v) ** 2)))
 
     def errors_pct(self, t: int, strategy: str) -> tuple[float, float]:
+        """Errors [%] of the Coulomb part at the test's load and of ν against the truth at that load."""
         f = self.fits[(t, strategy)]
         c0, nu = self.truth[t]
-        return 100 * (f.coulomb_motor - c0) / c0, 100 * (f.viscous_motor - nu) / nu
+        return 100 * (f.coulomb_at_load() - c0) / c0, 100 * (f.viscous_motor - nu) / nu
 
     def s2_better(self) -> dict:
         return {t: self.torque_error(t, "S2") < self.torque_error(t, "S1") for t in self.transmissions}
@@ -241,7 +236,8 @@ class StrategyComparison(Result):
     def table(self) -> str:
         h = (f"{'tr':<3}{'strat':<6}{'C_m0 [mN·m]':>12}{'true':>8}{'err %':>8}{'%σ':>7}"
              f"{'ν [mN·m·s]':>12}{'true':>8}{'err %':>8}{'%σ':>7}{'rms err':>10}{'bound':>9}")
-        lines = [f"{self.device}: S0 friction identification, S1 vs S2 (C8); torques in mN·m", h]
+        lines = [f"{self.device}: S0 friction identification, S1 vs S2 (C8); torques in mN·m, C_m0 at the test's "
+                 "load (C_m0 + c_L |C_0|)", h]
         for t in self.transmissions:
             c0, nu = self.truth[t]
             for s in ("S1", "S2"):
@@ -249,7 +245,7 @@ class StrategyComparison(Result):
                 ec, ev = self.errors_pct(t, s)
                 rc, rv = f.rel_std_pct
                 b = self.bounds_truth.get((t, s))
-                lines.append(f"{t:<3}{s:<6}{1e3 * f.coulomb_motor:>12.3f}{1e3 * c0:>8.3f}{ec:>8.1f}{rc:>7.2f}"
+                lines.append(f"{t:<3}{s:<6}{1e3 * f.coulomb_at_load():>12.3f}{1e3 * c0:>8.3f}{ec:>8.1f}{rc:>7.2f}"
                              f"{1e3 * f.viscous_motor:>12.4f}{1e3 * nu:>8.4f}{ev:>8.1f}{rv:>7.2f}"
                              f"{1e3 * self.torque_error(t, s):>10.3f}{'' if b is None else f'{1e3 * b:.3f}':>9}")
         better = self.s2_better()
@@ -274,49 +270,39 @@ class StrategyComparison(Result):
         ax.grid(alpha=0.3, axis="y")
 
 
-def stroke_plan(device, transmission: int, travel_joint: float | None = None, centre=BENT_POSE,
-                max_travel: float = 1.0, margin: float = 0.1, travel_motor: float | None = None):
-    """(q0 [rad], motor travel [rad]) for transmission ``transmission`` (1-based): strokes of
-    ``travel_joint`` [rad] at the driven joint (or ``travel_motor`` [rad] at the motor), centred on
-    ``centre``. Neither given: the longest stroke that stays ``margin`` inside the joint limits, at most
-    ``max_travel`` (longer strokes average more noise)."""
-    arr = device.routing_arrays()
-    j = transmission - 1
-    ratio = arr["K"][j, j] / arr["motor_radius"][j]
-    if travel_motor is not None:
-        travel_joint = travel_motor / ratio
-    n = device.n_joints
-    q0 = np.concatenate([centre, np.zeros(max(0, n - len(centre)))])[:n].astype(float)
-    if travel_joint is None:
-        js = device.kinematics.joints[j]
-        room = 2.0 * min(q0[j] - js.lower, js.upper - q0[j]) - 2.0 * margin
-        travel_joint = max(0.05, min(max_travel, room))
-    q0[j] -= 0.5 * travel_joint
-    return q0, travel_joint * ratio
+def stroke_plan(device, transmission: int, travel_motor: float | None = None, speeds=None):
+    """(q0 [rad], motor travel [rad], speeds [rad/s]) of the test of ``transmission`` (1-based): the first pose,
+    stroke and speeds of the planned test (:func:`tendyn.protocols.plan_test`: the stroke centred in the driven
+    joint's range, the other joints mid-range, at most ``travel_motor``; default speeds scaled down where the
+    stroke is short)."""
+    from tendyn.protocols import plan_test
+
+    test = plan_test(device, transmission, "S2", speeds, travel=travel_motor, loads=1, strict=False)
+    return test.poses[0], test.travel, test.speeds
 
 
-def compare_strategies(device, transmissions=None, speeds=DEFAULT_SPEEDS, travel_joint: float | None = None,
-                       travel_motor: float | None = None,
+def compare_strategies(device, transmissions=None, speeds=None, travel_motor: float | None = None,
                        seed: int = 0, gravity: str = "pairs", rate_hz: float = 10_000.0,
                        bandwidth_hz: float = BANDWIDTH_HZ, progress=None, keep_runs: bool = False):
     """Run S1 and S2 on each transmission, fit, compare with the truth. Returns a
     :class:`StrategyComparison` (and the runs when ``keep_runs``)."""
     transmissions = list(range(1, device.n_transmissions + 1)) if transmissions is None else list(transmissions)
-    out = StrategyComparison(device.name, [float(v) for v in speeds])
+    out = StrategyComparison(device.name, [float(v) for v in (DEFAULT_SPEEDS if speeds is None else speeds)])
     runs = {}
     for t in transmissions:
-        q0, travel = stroke_plan(device, t, travel_joint, travel_motor=travel_motor)
+        q0, travel, sp = stroke_plan(device, t, travel_motor, speeds)
+        out.speeds_by_transmission[t] = list(sp)
         for s in ("S1", "S2"):
-            run = ex.constant_velocity(device, t, speeds, strategy=s, travel=travel, q0=q0, seed=seed,
+            run = ex.constant_velocity(device, t, sp, strategy=s, travel=travel, q0=q0, seed=seed,
                                        rate_hz=rate_hz, bandwidth_hz=bandwidth_hz)
             est = TransmissionFriction(t, gravity=gravity, device=device if gravity != "pairs" else None)
             fit: FrictionFit = est.fit([run.log]).result_
             out.fits[(t, s)] = fit
             arr = truth_arrays(run.truth)
-            out.truth[t] = true_global_at_load(arr, device, t, q0, travel, speeds)
-            out.truth_zero_load[t] = true_global_friction(arr, t - 1, speeds)
+            out.truth[t] = true_global_at_load(arr, device, t, q0, travel, sp)
+            out.truth_zero_load[t] = true_global_friction(arr, t - 1, sp)
             out.bounds_truth[(t, s)] = residual_error_bound(arr["K"], arr["motor_radius"], t - 1, s,
-                                                            arr["tau0"], arr["nu"], max(speeds))
+                                                            arr["tau0"], arr["nu"], max(sp))
             if keep_runs:
                 runs[(t, s)] = run
             if progress:

@@ -73,8 +73,11 @@ class Hypotheses:
         if self.efficiencies == "neglected":
             t = transmission_with_friction(device, friction).to_dict()
             n = t["tau0"].shape[0]
+            source = "device" if friction is None else "identified"
             opts["friction"] = {"tau0": t["tau0"], "nu": t["nu"], "beta": np.zeros((n, n)),
-                                "reducer_efficiency": np.ones(n)}
+                                "reducer_efficiency": np.ones(n),
+                                "sources": {"tau0": source, "nu": source, "beta": "none", "bearings": "none",
+                                            "reducer_efficiency": "none"}}
         return opts
 
 

@@ -86,18 +86,23 @@ class StaticsDemo(Result):
                              "C_m at -speed [N·m]"), rows, f"{self.device}: statics with losses")
 
 
-def statics_demo(device: SerialDevice | CompiledDevice, joints=(0, 3), speed: float = 0.5,
+def statics_demo(device: SerialDevice | CompiledDevice, joints=None, speed: float = 0.5,
                  torque_max: float | None = None, points: int = 201) -> StaticsDemo:
-    """Sweep joint torque for each joint in ``joints`` (0-based) at ±``speed`` [rad/s]."""
+    """Sweep joint torque for each joint in ``joints`` (0-based; default the first and the last joint) at
+    ±``speed`` [rad/s], up to ``torque_max`` [N·m] (default: what half the motor's continuous torque gives at the
+    joint through its own cable)."""
     device = compile_device(device)
     tr = device.transmission
     if tr is None:
         raise ValueError(f"{device.name} has no cable transmissions: statics with losses need [[transmissions]]")
+    joints = sorted({0, tr.n - 1}) if joints is None else joints
+    motors = [t.motor for t in device.device.transmissions]
     demo = StaticsDemo(device.name)
     for j in joints:
         if not 0 <= j < tr.n:
             raise ValueError(f"joint {j + 1} does not exist on {device.name} ({tr.n} joints)")
-        tmax = torque_max if torque_max is not None else 0.7 * tr.K[j, j] / tr.model.motor_radius[j] * 0.5
+        tmax = torque_max if torque_max is not None else \
+            0.5 * motors[j].continuous_torque * tr.K[j, j] / tr.model.motor_radius[j]
         tj = np.linspace(-tmax, tmax, points)
         lossless, pos, neg = (np.empty(points) for _ in range(3))
         for k, t in enumerate(tj):

@@ -23,6 +23,7 @@ from typing import Any, Callable
 import numpy as np
 
 from tendyn.errors import UsageError, flag
+from tendyn.protocols import DEFAULT_LOADS, DEFAULT_SPEEDS
 
 SEED_MAX = 2**64 - 1
 CHAIN_RATE_HZ = (1_000.0, 20_000.0)
@@ -77,8 +78,10 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
     Option("joint", "int", "-", "1-based joint (blocked-link)"),
     Option("strategy", "choice", "-", "S0 identification strategy: S1 holds the other motors, S2 the other "
            "joints (default S2)", choices=("S1", "S2")),
-    Option("speeds", "floats", "rad/s", "motor speeds, comma-separated (default 2,5,10)",
-           lo=0.0, lo_open=True, hi=1_000.0, max_len=50),
+    Option("speeds", "floats", "rad/s", "motor speeds, comma-separated (default 2,4,6,8,10: what "
+           "identify-friction needs)", lo=0.0, lo_open=True, hi=1_000.0, max_len=50),
+    Option("loads", "int", "-", "poses (gravity loads) of a constant-velocity test of a cable device, chosen "
+           "from its limits and gravity model (default 2: the load-dependent friction needs two)", lo=1, hi=10),
     Option("duration", "float", "s", "length of an exciting trajectory or a swept sine (default 20 s)",
            lo=0.0, lo_open=True, hi=86_400.0),
     Option("torque", "float", "N·m or N", "input amplitude: motor torque [N·m] on chains (≤ the motor's peak "
@@ -92,7 +95,7 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
 )}
 
 DEFAULTS: dict[str, Any] = dict(seed=0, log_rate=1_000.0, transmission=1, joint=1, strategy="S2",
-                                speeds=(2.0, 5.0, 10.0), duration=20.0, torque=0.1, period=2.0, cycles=3,
+                                speeds=None, loads=DEFAULT_LOADS, duration=20.0, torque=0.1, period=2.0, cycles=3,
                                 freqs=(1.0, 2.0, 5.0, 10.0), q0=None)
 """Defaults shared by the experiments; rates that depend on the device come from :func:`_device_defaults`."""
 
@@ -111,7 +114,7 @@ class Experiment:
 _CHAIN, _BENCH = "serial", "tendon_bench_2n"
 _TWIN_RATES = ("rate", "control_rate", "log_rate", "seed")
 EXPERIMENTS: dict[tuple[str, str], Experiment] = {(e.kind, e.name): e for e in (
-    Experiment("constant-velocity", _CHAIN, ("transmission", "strategy", "speeds", "q0") + _TWIN_RATES,
+    Experiment("constant-velocity", _CHAIN, ("transmission", "strategy", "speeds", "loads", "q0") + _TWIN_RATES,
                "back-and-forth moves of one transmission at constant motor speeds (S0 §III-A)"),
     Experiment("exciting", _CHAIN, ("duration", "q0") + _TWIN_RATES,
                "triangular + sinusoidal joint trajectories (S2 §VI)"),
@@ -340,9 +343,12 @@ def _check_signal(o: dict, rate: float) -> None:
 def run_length_s(device, experiment: str, o: dict) -> list[float]:
     """Simulated seconds of each run of the experiment (one per frequency for a stepped sine)."""
     if experiment == "constant-velocity":
-        from tendyn.sim.experiments import constant_velocity_duration
+        from tendyn.protocols import constant_velocity_duration, duration_s
 
-        return [constant_velocity_duration(o["speeds"])]
+        test = planned_test(device, o)
+        if test is None:
+            return [constant_velocity_duration(o["speeds"] or DEFAULT_SPEEDS)]
+        return [duration_s(_motor_from_joint(device), test)]
     if experiment in ("stepped-sine",):
         return [o["cycles"] / f for f in o["freqs"]]
     if experiment == "blocked-link":
@@ -394,6 +400,25 @@ def _check_memory(device, exp: Experiment, o: dict) -> None:
                          f"(fewer cycles or speeds, a shorter duration) or lower --rate / --log-rate")
 
 
+def planned_test(device, o: dict):
+    """The constant-velocity test of a cable device planned by :func:`tendyn.protocols.plan_test` from the
+    options (the same rule ``tendyn plan`` and ``identify-friction`` use), or None for a capstan-drive device
+    (its back-and-forth passes from q0 at the given speeds)."""
+    if not getattr(device, "transmissions", None):
+        return None
+    from tendyn.protocols import plan_test
+
+    return plan_test(device, o["transmission"], o["strategy"], o["speeds"], q0=o.get("q0"), loads=o["loads"],
+                     strict=False)
+
+
+def _motor_from_joint(device) -> np.ndarray:
+    """G = R_m⁻¹ K of a cable device (motor from joint positions)."""
+    from tendyn.device import compile_device
+
+    return compile_device(device).transmission.matrices()["motor_from_joint_position"]
+
+
 # ---- running -----------------------------------------------------------------------------------------
 
 def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] | None = None) -> list:
@@ -413,8 +438,11 @@ def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] |
     common = dict(rate_hz=o["rate"], seed=o["seed"], progress=progress)
     twin = dict(control_hz=o.get("control_rate"), log_rate_hz=o.get("log_rate"), **common)
     if experiment == "constant-velocity":
-        return [ex.constant_velocity(device, o["transmission"], o["speeds"], strategy=o["strategy"], q0=q0,
-                                     **twin)]
+        test = planned_test(device, o)
+        if test is not None:
+            return [ex.constant_velocity(device, test=test, **twin)]
+        return [ex.constant_velocity(device, o["transmission"], o["speeds"] or DEFAULT_SPEEDS,
+                                     strategy=o["strategy"], q0=q0, **twin)]
     if experiment == "exciting":
         return [ex.exciting_trajectory(device, duration=o["duration"], q0=q0, **twin)]
     if experiment == "blocked-link":

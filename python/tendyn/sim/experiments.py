@@ -24,6 +24,10 @@ from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.schema import TRANSMISSION_MODEL_FIELDS
 from tendyn.io import to_jsonable
 from tendyn.io.logs import Log, make_log
+from tendyn.protocols import LOOP_BANDWIDTH_HZ, ConstantVelocityTest, references as cv_references
+from tendyn.protocols import check_index as _check_index
+from tendyn.protocols import (constant_velocity_duration, constant_velocity_profile,  # noqa: F401 (API)
+                               constant_velocity_references)
 from tendyn.results import FrequencyResponse
 from tendyn.sim.model import run_log, sim_model
 
@@ -136,39 +140,6 @@ def _run_chunked(m, d, ref_q, ref_qd, ff, ext, log_every, progress, chunks: int 
 
 # ---- reference profiles --------------------------------------------------------------------------
 
-def constant_velocity_duration(speeds, travel: float = 20.0, accel: float = 200.0, dwell: float = 0.1) -> float:
-    """Length [s] of :func:`constant_velocity_profile` (to size a run before it starts)."""
-    total = 0.0
-    for v in speeds:
-        t_acc = v / accel
-        total += 2.0 * (2.0 * t_acc + max(travel - v * t_acc, 0.0) / v + dwell)
-    return total
-
-
-def _check_index(value, n: int, what: str) -> int:
-    """A 1-based index inside 1…n (so that 0 or -1 never wraps to the last entry)."""
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 1 <= value <= n:
-        raise ValueError(f"{what} must be an integer in 1…{n} (got {value!r})")
-    return int(value)
-
-
-def constant_velocity_profile(speeds, travel: float, accel: float, dt: float, dwell: float = 0.1):
-    """Back-and-forth moves at each constant speed (trapezoidal velocity): returns (q, qd).
-
-    speeds [unit/s] > 0, travel [unit] per stroke, accel [unit/s²] for the ramps; its length is
-    :func:`constant_velocity_duration`."""
-    qd = []
-    for v in speeds:
-        t_acc = v / accel
-        cruise = max(travel - v * t_acc, 0.0) / v
-        ramp = np.arange(0.0, t_acc, dt) * accel
-        stroke = np.concatenate([ramp, np.full(int(round(cruise / dt)), v), ramp[::-1],
-                                 np.zeros(int(round(dwell / dt)))])
-        qd += [stroke, -stroke]
-    qd = np.concatenate(qd)
-    return np.cumsum(qd) * dt, qd
-
-
 def triangle_wave(t, freq: float, amplitude: float, phase: float = 0.0):
     """Triangle wave starting at 0 and rising, period 1/freq, ± amplitude: returns (value, slope)."""
     x = 2 * np.pi * (freq * t + phase)
@@ -185,43 +156,13 @@ def triangle_sine_profile(duration: float, dt: float, amplitude: float, f_tri: f
     return tri + s, dtri + ds
 
 
-def constant_velocity_references(motor_from_joint, transmission: int, speeds, strategy: str, travel: float,
-                                 accel: float, q0, dt: float):
-    """References of the S0 constant-velocity test (used by :func:`constant_velocity` and by
-    ``tendyn plan``): returns (ref_q, ref_qd, space), (n_samples, n) on the grid ``dt`` [s].
-
-    S1 — motor space ("motor"): motor ``transmission`` follows the back-and-forth profile, every other motor
-    is held at its start q_m0 = G q0. S2 — joint space ("joint"): joint ``transmission`` moves at the motor
-    speeds scaled by 1/G[j, j] (the motor speed with the other joints still), every other joint is held at q0.
-    motor_from_joint G (n, n) [-] maps joint to motor positions (R_m⁻¹ K); speeds [rad/s], travel [rad]
-    and accel [rad/s²] are on the motor."""
-    Gm = np.asarray(motor_from_joint, float)
-    na = Gm.shape[0]
-    j = _check_index(transmission, na, "transmission") - 1
-    q0 = np.asarray(q0, float)
-    q_prof, qd_prof = constant_velocity_profile(np.asarray(speeds, float), travel, accel, dt)
-    n = q_prof.size
-    if strategy == "S1":
-        ref_q = np.tile(Gm @ q0, (n, 1))
-        ref_qd = np.zeros((n, na))
-        ref_q[:, j] += q_prof
-        ref_qd[:, j] = qd_prof
-        return ref_q, ref_qd, "motor"
-    if strategy == "S2":
-        scale = 1.0 / Gm[j, j]   # joint j speed for motor speed 1 with the other joints still
-        ref_q = np.tile(q0, (n, 1))
-        ref_qd = np.zeros((n, na))
-        ref_q[:, j] += q_prof * scale
-        ref_qd[:, j] = qd_prof * scale
-        return ref_q, ref_qd, "joint"
-    raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
-
-
 # ---- experiments ---------------------------------------------------------------------------------
 
-def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", travel: float = 20.0,
-                      accel: float = 200.0, q0=None, rate_hz: float = 10_000.0, control_hz: float | None = None,
-                      log_rate_hz: float = 1_000.0, seed: int = 0, bandwidth_hz: float = 6.0, progress=None) -> SimRun:
+def constant_velocity(device, transmission: int | None = None, speeds=None, strategy: str = "S2",
+                      travel: float = 20.0, accel: float = 200.0, q0=None, rate_hz: float = 10_000.0,
+                      control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
+                      bandwidth_hz: float = LOOP_BANDWIDTH_HZ, progress=None,
+                      test: ConstantVelocityTest | None = None) -> SimRun:
     """Constant-velocity moves of one transmission (S0 §III-A) at several motor speeds.
 
     Parameters
@@ -231,7 +172,12 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
     strategy : "S1" — every other motor held at zero speed (motor-space PID);
                "S2" — every other joint held at zero speed (joint-space PID)
     travel : motor travel per stroke [rad]
+    test : a planned test (:func:`tendyn.protocols.plan_test`: strokes inside the limits, one or more poses for
+        the load); when given it replaces transmission, speeds, strategy, travel, accel and q0
     """
+    if test is not None:
+        transmission, speeds, strategy = test.transmission, test.speeds, test.strategy
+        travel, accel, q0 = test.travel, test.accel, test.poses[0]
     if strategy not in ("S1", "S2"):
         raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
     device = compile_device(device)   # built once: sim model, PID gains and log share it
@@ -240,7 +186,11 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
     _check_index(transmission, na, "transmission")
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
     Gm = np.array(m.tendon.motor_from_joint_position) if m.drive == _core.DriveKind.Tendon else np.diag(m.ratio)
-    ref_q, ref_qd, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0, m.dt)
+    if test is None:
+        ref_q, ref_qd, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0,
+                                                            m.dt)
+    else:
+        ref_q, ref_qd, space = cv_references(Gm, test, m.dt)
     n = ref_q.shape[0]
     m.mode = _core.ControlMode.MotorPID if space == "motor" else _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz, space=space)
@@ -249,6 +199,8 @@ def constant_velocity(device, transmission: int, speeds, strategy: str = "S2", t
     opts = dict(transmission=transmission, strategy=strategy, speeds_motor=list(map(float, speeds)),
                 travel_motor=travel, accel_motor=accel, q0=q0, bandwidth_hz=bandwidth_hz,
                 rate_hz=rate_hz, control_hz=control_hz)
+    if test is not None:
+        opts.update(test.options())
     return run_on_twin(device, m, q0, ref_q, ref_qd, ff, None, seed=seed, experiment=f"constant_velocity_{strategy}",
                        options=opts, log_rate_hz=log_rate_hz, reference_space=space, progress=progress)
 

@@ -1,0 +1,130 @@
+"""``tendyn export``: the model files a C/C++ controller loads, from a device and its identified friction.
+
+::
+
+    tendyn export compensator DEVICE --friction FRICTION.json [--shares SHARES.json] [--k 0.7] --out X.comp
+    tendyn export transmission DEVICE [--friction FRICTION.json] [--shares SHARES.json] --out X.model
+
+The compensator file is read by ``tendyn_compensator_load`` (C), ``load_compensator_model`` (C++) and
+``tendyn.control.Compensator.load``; the transmission file by ``tendyn_transmission_load``. With ``--friction``
+the identified losses replace every loss term of the device file (one loss model at a time:
+:mod:`tendyn.ident.loss_model`), and the compensator file records each term's source (``section losses``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+import numpy as np
+
+from tendyn.commands import args as conv
+from tendyn.errors import UsageError
+
+KINDS = ("compensator", "transmission")
+CHECK_SPEEDS = (1.0, 5.0)
+"""Motor speeds [rad/s] at which the summary shows the friction the exported model compensates."""
+
+
+def add_arguments(subparsers) -> argparse.ArgumentParser:
+    from tendyn.control.compensator import (DEFAULT_VELOCITY_BAND, DEFAULT_VELOCITY_CUTOFF_HZ,
+                                            IDENTIFIED_UNDERESTIMATION)
+
+    p = subparsers.add_parser("export", help="write the model file a C/C++ controller loads (compensator or "
+                                             "transmission), from a device and its identified friction")
+    p.add_argument("kind", choices=KINDS, help="compensator (.comp, tendyn_compensator_load) or transmission "
+                                               "(.model, tendyn_transmission_load)")
+    p.add_argument("device", help="device file (.toml) or bundled twin name")
+    p.add_argument("--friction", type=conv.existing_file, default=None, metavar="FRICTION.json",
+                   help="identified friction (identify-friction's FRICTION.json or decompose --json); it replaces "
+                        "every loss term of the device file (required for a compensator)")
+    p.add_argument("--shares", type=conv.existing_file, default=None, metavar="SHARES.json",
+                   help="loss shares p, p' per branch (tendyn.shares/1) for the decomposition (default: from the "
+                        "construction)")
+    p.add_argument("--k", type=conv.number(0.0, 1.5), default=IDENTIFIED_UNDERESTIMATION,
+                   help=f"under-estimation factor k in [0, 1.5] of the friction part (default "
+                        f"{IDENTIFIED_UNDERESTIMATION:g}; > 1 over-compensates and can make the device active)")
+    p.add_argument("--velocity-band", type=conv.number(0.0, 1e3, unit="rad/s"), default=DEFAULT_VELOCITY_BAND,
+                   help=f"motor speed below which the friction feedforward fades to 0 [rad/s] (default "
+                        f"{DEFAULT_VELOCITY_BAND:g})")
+    p.add_argument("--velocity-cutoff", type=conv.number(0.0, 1e5, unit="Hz"), default=DEFAULT_VELOCITY_CUTOFF_HZ,
+                   help=f"velocity filter cut-off [Hz] (default {DEFAULT_VELOCITY_CUTOFF_HZ:g})")
+    p.add_argument("--rate", type=conv.number(100.0, 1e5, unit="Hz"), default=1000.0,
+                   help="control rate of the loop that runs the compensator [Hz] (default 1000)")
+    p.add_argument("--out", type=conv.out_path((".comp", ".model", ".txt")), required=True,
+                   help="the model file to write (atomically)")
+    p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
+    p.set_defaults(func=run_export)
+    return p
+
+
+def run_export(args) -> int:
+    from tendyn.commands.s0 import _load_device, _print_json
+    from tendyn.control import Compensator
+    from tendyn.ident.loss_model import LossModelError, identified_losses
+
+    dev = _load_device(args.device)
+    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
+        raise UsageError(f"{dev.name} has no cable transmissions to export", "device")
+    if args.kind == "compensator" and args.friction is None:
+        raise UsageError("a compensator is exported from identified friction (tendyn identify-friction); "
+                         "without it, Compensator.from_device(device).export(path) uses the device file's "
+                         "nominal losses", "friction")
+    if args.shares is not None and args.friction is None:
+        raise UsageError("shares split identified friction: give --friction too", "shares")
+    losses = None
+    try:
+        if args.friction is not None:
+            losses = identified_losses(dev, args.friction, args.shares)
+    except LossModelError as exc:
+        raise UsageError(str(exc)) from None
+    if args.kind == "compensator":
+        comp = Compensator.from_device(dev, friction=args.friction, shares=args.shares, underestimation=args.k,
+                                       velocity_band=args.velocity_band, velocity_cutoff_hz=args.velocity_cutoff,
+                                       rate_hz=args.rate)
+        comp.export(args.out)
+        Compensator.load(args.out, expected_device=dev.name)     # read back: what a C controller will load
+        transmission = losses.transmission(dev)
+    else:
+        from tendyn.device import compile_device
+
+        transmission = losses.transmission(dev) if losses is not None else compile_device(dev).transmission
+        transmission.export(args.out)
+    rows = _summary_rows(dev, losses, transmission)
+    summary = {"out": str(args.out), "kind": args.kind, "device": dev.name,
+               "friction": None if args.friction is None else str(args.friction),
+               "sources": losses.sources if losses is not None else "device", "underestimation": args.k,
+               "friction_at_motor": rows, "units": {"friction_at_motor": "N·m", "speed": "rad/s"}}
+    if args.kind == "compensator" and args.k > 1.0:
+        print(f"tendyn: warning: --k {args.k:g} > 1 over-compensates the identified friction: the device can "
+              "inject energy into the hand (limit cycles on a wall)", file=sys.stderr)
+    if args.json:
+        _print_json(summary)
+    else:
+        print(f"{args.out}: {args.kind} model of {dev.name} ({dev.n_transmissions} transmissions)"
+              + (f", losses identified from {args.friction} (sources: "
+                 + ", ".join(f"{k} {v}" for k, v in losses.sources.items()) + ")" if losses else ", device losses"))
+        for r in rows:
+            print(f"  transmission {r['transmission']}: friction at the motor, zero load "
+                  + ", ".join(f"{r['friction'][k]:.4g} N·m at {v:g} rad/s" for k, v in enumerate(CHECK_SPEEDS)))
+    return 0
+
+
+def _summary_rows(dev, losses, transmission) -> list[dict]:
+    """Friction [N·m] the exported transmission puts at each motor moving alone at CHECK_SPEEDS, zero load."""
+    from tendyn.ident.friction import isolated_move_joint_speeds
+
+    arr = dev.routing_arrays()
+    rows = []
+    for j in range(dev.n_transmissions):
+        f = []
+        for v in CHECK_SPEEDS:
+            qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], j, "S2", v)
+            f.append(float(transmission.feedforward(np.zeros(dev.n_transmissions), qd).torque_motor[j]))
+        rows.append({"transmission": j + 1, "speeds": list(CHECK_SPEEDS), "friction": f})
+    return rows
+
+
+def register(subparsers) -> None:
+    add_arguments(subparsers)
+

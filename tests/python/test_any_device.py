@@ -1,0 +1,104 @@
+"""A lab's own cable device, end to end (issue 17, items 1, 2, 4 and 5; C7, C9, C10, C11): every S0 command on
+device files the tests generate (1, 2, 3 and 6 transmissions, planar and spatial, with and without bearings), each
+stage handing over to the next through its file — plan → simulate → identify-friction → decompose → export →
+the C/C++ loader — never by hand."""
+
+import json
+
+import numpy as np
+import pytest
+
+from device_gen import write_cable_device
+from tendyn.cli import main
+from tendyn.control import Compensator
+from tendyn.device import load_device
+from tendyn.io import read_log
+
+CASES = [(1, True, False), (2, True, True), (3, False, True), (6, True, False), (6, False, True)]
+
+
+@pytest.fixture(scope="module", params=CASES, ids=lambda c: f"n{c[0]}-{'planar' if c[1] else 'spatial'}"
+                                                           f"{'-bearings' if c[2] else ''}")
+def chain(request, tmp_path_factory):
+    """The S0 chain run through the command line on one generated device: the paths of every stage's file."""
+    n, planar, bearings = request.param
+    d = tmp_path_factory.mktemp(f"dev{n}")
+    dev = write_cable_device(d, n, planar=planar, bearings=bearings, seed=10 + n)
+    logs = []
+    for t in range(1, n + 1):
+        ref, log = d / f"ref{t}.csv", d / f"t{t}.parquet"
+        assert main(["plan", "constant-velocity", str(dev), "--transmission", str(t), "--out", str(ref)]) == 0
+        assert main(["simulate", str(dev), "constant-velocity", "--transmission", str(t), "--quiet",
+                     "--out", str(log)]) == 0
+        logs.append(log)
+    friction = d / "friction.json"
+    assert main(["identify-friction", str(dev), *map(str, logs), "--out", str(friction)]) == 0
+    comp = d / "x.comp"
+    assert main(["export", "compensator", str(dev), "--friction", str(friction), "--out", str(comp)]) == 0
+    return dict(n=n, dev=dev, refs=[d / f"ref{t}.csv" for t in range(1, n + 1)], logs=logs, friction=friction,
+                comp=comp, folder=d)
+
+
+def test_plan_and_simulate_make_the_same_test_inside_the_limits(chain):
+    """Item 2: what plan writes is what the twin runs with the same defaults; every reference stays inside the
+    joint limits and there are two poses wherever gravity changes the load."""
+    device = load_device(chain["dev"])
+    lims = np.array([[j.lower, j.upper] for j in device.kinematics.joints])
+    for ref, log in zip(chain["refs"], chain["logs"]):
+        r, lg = read_log(ref), read_log(log)
+        assert r.meta["options"]["poses"] == lg.meta["options"]["poses"]
+        assert r.meta["options"]["travel_motor"] == lg.meta["options"]["travel_motor"]
+        q = r.stack("q_ref_")
+        assert np.all(q >= lims[:, 0] - 1e-9) and np.all(q <= lims[:, 1] + 1e-9)
+        assert np.all(lg.stack("q_motor_") == lg.stack("q_motor_"))     # finite, the twin ran the whole test
+
+
+def test_identified_friction_is_near_the_twins_truth(chain):
+    """C7 on generated devices: every transmission identified from the logs alone (no truth read); the friction
+    at the test's load within 15 % of the twin's at 5 rad/s, plus the S2 residual-error bound of the held distal
+    cables that cross its joint (ERRATA eq. 15, computed by identify-friction from the identified values)."""
+    from tendyn.pipelines.s0_friction import true_global_at_load, truth_arrays
+    from tendyn.io import truth_path
+
+    device = load_device(chain["dev"])
+    doc = json.loads(chain["friction"].read_text())
+    assert doc["device"] == device.name and doc["n_transmissions"] == chain["n"]
+    for t, log in enumerate(chain["logs"], start=1):
+        truth = json.loads(truth_path(log).read_text())
+        lg = read_log(log)
+        opts = lg.meta["options"]
+        c0, nu = true_global_at_load(truth_arrays(truth), device, t, np.array(opts["poses"][0]),
+                                     opts["travel_motor"], opts["speeds_motor"], route="core")
+        fit = doc["fits"][t - 1]
+        load = np.mean(np.abs(opts["load_motor"][:1]))
+        est = fit["coulomb_motor"] + fit["load_coefficient"] * load + 5.0 * fit["viscous_motor"]
+        want = c0 + 5.0 * nu
+        assert abs(est - want) <= 0.15 * want + (fit["residual_bound"] or 0.0), (t, fit, c0, nu)
+
+
+def test_decompose_and_export_hand_over(chain, capsys):
+    """Items 3 and 5: decompose reads the FRICTION.json identify-friction wrote, reproducing it (eqs. 18–19, C9);
+    the exported compensator loads in the core with every loss term identified or none, for this device only."""
+    assert main(["decompose", str(chain["dev"]), str(chain["friction"]), "--json"]) == 0
+    dec = json.loads(capsys.readouterr().out)
+    assert dec["format"] == "tendyn.decomposition/1" and dec["max_relative_mismatch"] < 1e-9
+    device = load_device(chain["dev"])
+    comp = Compensator.load(chain["comp"], expected_device=device.name)
+    assert comp.n == chain["n"] and "device" not in comp.loss_sources.values()
+    with pytest.raises(ValueError, match="expected 'L-EXOS'"):
+        Compensator.load(chain["comp"], expected_device="L-EXOS")
+
+
+def test_demo_and_pipeline_s0_run(chain, tmp_path, capsys):
+    """Item 1: demo and pipeline s0 (quick) on the generated device: no L-EXOS constant in the way."""
+    assert main(["demo", str(chain["dev"]), "--out", str(tmp_path / "demo")]) == 0
+    assert (tmp_path / "demo" / "statics_with_losses.png").exists()
+    capsys.readouterr()
+    rc = main(["pipeline", "s0", str(chain["dev"]), "--quick", "--json"])
+    out = capsys.readouterr().out
+    assert rc in (0, 1), out        # 1 = the C11 check (> 50 %) failed on this device: a result, not a crash
+    doc = json.loads(out)
+    comp = doc["compensation"]
+    assert len(doc["transmissions"]) == chain["n"]
+    assert comp["energy_to_hand_per_cycle"] <= 0.0, comp         # passive (C10, C46)
+    assert comp["rms_joint1_compensated"] < comp["rms_joint1_gravity_only"], comp
