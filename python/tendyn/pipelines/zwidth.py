@@ -2,9 +2,11 @@
 at its control rate, found on its twin, with and without compensation and with the passivity controller.
 
 One grid point (:func:`zwidth_point`): the twin of a serial cable-driven device (torque mode, its own losses,
-quantised motor encoders) starts at rest with the handle ``gap`` above a floor rendered through the compensator
-(:class:`tendyn.control.Renderer`, ``K_st = K``, ``K_d = B``); a constant hand force ``push`` [N] presses the
-handle down (a conservative load: any energy growth comes from the device and its controller). The twin runs
+quantised motor encoders) starts at rest at the device's hand-task pose with the handle ``gap`` from a wall across
+the hand task's wall normal (:func:`tendyn.pipelines.s0_compensation.hand_task`: a floor where the handle moves
+vertically), rendered through the compensator (:class:`tendyn.control.Renderer`, ``K_st = K``, ``K_d = B``); a
+constant hand force ``push`` [N] presses the handle in (a conservative load: any energy growth comes from the
+device and its controller). The twin runs
 ``horizon`` seconds.
 
 Stability criterion (stated once, here, and tested): split the run after the impact into the middle and the
@@ -53,19 +55,25 @@ def is_stable(height: np.ndarray, tolerance: float) -> tuple[bool, float, float]
     return not unstable, p_last, float(growth)
 
 
-def _start_pose(compiled) -> np.ndarray:
-    """Middle of every joint's range [rad] (any device, no bundled constant)."""
-    return np.array([0.5 * (j.lower + j.upper) for j in compiled.device.kinematics.joints], float)
+def _task(compiled, q0=None, normal=None) -> tuple[np.ndarray, np.ndarray]:
+    """Start pose [rad] and wall normal (unit, base frame) of the hand task, unless given."""
+    if q0 is None or normal is None:
+        from tendyn.pipelines.s0_compensation import hand_task
+
+        task = hand_task(compiled)
+        q0 = task.q0 if q0 is None else q0
+        normal = task.wall_normal if normal is None else normal
+    return np.asarray(q0, float), np.asarray(normal, float)
 
 
 def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_text: str | None = None,
                  mode: str = "compensated", push: float = 10.0, gap: float = 0.001, horizon: float = 0.6,
                  tolerance: float = 1e-4, rate_hz: float = 10_000.0, control_hz: float | None = None,
-                 q0=None, seed: int = 7) -> dict:
+                 q0=None, normal=None, seed: int = 7) -> dict:
     """One (K [N/m], B [N·s/m]) point on the twin; plain in, plain out (a Dask task).
 
     ``compensator_text`` is a compensator model file's text (None: :meth:`Compensator.from_device` defaults);
-    ``mode`` one of :data:`MODES`. Returns K, B, mode, stable, oscillation [m] (last third), growth [-],
+    ``mode`` one of :data:`MODES`; ``q0`` [rad] and the wall ``normal`` default to the hand task's. Returns K, B, mode, stable, oscillation [m] (last third), growth [-],
     penetration [m] (mean depth in the last third), energy_to_hand_last [J] (work on the hand in the last third).
     """
     from tendyn import _core
@@ -90,14 +98,14 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
         comp = comp.with_settings(passivity=passivity_model(compiled, rate_hz=control_hz))
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
-    q0 = _start_pose(compiled) if q0 is None else np.asarray(q0, float)
+    q0, normal = _task(compiled, q0, normal)
     _reset(sim, data, q0, seed)
     chain = comp.model.chain
     cdata = _core.ChainData(chain)
     _core.chain_forward_kinematics(chain, cdata, q0)
-    floor = float(cdata.ee_position[2]) - gap
-    rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane([0.0, 0.0, 1.0], floor)
-    force = np.array([0.0, 0.0, -float(push)])
+    floor = float(normal @ cdata.ee_position) - gap
+    rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane(normal, floor)
+    force = -float(push) * normal
     periods = int(round(horizon * control_hz))
     height, to_hand = np.empty(periods), np.empty(periods)
     block = _Block(sim)
@@ -105,7 +113,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
         torque_motor = rend.cycle(_encoders(sim, data))
         _core.chain_forward_kinematics(chain, cdata, np.array(data.q))
         block.run(data, torque_motor, np.asarray(cdata.ee_jacobian).T @ force)
-        height[s] = cdata.ee_position[2] - floor
+        height[s] = float(normal @ cdata.ee_position) - floor
         to_hand[s] = -data.work_external
         if not np.isfinite(height[s]) or abs(height[s]) > 1.0:   # thrown off: unstable, stop early
             height[s:] = height[s] if np.isfinite(height[s]) else 1.0
@@ -118,10 +126,11 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
             "energy_to_hand_last": float(to_hand[-1] - to_hand[2 * periods // 3])}
 
 
-def reflected_damping(device: Any, viscous, *, q0=None) -> float:
-    """Motor viscous damping ``viscous`` (n) [N·m·s/rad] seen at the handle along the wall normal z [N·s/m]: the
-    least-damped joint motion that moves the handle at 1 m/s along z, min q̇ᵀ B_q q̇ subject to J_z q̇ = 1, is
-    1 / (J_z B_q⁻¹ J_zᵀ), B_q = R⁻ᵀ diag(viscous) R⁻¹ with q̇ = R q̇_m (R the joint-from-motor map)."""
+def reflected_damping(device: Any, viscous, *, q0=None, normal=None) -> float:
+    """Motor viscous damping ``viscous`` (n) [N·m·s/rad] seen at the handle along the wall normal n [N·s/m]: the
+    least-damped joint motion that moves the handle at 1 m/s along n, min q̇ᵀ B_q q̇ subject to J_n q̇ = 1
+    (J_n = nᵀ J), is 1 / (J_n B_q⁻¹ J_nᵀ), B_q = R⁻ᵀ diag(viscous) R⁻¹ with q̇ = R q̇_m (R the joint-from-motor
+    map). ``q0`` and ``normal`` default to the hand task's."""
     from tendyn import _core
     from tendyn.control import chain_model
     from tendyn.device import compile_device
@@ -131,13 +140,14 @@ def reflected_damping(device: Any, viscous, *, q0=None) -> float:
     Bq = motor_from_joint.T @ np.diag(np.asarray(viscous, float)) @ motor_from_joint
     chain = chain_model(compiled)
     cdata = _core.ChainData(chain)
-    _core.chain_forward_kinematics(chain, cdata, _start_pose(compiled) if q0 is None else np.asarray(q0, float))
-    jz = np.asarray(cdata.ee_jacobian)[2]
+    q0, normal = _task(compiled, q0, normal)
+    _core.chain_forward_kinematics(chain, cdata, q0)
+    jz = normal @ np.asarray(cdata.ee_jacobian)
     x = np.linalg.lstsq(Bq + 1e-12 * np.eye(len(jz)), jz, rcond=None)[0]
     return float(1.0 / (jz @ x))
 
 
-def colgate_damping(device: Any, compensator_text: str | None = None, *, q0=None) -> dict:
+def colgate_damping(device: Any, compensator_text: str | None = None, *, q0=None, normal=None) -> dict:
     """Colgate's b [N·s/m] per mode: the device's viscous friction at the handle along the normal (its own
     losses, :func:`tendyn.control.dissipation_bound` with margin 1, :func:`reflected_damping`), less what each
     mode's compensator returns of it: gravity b; compensated max(0, 1 − k) b; passivity the larger of that and
@@ -148,14 +158,16 @@ def colgate_damping(device: Any, compensator_text: str | None = None, *, q0=None
 
     compiled = compile_device(device)
     _, viscous = dissipation_bound(compiled, margin=1.0)
-    b = reflected_damping(compiled, viscous, q0=q0)
+    q0, normal = _task(compiled, q0, normal)
+    b = reflected_damping(compiled, viscous, q0=q0, normal=normal)
     model = (Compensator.from_device(compiled).model if compensator_text is None
              else _core.parse_compensator_model(compensator_text, "compensator", compiled.name))
     k = model.underestimation
     pc = model.passivity if model.passivity.enabled else passivity_model(compiled, rate_hz=model.rate_hz)
     compensated = max(0.0, 1.0 - k) * b
     return {"gravity": b, "compensated": compensated,
-            "passivity": max(compensated, b - reflected_damping(compiled, pc.dissipation_viscous, q0=q0))}
+            "passivity": max(compensated, b - reflected_damping(compiled, pc.dissipation_viscous, q0=q0,
+                                                                normal=normal))}
 
 
 @dataclass(eq=False)
@@ -271,13 +283,15 @@ def run_zwidth(device: Any, *, stiffness: Sequence[float] | None = None, damping
     bs = np.linspace(*DEFAULT_DAMPING[:2], DEFAULT_DAMPING[2]) if damping is None else np.asarray(damping, float)
     tasks = [(m, float(k), float(b)) for m in modes for k in ks for b in bs]
     dev = compiled.device
+    point["q0"], point["normal"] = _task(compiled, point.get("q0"), point.get("normal"))
     if scheduler == "none":
         rows = [zwidth_point(dev, k, b, mode=m, compensator_text=compensator_text, **point) for m, k, b in tasks]
         where = "in process"
     else:
         rows, where = _on_dask(dev, tasks, compensator_text, point, scheduler, n_workers, progress, client)
     return ZWidthResult(compiled.name, _rate(compiled, compensator_text, point), rows, ks, bs, tuple(modes),
-                        colgate_damping(compiled, compensator_text, q0=point.get("q0")), CRITERION, where)
+                        colgate_damping(compiled, compensator_text, q0=point["q0"], normal=point["normal"]),
+                        CRITERION, where)
 
 
 def _rate(compiled, compensator_text, point) -> float:
