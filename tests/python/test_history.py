@@ -1,4 +1,4 @@
-"""Calibration history (tendyn.io.history, `tendyn history`, `--record`): records keyed by the device file's hash
+"""Calibration history (tendyn.ident.history, `tendyn history`, `--record`): records keyed by the device file's hash
 and the date, drift beyond 3σ between consecutive records, schema versions migrated, CSV/Parquet/plot exports."""
 
 import json
@@ -11,7 +11,7 @@ import pytest
 
 from tendyn.device import load_device
 from tendyn.devices import bundled
-from tendyn.io import history as hist
+from tendyn.ident import history as hist
 
 
 def _friction_doc(c0, nu, sigma=0.002):

@@ -342,7 +342,7 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
     assert streamed["method"] == "ols+stream" and len(streamed["params"]) == len(doc["params"])
     db = tmp_path / "history.sqlite"                  # --record: the base parameters and σ in the history
     assert main(["identify", "tx40", str(log), "--out", str(out), "--record", "--db", str(db), "--quiet"]) == 0
-    from tendyn.io.history import history
+    from tendyn.ident.history import history
 
     recorded = {r["name"]: (r["value"], r["sigma"]) for r in history(load_device(bundled("tx40")), db=db).rows}
     assert recorded == {p["name"]: (p["value"], p["stderr"]) for p in json.loads(out.read_text())["params"]}

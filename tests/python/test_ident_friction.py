@@ -426,7 +426,7 @@ def test_cli_main_runs_the_commands_one_line_errors(comparison, tmp_path, capsys
 def test_identify_friction_record_adds_the_fit_to_the_calibration_history(comparison, tmp_path, capsys):
     """`--record --db`: the identified C_m0 and ν of every transmission, with their σ, are in the history."""
     from tendyn.cli import main
-    from tendyn.io.history import history
+    from tendyn.ident.history import history
 
     cmp, runs = comparison
     paths = [str(write_log(runs[(t, "S2")].log, tmp_path / f"t{t}.parquet")) for t in range(1, 5)]

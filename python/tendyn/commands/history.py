@@ -1,5 +1,5 @@
 """`tendyn history DEVICE [--db PATH] [--parameter NAME]... [--csv OUT.csv] [--parquet OUT.parquet] [--plot OUT.png]
-[--json]`: a device's calibration history (:mod:`tendyn.io.history`)."""
+[--json]`: a device's calibration history (:mod:`tendyn.ident.history`)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def check_record(args) -> None:
         if getattr(args, "db", None):
             raise UsageError("--db needs --record", "db")
         return
-    from tendyn.io.history import connect
+    from tendyn.ident.history import connect
 
     try:
         connect(args.db).close()
@@ -33,7 +33,7 @@ def check_record(args) -> None:
 def record_result(args, device, kind: str, doc: dict, source: str) -> None:
     """Record ``doc`` when ``--record`` was given (checked by :func:`check_record` first)."""
     if getattr(args, "record", False):
-        from tendyn.io.history import record
+        from tendyn.ident.history import record
 
         record(device, kind, doc, db=args.db, source=source)
 
@@ -66,7 +66,7 @@ def _check_out(path: str | None, suffix: str, option: str) -> Path | None:
 def run(args) -> int:
     from tendyn.cli import _load, _print_json
     from tendyn.io import atomic_write_bytes, atomic_write_text, save_png
-    from tendyn.io.history import history
+    from tendyn.ident.history import history
 
     dev = _load(args.device)
     csv, parquet = _check_out(args.csv, ".csv", "csv"), _check_out(args.parquet, ".parquet", "parquet")
