@@ -78,7 +78,6 @@ void expose_compensator(nb::module_& m) {
       .def_rw("scale_min", &TM::scale_min)
       .def_rw("scale_max", &TM::scale_max)
       .def_rw("covariance_max", &TM::covariance_max)
-      .def_rw("regression_cutoff_hz", &TM::regression_cutoff_hz)
       .def("first_issue", &TM::first_issue);
   nb::class_<TD>(m, "FrictionTrackingData")
       .def_ro("scale_constant", &TD::scale_constant)

@@ -215,22 +215,16 @@ inline Status friction_tracking_step(const CompensatorModel& m, CompensatorData&
   const int n = m.transmission.n;
   FrictionTrackingData& t = d.tracking;
   const FrictionTrackingModel& fm = m.tracking;
-  const double beta = fm.regression_cutoff_hz > 0.0
-                          ? 1.0 - std::exp(-6.283185307179586 * fm.regression_cutoff_hz * m.period())
-                          : 1.0;  // computed per cycle: one exp, no state to keep in sync with the model
   for (int i = 0; i < n; ++i) {
     const double a_raw = t.has_prev ? (d.qd_motor(i) - t.velocity_prev(i)) * m.rate_hz : 0.0;
     t.acceleration(i) += d.filter_alpha * (a_raw - t.acceleration(i));
     t.residual(i) = 0.0;
-    if (!t.has_prev) continue;
-    const double raw[3] = {t.torque_motor_prev(i) - t.gravity_motor_prev(i), t.regressor_prev(i),
-                           t.regressor_prev(n + i)};
-    for (int k = 0; k < 3; ++k) t.filtered(i, k) += beta * (raw[k] - t.filtered(i, k));
-    if (!d.tracking_active) continue;
+    if (!t.has_prev || !d.tracking_active) continue;
+    const double phi_c = t.regressor_prev(i), phi_v = t.regressor_prev(n + i);
     if (std::abs(t.velocity_prev(i)) < fm.velocity_min || std::abs(t.acceleration(i)) > fm.acceleration_max ||
-        std::abs(raw[1]) + std::abs(raw[2]) < 1e-9)
+        std::abs(phi_c) + std::abs(phi_v) < 1e-9)
       continue;  // no information: near rest, accelerating, or nothing to scale
-    friction_tracking_update(fm, t, i, t.filtered(i, 1), t.filtered(i, 2), t.filtered(i, 0));
+    friction_tracking_update(fm, t, i, phi_c, phi_v, t.torque_motor_prev(i) - t.gravity_motor_prev(i));
   }
   const Status s = motor_torque_feedforward(t.constant_model, t.constant_data, d.torque_joint, d.qd);
   if (is_error(s)) return s;

@@ -46,7 +46,6 @@
 //     scale_min 0.2                          bounds of the tracked scales [-]
 //     scale_max 3
 //     covariance_max 1                       bound on trace(P) [-]
-//     regression_cutoff_hz 0                 low-pass on the regression [Hz]
 //
 // Section losses records one loss model at a time (CompensatorModel::loss_source): identified and device terms
 // never mix, and a term recorded as none must be lossless in the transmission part; a file that breaks this is
@@ -145,7 +144,6 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
     line("scale_min", &t.scale_min, 1);
     line("scale_max", &t.scale_max, 1);
     line("covariance_max", &t.covariance_max, 1);
-    line("regression_cutoff_hz", &t.regression_cutoff_hz, 1);
   }
   return out;
 }
@@ -174,9 +172,9 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
                                      "prismatic", "mass", "com", "ee_joint", "ee_point"};
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
   static const char* pass_keys[] = {"enabled", "dissipation_coulomb", "dissipation_viscous", "reserve", "damping_max"};
-  static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min",   "acceleration_max",
-                                     "scale_min", "scale_max",  "covariance_max", "regression_cutoff_hz"};
-  constexpr int n_chain = 11, n_comp = 4, n_pass = 5, n_track = 8;
+  static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min", "acceleration_max",
+                                     "scale_min", "scale_max",  "covariance_max"};
+  constexpr int n_chain = 11, n_comp = 4, n_pass = 5, n_track = 7;
   int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0}, track_seen[n_track] = {0};
   static const char* section_names[] = {"", "chain", "compensator", "losses", "passivity", "tracking"};
   int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 losses, 4 passivity, 5 tracking
@@ -283,8 +281,8 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
         t.enabled = values[0] == 1.0;
         continue;
       }
-      double* dst[] = {nullptr,      &t.forgetting, &t.velocity_min,   &t.acceleration_max,
-                       &t.scale_min, &t.scale_max,  &t.covariance_max, &t.regression_cutoff_hz};
+      double* dst[] = {nullptr,      &t.forgetting, &t.velocity_min,  &t.acceleration_max,
+                       &t.scale_min, &t.scale_max,  &t.covariance_max};
       *dst[idx] = values[0];
       continue;
     }

@@ -39,8 +39,6 @@ struct FrictionTrackingModel {
   double scale_min = 0.2;         ///< bounds of both scales σ [-]
   double scale_max = 3.0;
   double covariance_max = 1.0;    ///< bound on trace(P) [-] (anti-wind-up), also the initial P = p_max / 2 · I
-  double regression_cutoff_hz = 0.0; ///< first-order low-pass on y and φ alike [Hz] (0 = none): averages the
-                                     ///< inertia and controller ripple out, keeps y = φᵀθ exact for constant θ
 
   std::string first_issue() const {
     if (!enabled) return std::string();
@@ -57,8 +55,7 @@ struct FrictionTrackingModel {
       return "tracking.scale_min / scale_max: the identified model (scale 1) must lie inside";
     if (!(covariance_max > 0.0 && std::isfinite(covariance_max)))
       return "tracking.covariance_max = " + format_double(covariance_max) + ": must be finite and > 0";
-    if (!(regression_cutoff_hz >= 0.0 && std::isfinite(regression_cutoff_hz)))
-      return "tracking.regression_cutoff_hz = " + format_double(regression_cutoff_hz) + ": must be finite and >= 0 [Hz]";
+
     return std::string();
   }
 };
@@ -78,7 +75,6 @@ struct FrictionTrackingData {
   Eigen::VectorXd velocity_prev;     ///< motor velocity of the last cycle [rad/s]
   Eigen::VectorXd acceleration;      ///< filtered motor acceleration [rad/s²]
   Eigen::VectorXd residual;          ///< y − φᵀθ of the last update [N·m] (0 without an update)
-  Eigen::MatrixXd filtered;          ///< (n, 3): low-passed y, φ_c, φ_v [N·m]
   Eigen::VectorXi updates;           ///< updates per transmission since reset
   bool has_prev = false;
   double covariance_initial = 0.5;   ///< P_i = covariance_initial · I after reset (p_max / 2)
@@ -94,7 +90,6 @@ struct FrictionTrackingData {
     friction_constant = friction_viscous = Eigen::VectorXd::Zero(n);
     regressor_prev = Eigen::VectorXd::Zero(2 * n);
     gravity_motor_prev = torque_motor_prev = velocity_prev = acceleration = residual = Eigen::VectorXd::Zero(n);
-    filtered = Eigen::MatrixXd::Zero(n, 3);
     updates = Eigen::VectorXi::Zero(n);
     covariance_initial = 0.5 * fm.covariance_max;
     reset();
@@ -110,7 +105,6 @@ struct FrictionTrackingData {
     }
     acceleration.setZero();
     residual.setZero();
-    filtered.setZero();
     updates.setZero();
     has_prev = false;
   }

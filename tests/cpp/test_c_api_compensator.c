@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
     strcat(text, "section passivity 1\nenabled 1\ndissipation_coulomb 0.001 0.001 0.001 0.001\n"
                  "dissipation_viscous 0 0 0 0\nreserve 0\ndamping_max 0.05\n"
                  "section tracking 1\nenabled 1\nforgetting 0.999\nvelocity_min 1\nacceleration_max 1000\n"
-                 "scale_min 0.2\nscale_max 3\ncovariance_max 1\nregression_cutoff_hz 0\n");
+                 "scale_min 0.2\nscale_max 3\ncovariance_max 1\n");
     const char* path = "test_c_api_passivity.comp";
     FILE* out = fopen(path, "w");
     EXPECT(out != NULL);
