@@ -6,8 +6,7 @@ quantised motor encoders) starts at rest at the device's hand-task pose with the
 the hand task's wall normal (:func:`tendyn.pipelines.s0_compensation.hand_task`: a floor where the handle moves
 vertically), rendered through the compensator (:class:`tendyn.control.Renderer`, ``K_st = K``, ``K_d = B``); a
 constant hand force ``push`` [N] presses the handle in (a conservative load: any energy growth comes from the
-device and its controller). The twin runs
-``horizon`` seconds.
+device and its controller). The twin runs ``horizon`` seconds.
 
 Stability criterion (stated once, here, and tested): split the run after the impact into the middle and the
 last third of the horizon; the wall is **unstable** when the handle height still oscillates in the last third
@@ -33,7 +32,7 @@ import numpy as np
 from tendyn.results import Result, format_table
 
 __all__ = ["MODES", "ZWidthResult", "zwidth_point", "is_stable", "run_zwidth", "colgate_damping",
-           "DEFAULT_STIFFNESS", "DEFAULT_DAMPING"]
+           "reflected_damping", "DEFAULT_STIFFNESS", "DEFAULT_DAMPING"]
 
 MODES = ("gravity", "compensated", "passivity")
 """gravity: k = 0 (gravity compensation only); compensated: the compensator as given, controller off;
@@ -73,8 +72,9 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     """One (K [N/m], B [N·s/m]) point on the twin; plain in, plain out (a Dask task).
 
     ``compensator_text`` is a compensator model file's text (None: :meth:`Compensator.from_device` defaults);
-    ``mode`` one of :data:`MODES`; ``q0`` [rad] and the wall ``normal`` default to the hand task's. Returns K, B, mode, stable, oscillation [m] (last third), growth [-],
-    penetration [m] (mean depth in the last third), energy_to_hand_last [J] (work on the hand in the last third).
+    ``mode`` one of :data:`MODES`; ``q0`` [rad] and the wall ``normal`` default to the hand task's. Returns K, B,
+    mode, stable, oscillation [m] (last third), growth [-], penetration [m] (mean depth in the last third),
+    energy_to_hand_last [J] (work on the hand in the last third).
     """
     from tendyn import _core
     from tendyn.control import Compensator, Renderer, passivity_model
@@ -151,7 +151,8 @@ def colgate_damping(device: Any, compensator_text: str | None = None, *, q0=None
     """Colgate's b [N·s/m] per mode: the device's viscous friction at the handle along the normal (its own
     losses, :func:`tendyn.control.dissipation_bound` with margin 1, :func:`reflected_damping`), less what each
     mode's compensator returns of it: gravity b; compensated max(0, 1 − k) b; passivity the larger of that and
-    b − b_pc (the controller lets the compensator give back at most its certified viscous bound b_pc)."""
+    the b of the motor viscous friction less the controller's certified viscous bound (the compensator may give
+    back at most that bound)."""
     from tendyn import _core
     from tendyn.control import Compensator, dissipation_bound, passivity_model
     from tendyn.device import compile_device
@@ -165,9 +166,9 @@ def colgate_damping(device: Any, compensator_text: str | None = None, *, q0=None
     k = model.underestimation
     pc = model.passivity if model.passivity.enabled else passivity_model(compiled, rate_hz=model.rate_hz)
     compensated = max(0.0, 1.0 - k) * b
+    left = np.maximum(viscous - np.asarray(pc.dissipation_viscous, float), 0.0)   # what the controller leaves
     return {"gravity": b, "compensated": compensated,
-            "passivity": max(compensated, b - reflected_damping(compiled, pc.dissipation_viscous, q0=q0,
-                                                                normal=normal))}
+            "passivity": max(compensated, reflected_damping(compiled, left, q0=q0, normal=normal))}
 
 
 @dataclass(eq=False)
