@@ -88,23 +88,25 @@ def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int
                         baseline="numpy recursion (same physics)", baseline_value=bp999 / 1e3, ratio=bp999 / p999))
 
 
-def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int = 5000) -> None:
-    """One L-EXOS compensator cycle (velocity estimate + gravity + losses) through the C ABI: mean from batch
-    timing, median and p99.9 from per-call timing, over `calls` cycles; against a plain C++ Eigen
-    implementation (same executable, same run) and a numpy implementation of the same cycle."""
+def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int = 5000, device=None,
+                      name: str = "lexos_compensator_cycle") -> None:
+    """One compensator cycle (velocity estimate + gravity + losses) through the C ABI, of L-EXOS or ``device``:
+    mean from batch timing, median and p99.9 from per-call timing, over `calls` cycles; against a plain C++
+    Eigen implementation (same executable, same run) and a numpy implementation of the same cycle."""
     from numpy_compensator import NumpyCompensator
 
     from tendyn.control import Compensator
     from tendyn.device import compile_device
 
-    dev = compile_device(load_device(bundled("lexos")))
+    dev = compile_device(load_device(bundled("lexos")) if device is None else device)
     comp = Compensator.from_device(dev)
     m = comp.model
+    n = comp.n
     ref = NumpyCompensator(dev.device.routing_arrays(), dev.joint_frames, dev.device.kinematics.gravity,
                            m.underestimation, m.velocity_band, m.filter_gain(), m.rate_hz)
     rng = np.random.default_rng(7)
     t = np.arange(baseline_calls) / m.rate_hz
-    qm = np.column_stack([3.0 * np.sin(2 * np.pi * (0.3 + 0.17 * i) * t) for i in range(4)])
+    qm = np.column_stack([3.0 * np.sin(2 * np.pi * (0.3 + 0.17 * i) * t) for i in range(n)])
     qm += 4e-4 * rng.normal(size=qm.shape)
     tj = rng.normal(size=qm.shape)
     for k in range(200):  # the numpy cycle is the same cycle
@@ -112,9 +114,10 @@ def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int
     timer = os.environ.get("TENDYN_COMPENSATOR_TIMER", str(HERE.parent / "build/bench/benchmarks/compensator_timer"))
     if not Path(timer).exists():
         raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/compensator_timer.cpp)")
-    print(f"[bench] compensator cycle through the C ABI, {calls} calls (batch and one by one) …", file=sys.stderr)
+    print(f"[bench] {name}: compensator cycle of {dev.name} ({n} transmissions) through the C ABI, {calls} calls "
+          "(batch and one by one) …", file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "lexos.comp"
+        path = Path(tmp) / "model.comp"
         comp.export(path)
         out = subprocess.run([timer, str(path), str(calls), "7"], capture_output=True, text=True, check=True)
     timed = json.loads(out.stdout)
@@ -132,7 +135,6 @@ def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int
     np_mean = (time.perf_counter() - t0) / baseline_calls * 1e9
     mean, med, p999 = timed["mean_ns"], timed["median_ns"], timed["p999_ns"]
     emean, emed, ep999 = timed["eigen_mean_ns"], timed["eigen_median_ns"], timed["eigen_p999_ns"]
-    name = "lexos_compensator_cycle"
     results.append(dict(name=name, value=mean / 1e3, unit="us/call", baseline="plain C++ Eigen (same cycle)",
                         baseline_value=emean / 1e3, ratio=emean / mean))
     results.append(dict(name=name, value=mean / 1e3, unit="us/call", baseline="numpy (same cycle)",
@@ -158,6 +160,11 @@ def main() -> int:
     results: list = []
     bench_feedforward(results)
     bench_compensator(results)
+    with tempfile.TemporaryDirectory() as tmp:   # issue 17: the same cycle on a generated 8-transmission device
+        from tendyn.devices.generate import write_cable_device
+
+        eight = load_device(write_cable_device(tmp, 8, planar=False, seed=8))
+        bench_compensator(results, device=eight, name="gen8_compensator_cycle")
     try:
         import mujoco  # noqa: F401  (a benchmark-only dependency)
     except ImportError as exc:
@@ -171,6 +178,9 @@ def main() -> int:
 
     bench_sensitivity_sweep(results)
     bench_dask_sweep(results)
+    from blockmodel_bench import bench_blockmodel_fit
+
+    bench_blockmodel_fit(results)
     from tx40_identify import bench_tx40_identify
 
     bench_tx40_identify(results)

@@ -11,13 +11,13 @@ from pathlib import Path
 import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
-DATA = REPO.parent / "shared" / "external-data" / "staubli_tx40"
+DATA = REPO / "python" / "tendyn" / "data" / "tx40"   # shipped (tendyn data path tx40)
 
 
 def _log():
     from tendyn.io.importer import import_logs
 
-    return import_logs([DATA / "pos_read_data.csv", DATA / "curr_data.csv"], REPO / "examples" / "tx40_import.toml")
+    return import_logs([DATA / "pos_read_data.csv", DATA / "curr_data.csv"], DATA / "import.toml")
 
 
 def tendyn_identify(dev, log):

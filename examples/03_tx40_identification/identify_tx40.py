@@ -1,10 +1,10 @@
 """Example 03: identify the base dynamic parameters of a real Staubli TX40 from its measured data.
 
-The data are the shared files ../shared/external-data/staubli_tx40 (45 000 samples at 5 kHz of motor
-encoder angles and motor torques), read through the import map examples/tx40_import.toml. The same in the shell:
+The data ship with tendyn (``tendyn data path tx40``: 45 000 samples at 5 kHz of motor encoder angles and motor
+torques, with their import map). The same in the shell:
 
-    tendyn log import ../shared/external-data/staubli_tx40/{pos_read_data,curr_data}.csv \\
-        --map examples/tx40_import.toml --out tx40.parquet
+    D=$(tendyn data path tx40)
+    tendyn log import $D/pos_read_data.csv $D/curr_data.csv --map $D/import.toml --out tx40.parquet
     tendyn identify tx40 tx40.parquet --out tx40_params.json --report out/tx40
 
 Prints S2-Table-4-like tables (OLS and WLS), cond(W), the relative residual per joint and the cross-validation
@@ -14,20 +14,20 @@ on the second half of the trajectory (fitted on the first half).
 import sys
 from pathlib import Path
 
+from tendyn.data import path as data_path
 from tendyn.device import load_device
 from tendyn.devices import bundled
 from tendyn.ident import IDIM
 from tendyn.io.importer import import_logs
 
-REPO = Path(__file__).resolve().parents[2]
-DATA = REPO.parent / "shared" / "external-data" / "staubli_tx40"
+DATA = data_path("tx40")
 
 
 def main(out_dir=None) -> int:
     if not DATA.is_dir():
         print(f"the measured TX40 data are not at {DATA}", file=sys.stderr)
         return 1
-    log = import_logs([DATA / "pos_read_data.csv", DATA / "curr_data.csv"], REPO / "examples" / "tx40_import.toml")
+    log = import_logs([DATA / "pos_read_data.csv", DATA / "curr_data.csv"], DATA / "import.toml")
     dev = load_device(bundled("tx40"))
     for method in ("ols", "wls"):
         est = IDIM(dev, method=method).fit(log)

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from device_gen import write_cable_device
+from tendyn.devices.generate import write_cable_device
 from tendyn.cli import main
 from tendyn.control import Compensator
 from tendyn.device import load_device

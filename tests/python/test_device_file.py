@@ -72,6 +72,7 @@ def mdh_dict() -> dict:
     ]
     base["kinematics"] = {"convention": "mdh", "gravity": [0.0, 0.0, -9.81], "joints": joints}
     base["transmissions"] = base["transmissions"][:2]
+    base["device"].pop("home_pose", None)          # L-EXOS's pose: one value per joint of the 4-joint arm
     return base
 
 
@@ -363,6 +364,7 @@ def test_urdf_convention(tmp_path):
     d = lexos_dict()
     d["kinematics"] = {"convention": "urdf", "gravity": [0.0, 0.0, -9.81], "urdf": "robots/two.urdf"}
     d["transmissions"] = d["transmissions"][:2]
+    d["device"].pop("home_pose", None)
     dev = load_device(write(tmp_path, d))
     assert dev.kinematics.urdf == (tmp_path / "robots" / "two.urdf").resolve()
     assert [j.name for j in dev.kinematics.joints] == ["j1", "j2"]  # chain order, not document order
@@ -744,3 +746,15 @@ def test_every_mutation_gives_device_error_or_loads(tmp_path, base):
             else:
                 assert must is None, f"{field} = {value!r} was accepted (expected {must!r})"
     assert n_errors > len(paths) and n_strict > len(paths)
+
+
+def test_home_pose_is_checked(tmp_path):
+    """``[device] home_pose``: one value per joint, inside the limits, else one line naming the entry."""
+    d = lexos_dict()
+    assert load_device(write(tmp_path, d)).home_pose == (0.3, 1.6, 0.0, 0.5)
+    d["device"]["home_pose"] = [0.3, 1.6, 0.0]
+    with pytest.raises(DeviceError, match=r"device.home_pose: 3 values, the device has 4 joints"):
+        load_device(write(tmp_path, d))
+    d["device"]["home_pose"] = [0.3, 1.6, 0.0, 3.0]
+    with pytest.raises(DeviceError, match=r"device.home_pose\[4\]: 3 rad is outside joint 4's limits"):
+        load_device(write(tmp_path, d))

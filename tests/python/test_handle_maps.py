@@ -14,12 +14,11 @@ with :mod:`tendyn.analysis.handle_maps`:
 from __future__ import annotations
 
 import json
-import re
 
 import numpy as np
 import pytest
 
-from cable_devices import write_cable_device
+from tendyn.devices.generate import write_cable_device
 from tendyn import _core
 from tendyn.analysis.handle_maps import HandleModel, equivalent_motor_friction, handle_maps
 from tendyn.device import compile_device, load_device
@@ -30,8 +29,8 @@ CASES = [(1, True), (2, True), (3, True), (2, False), (3, False)]
 
 
 def _device(tmp_path, n, planar, seed=0):
-    rng = np.random.default_rng(1000 * n + 10 * planar + seed)
-    return load_device(write_cable_device(tmp_path, rng, n, planar))
+    return load_device(write_cable_device(tmp_path, n, planar=planar, seed=1000 * n + 10 * planar + seed,
+                                          rotor_inertia=1e-4))
 
 
 def _devices(tmp_path):
@@ -222,12 +221,7 @@ def test_equivalent_friction_equals_the_branch_law_of_eqs_18_19(tmp_path):
 
 def test_equivalent_friction_without_beta_and_reducers_is_the_sum_over_branches(tmp_path):
     """β = 0, η = 1, no bearings: C_m0 = r_m Σ_b τ0_b, ν = r_m² Σ_b ν_b (S0 eqs. 18–19, k' = r_m)."""
-    rng = np.random.default_rng(7)
-    path = write_cable_device(tmp_path, rng, 3, False)
-    src = path.read_text().replace("reducer_efficiency = 0.9", "reducer_efficiency = 1.0")
-    src = re.sub(r"beta = [0-9.e-]+", "beta = 0.0", src)
-    path.write_text(src)
-    dev = load_device(path)
+    dev = load_device(write_cable_device(tmp_path, 3, planar=False, reducers=False, beta=False, seed=7))
     arr = dev.routing_arrays()
     c, nu = equivalent_motor_friction(compile_device(dev).transmission)
     r_m = arr["motor_radius"]

@@ -16,8 +16,8 @@ from tendyn.ident.treatment import Treatment, stack_blocks, treat
 from tendyn.io import make_log
 
 ROOT = Path(__file__).resolve().parents[2]
-TX40_DATA = ROOT.parent / "shared" / "external-data" / "staubli_tx40"
-TX40_MAP = ROOT / "examples" / "tx40_import.toml"
+TX40_DATA = ROOT / "python" / "tendyn" / "data" / "tx40"   # shipped, the same bytes as ../shared/external-data
+TX40_MAP = TX40_DATA / "import.toml"
 
 
 @pytest.fixture(scope="module")

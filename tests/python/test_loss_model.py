@@ -13,7 +13,7 @@ import sys
 import numpy as np
 import pytest
 
-from device_gen import write_cable_device
+from tendyn.devices.generate import write_cable_device
 from tendyn import _core
 from tendyn.cli import main
 from tendyn.control import Compensator

@@ -267,6 +267,16 @@ def test_pipeline_s1_json_contract(s1_json):
     assert set(s1_json["open_loop_peaks"][0]) == {"amplitude_N", "peak_hz"}
 
 
+def test_C24_pipeline_s1_identifies_from_the_twins_logs(s1_json):
+    """Issue 21: Ĝ_L, the dead-band and the loop area come from the twin's logs (tests/python/test_s1_logs.py
+    for the route itself); the pipeline reports them beside the truth."""
+    fl = s1_json["from_logs"]
+    assert s1_json["plant_fit"]["source"].startswith("stepped-sine logs")
+    assert fl["loop_area"] == pytest.approx(s1_json["open_loop_area"], abs=2e-3)
+    assert fl["wiener"]["dead_band_truth_N"] > 0 and fl["wiener"]["dead_band_rel_error"] < 0.1
+    assert set(fl["wiener"]["linear_rel_error_vs_G"]) and fl["frf"]["coherence_min"] > 0.99
+
+
 def test_C22_open_loop_peak_moves_15_to_30_hz_with_amplitude(s1_json):
     peaks = {p["amplitude_N"]: p["peak_hz"] for p in s1_json["open_loop_peaks"]}
     amps = sorted(peaks)

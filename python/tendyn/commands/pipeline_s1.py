@@ -11,6 +11,11 @@ def run(args) -> int:
     from tendyn.cli import _check_out_folder, _load
     from tendyn.pipelines.s1 import run_s1
 
+    if str(args.device).lower().endswith((".csv", ".parquet")):
+        raise UsageError(f"{args.device} is a log; pipeline s1 runs a twin (a tendon bench device). For a bench's "
+                         "logs: `tendyn frf LOG... --input NAME --output NAME` and `tendyn identify-bench LOG... "
+                         "--structure wiener --nonlinearity dead-zone --validate LOG...` (docs/bench-identification.md)",
+                         "device")
     dev = _load(args.device)
     if dev.kind != "tendon_bench_2n":
         raise UsageError(f"{dev.name} is a {dev.kind} device; pipeline s1 needs a tendon bench", "device")

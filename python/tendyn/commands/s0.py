@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from tendyn.commands import args as conv
+from tendyn.commands import plan_bench
 from tendyn.errors import UsageError
 from tendyn.protocols import MIN_SPEEDS
 
@@ -53,9 +54,11 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     from tendyn import protocols as pr
 
     p = subparsers.add_parser("plan", help="write the references of a twin experiment for a real controller")
-    p.add_argument("experiment", choices=PLAN_EXPERIMENTS, help="the experiment to plan")
-    p.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
-    p.add_argument("--transmission", type=conv.number(1, integer=True), required=True, help="1-based transmission to move")
+    p.add_argument("experiment", choices=PLAN_EXPERIMENTS + plan_bench.KINDS, help="the experiment to plan")
+    p.add_argument("device", nargs="?", default=None,
+                   help="device file (.toml) or bundled twin name (lexos, …); optional for the bench plans")
+    p.add_argument("--transmission", type=conv.number(1, integer=True), default=None,
+                   help="1-based transmission to move (constant-velocity)")
     p.add_argument("--strategy", choices=("S1", "S2"), default="S2",
                    help="S1 holds the other motors (motor-space references), S2 the other joints (joint-space); "
                         "default S2")
@@ -77,6 +80,7 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
                    help="sample rate of the references [Hz] (the controller's rate; default 1000)")
     p.add_argument("--out", type=conv.out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
+    plan_bench.add_arguments(p)
     p.set_defaults(func=run_plan)
     return p
 
@@ -113,6 +117,11 @@ def run_plan(args) -> int:
     from tendyn.io import write_log
     from tendyn.protocols import plan_test
 
+    if args.experiment in plan_bench.KINDS:
+        return plan_bench.run(args, _load_device)
+    for name in ("device", "transmission"):
+        if getattr(args, name) is None:
+            raise UsageError("required for `plan constant-velocity`", name)
     dev = _load_device(args.device)
     if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
         raise UsageError(f"{dev.name} has no tendon transmissions to plan a constant-velocity test for", "device")

@@ -1,6 +1,6 @@
 """Turn a lab's CSV files into a log: an import map says which column is which signal.
 
-An import map is a small TOML file (``examples/tx40_import.toml`` is the one for the Stäubli TX40 files)::
+An import map is a small TOML file (``import.toml`` of ``tendyn data path tx40`` is the one for the Stäubli TX40 files)::
 
     schema = 1
     [log]
@@ -17,6 +17,12 @@ An import map is a small TOML file (``examples/tx40_import.toml`` is the one for
     scale = 1.0                  # optional: value = scale * raw + offset, in the log column's SI unit
     offset = 0.0                 # optional
 
+    [[signals]]                  # a generic signal: any unit, kept in the log's meta.signals
+    column = "U_motor"
+    signal = "input_1"           # input_<k> or output_<k>
+    name = "voltage"             # required for a generic signal: the name commands use (--input voltage)
+    unit = "V"                   # required for a generic signal: the unit after scale and offset
+
 Every problem raises one :class:`~tendyn.io.logs.LogError` naming the map, the entry and the column,
 e.g. ``tx40_import.toml: signals[7].column: no column 'Joint_7' in pos_read_data.csv (columns: Joint_1, …)``.
 """
@@ -30,12 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.logs import LogError, Log, column_spec, make_log
+from tendyn.io.logs import LogError, Log, column_spec, is_generic, make_log
 
 __all__ = ["import_logs", "read_import_map"]
 
 _LOG_KEYS = {"device": str, "experiment": str, "rate_hz": float, "delimiter": str, "header": bool}
-_SIGNAL_KEYS = {"file": str, "column": (str, int), "signal": str, "scale": float, "offset": float}
+_SIGNAL_KEYS = {"file": str, "column": (str, int), "signal": str, "scale": float, "offset": float, "name": str,
+                "unit": str}
 
 
 def _err(mapfile, where, problem):
@@ -76,7 +83,7 @@ def read_import_map(path) -> dict:
     sigs = raw.get("signals")
     if not isinstance(sigs, list) or not sigs:
         raise _err(p, "signals", "missing: one [[signals]] entry per log column")
-    out, seen = [], {}
+    out, seen, names = [], {}, {}
     for i, s in enumerate(sigs, start=1):
         where = f"signals[{i}]"
         if not isinstance(s, dict):
@@ -107,6 +114,21 @@ def read_import_map(path) -> dict:
                 entry[key] = float(v)
         if entry["scale"] == 0.0:
             raise _err(p, f"{where}.scale", "must be nonzero")
+        if is_generic(sig):
+            for key in ("name", "unit"):
+                v = s.get(key)
+                if not isinstance(v, str) or not v.strip() or any(c in v for c in "[],"):
+                    raise _err(p, f"{where}.{key}", f"required for the generic signal {sig}: a non-empty string "
+                                                    f"without brackets or commas (got {v!r})")
+            if s["name"] in names:
+                raise _err(p, f"{where}.name", f"{s['name']!r} also names signals[{names[s['name']]}]")
+            names[s["name"]] = i
+            entry["meta"] = {"name": s["name"], "unit": s["unit"]}
+        else:
+            for key in ("name", "unit"):
+                if key in s:
+                    raise _err(p, f"{where}.{key}", f"only for generic signals (input_<k>, output_<k>); {sig} has "
+                                                    f"the registry's name and unit [{column_spec(sig).unit}]")
         out.append(entry)
     if "time" not in seen and "rate_hz" not in log:
         raise _err(p, "log.rate_hz", "required: no signal is mapped to `time`, so the rate sets the time grid")
@@ -177,5 +199,6 @@ def import_logs(raw_files, map_path) -> Log:
     elif rate is None:
         rate = float(1.0 / np.median(np.diff(columns["time"])))
     options = {"import_map": mp.name, "raw_files": sorted(files)}
+    signals = {s["signal"]: s["meta"] for s in spec["signals"] if "meta" in s}
     return make_log(columns, device=spec["log"]["device"], rate_hz=rate, seed=None,
-                    experiment=spec["log"]["experiment"], options=options)
+                    experiment=spec["log"]["experiment"], options=options, signals=signals or None)

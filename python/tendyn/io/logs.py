@@ -63,6 +63,8 @@ __all__ = [
     "LogError",
     "check_log_path",
     "column_spec",
+    "column_unit",
+    "is_generic",
     "make_log",
     "read_log",
     "read_run",
@@ -196,10 +198,16 @@ COLUMNS: tuple[ColumnSpec, ...] = (
     ColumnSpec("force_tendon", "N", "sensed differential tendon force (McGill tendon bench)"),
     ColumnSpec("x_tendon", "m", "sensed tendon displacement (McGill tendon bench)"),
     ColumnSpec("current_cmd", "A", "commanded motor current (McGill tendon bench)"),
+    ColumnSpec("input_<k>", "*", "generic input signal k of a bench (any unit: its name and unit in meta.signals)"),
+    ColumnSpec("output_<k>", "*", "generic output signal k of a bench (any unit: its name and unit in meta.signals)"),
 )
 """The column registry of schema version 1: every column of a log matches exactly one entry."""
 
 _PATTERNS = tuple((spec, spec.pattern) for spec in COLUMNS)
+
+GENERIC_UNIT = "*"
+"""Registry unit of the generic columns ``input_<k>`` / ``output_<k>``: the unit is the log's own,
+declared with the signal's name in ``meta.signals`` (``{"input_1": {"name": "voltage", "unit": "V"}}``)."""
 
 UNIT_ALIASES: dict[str, tuple[str, ...]] = {"N·m": ("N.m", "N*m", "Nm", "N m", "N⋅m")}
 """ASCII spellings accepted in a CSV header for a registry unit (the files we write use the registry unit)."""
@@ -241,6 +249,20 @@ def _suggest(name: str) -> str:
     return "; known columns: " + ", ".join(s.name for s in COLUMNS)
 
 
+def is_generic(name: str) -> bool:
+    """Whether a column is a generic ``input_<k>`` / ``output_<k>`` (unit and name in ``meta.signals``)."""
+    spec = column_spec(name)
+    return spec is not None and spec.unit == GENERIC_UNIT
+
+
+def column_unit(name: str, meta: dict) -> str:
+    """The unit of column ``name`` in a log with ``meta``: the registry's, or for a generic column the one
+    declared in ``meta["signals"]``."""
+    if is_generic(name):
+        return meta["signals"][name]["unit"]
+    return column_spec(name).unit
+
+
 def _unit_matches(found: str, expected: str) -> bool:
     return found == expected or found in UNIT_ALIASES.get(expected, ())
 
@@ -263,6 +285,8 @@ META_KEYS: dict[str, str] = {
 OPTIONAL_META_KEYS: dict[str, str] = {
     "run_id": "str, the id a log shares with its truth file (32 hex digits, set by write_run; absent in "
               "measured logs and in files written before run ids)",
+    "signals": "dict, one entry per generic column input_<k>/output_<k>: {\"name\": str, \"unit\": str} "
+               "(required when the log has generic columns)",
 }
 """Keys of ``Log.meta`` that may be present; no keys other than these and :data:`META_KEYS` are allowed."""
 
@@ -327,6 +351,27 @@ def _check_meta(meta, source) -> None:
         run_id = meta["run_id"]
         if not isinstance(run_id, str) or not run_id.strip():
             raise bad("run_id", f"got {run_id!r} of type {type(run_id).__name__}")
+    if "signals" in meta:
+        _check_signals(meta["signals"], bad)
+
+
+def _check_signals(signals, bad) -> None:
+    """``meta.signals``: generic column → {"name": non-empty str, "unit": non-empty str}, names unique."""
+    if not isinstance(signals, dict):
+        raise bad("signals", f"got {signals!r} of type {type(signals).__name__}")
+    names = {}
+    for col, entry in signals.items():
+        if not is_generic(col):
+            raise bad("signals", f"{col!r} is not a generic column (input_<k> or output_<k>)")
+        if not isinstance(entry, dict) or set(entry) != {"name", "unit"}:
+            raise bad("signals", f"{col}: got {entry!r}, expected exactly the keys name and unit")
+        for key in ("name", "unit"):
+            if not isinstance(entry[key], str) or not entry[key].strip() or any(c in entry[key] for c in "[],"):
+                raise bad("signals", f"{col}.{key}: got {entry[key]!r}, expected a non-empty string without "
+                          "brackets or commas")
+        if entry["name"] in names:
+            raise bad("signals", f"{col}.name: {entry['name']!r} also names {names[entry['name']]}")
+        names[entry["name"]] = col
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -394,6 +439,18 @@ def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
                            f"{float(time[row - 1])!r} s at row {row - 1}", file=source, column="time", row=row,
                            line=line(row))
     _check_meta(meta, source)
+    declared = meta.get("signals", {})
+    for name in names:
+        if is_generic(name) and name not in declared:
+            raise LogError(f"generic column without a name and unit: declare it in meta.signals "
+                           f"({{\"{name}\": {{\"name\": ..., \"unit\": ...}}}})", file=source, column=name)
+    for name, entry in declared.items():
+        if name not in columns:
+            raise LogError(f"meta.signals declares {name}, which is not a column of the log", file=source,
+                           column="meta.signals")
+        if entry["name"] in columns and entry["name"] != name:
+            raise LogError(f"{name}.name {entry['name']!r} is the name of another column (a signal is called by "
+                           "either name)", file=source, column="meta.signals")
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -454,12 +511,32 @@ class Log:
 
     @property
     def units(self) -> dict[str, str]:
-        """Column name → unit, from the registry (``"?"`` for a name not in it)."""
+        """Column name → unit, from the registry or, for a generic column, ``meta.signals`` (``"?"`` for a
+        name not in either)."""
         out = {}
         for name in self.columns:
-            spec = column_spec(name)
-            out[name] = spec.unit if spec else "?"
+            try:
+                out[name] = column_unit(name, self.meta)
+            except (AttributeError, KeyError, TypeError):
+                out[name] = "?"
         return out
+
+    @property
+    def signal_names(self) -> dict[str, str]:
+        """Column name → the name a user gave its signal (``meta.signals``; a registry column is its own name)."""
+        declared = self.meta.get("signals", {})
+        return {name: declared[name]["name"] if name in declared else name for name in self.columns}
+
+    def resolve(self, name: str) -> str:
+        """The column of a signal given by its column name (``input_1``, ``force_cmd``) or by the name
+        ``meta.signals`` gives it (``voltage``). Raises :class:`LogError` naming the known signals."""
+        if name in self.columns:
+            return name
+        for col, given in self.signal_names.items():
+            if given == name:
+                return col
+        known = ", ".join(f"{c} ({n})" if c != n else c for c, n in self.signal_names.items() if c != "time")
+        raise LogError(f"no signal {name!r} in the log (signals: {known})", column=name)
 
     def column_names(self, prefix: str) -> list[str]:
         """Names ``prefix + <index>`` present in the log, sorted by index (``q_motor_9`` before ``q_motor_10``).
@@ -513,7 +590,7 @@ def _created_by() -> str:
 
 
 def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, experiment: str,
-             options: dict | None = None) -> Log:
+             options: dict | None = None, signals: dict | None = None) -> Log:
     """Build and validate a log.
 
     Parameters
@@ -531,6 +608,9 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
         Experiment name.
     options : dict, optional
         Experiment settings; numpy values become lists/floats, tuples become lists (JSON).
+    signals : dict, optional
+        Name and unit of each generic column, ``{"input_1": {"name": "voltage", "unit": "V"}}`` (``meta.signals``;
+        required when ``columns`` has ``input_<k>`` / ``output_<k>``).
 
     Returns
     -------
@@ -570,6 +650,8 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
         raise LogError(f"not JSON-serialisable: {exc}", file=source, column="meta.options") from None
     meta = {"schema": SCHEMA_VERSION, "device": device, "rate_hz": rate_hz, "seed": seed,
             "experiment": experiment, "options": options, "created_by": _created_by()}
+    if signals:
+        meta["signals"] = {str(k): dict(v) if isinstance(v, dict) else v for k, v in signals.items()}
     return Log(conv, meta).validate(source)
 
 
@@ -655,6 +737,17 @@ def read_log(path) -> Log:
     return _read_csv(path)
 
 
+def _file_unit(name: str, meta, source) -> str:
+    """The unit a file must give column ``name``: the registry's, or the one ``meta.signals`` declares."""
+    if not is_generic(name):
+        return column_spec(name).unit
+    entry = meta.get("signals", {}).get(name) if isinstance(meta, dict) and isinstance(meta.get("signals"), dict) \
+        else None
+    if not isinstance(entry, dict) or not isinstance(entry.get("unit"), str):
+        raise LogError("generic column without a name and unit in meta.signals", file=source, column=name)
+    return entry["unit"]
+
+
 # -- Parquet ------------------------------------------------------------------------------------------------
 
 def _parquet_bytes(log: Log) -> bytes:
@@ -662,7 +755,7 @@ def _parquet_bytes(log: Log) -> bytes:
     import pyarrow.parquet as pq
 
     fields = [pa.field(name, pa.float64(), nullable=False,
-                       metadata={PARQUET_UNIT_KEY: column_spec(name).unit.encode("utf-8")})
+                       metadata={PARQUET_UNIT_KEY: column_unit(name, log.meta).encode("utf-8")})
               for name in log.columns]
     schema = pa.schema(fields, metadata={PARQUET_META_KEY: _json_text(log.meta).encode("utf-8")})
     table = pa.Table.from_arrays([pa.array(arr, type=pa.float64()) for arr in log.columns.values()],
@@ -699,7 +792,7 @@ def _read_parquet(path: Path) -> Log:
         typ = fld.type
         if not (pa.types.is_floating(typ) or pa.types.is_integer(typ)):
             raise LogError(f"Arrow type {typ} is not floating or integer", file=source, column=name)
-        expected = column_spec(name).unit
+        expected = _file_unit(name, meta, source)
         unit = (fld.metadata or {}).get(PARQUET_UNIT_KEY)
         if unit is not None:
             unit = unit.decode("utf-8", "replace")
@@ -722,7 +815,7 @@ def _read_parquet(path: Path) -> Log:
 def _csv_bytes(log: Log) -> bytes:
     out = io.StringIO()
     out.write(CSV_META_PREFIX + _json_text(log.meta) + "\n")
-    out.write(",".join(f"{name} [{column_spec(name).unit}]" for name in log.columns) + "\n")
+    out.write(",".join(f"{name} [{column_unit(name, log.meta)}]" for name in log.columns) + "\n")
     lists = [arr.tolist() for arr in log.columns.values()]
     # repr(float) is the shortest text that reads back to the same float64 (bit-exact round trip)
     out.writelines(",".join(map(repr, row)) + "\n" for row in zip(*lists))
@@ -772,7 +865,7 @@ def _read_csv(path: Path) -> Log:
         units.append(m.group(2))
     _check_names(names, source)
     for name, unit in zip(names, units):
-        expected = column_spec(name).unit
+        expected = _file_unit(name, meta, source)
         if unit is None:
             raise LogError(f"no unit in the header (write '{name} [{expected}]')", file=source, column=name,
                            line=header_line)

@@ -1,6 +1,12 @@
-"""Cable devices the tests write as a lab would: device files of 1 to 8 transmissions, planar or spatial, with or
-without bearings, reducers, β and gravity — so that every command and pipeline is run on devices that are not
-the bundled twins. Values are plausible for a desktop haptic device; nothing is taken from a bundled device."""
+"""Cable device files written as a lab would write its own: 1 to 8 transmissions, planar or spatial, with or without
+bearings, reducers, β and gravity, seeded. The tests and benchmarks run every command and pipeline on them besides
+the bundled twins; a user can start a device file from one. Values are plausible for a desktop haptic device;
+nothing is taken from a bundled device.
+
+>>> from tendyn.devices.generate import cable_device_toml
+>>> cable_device_toml(2, planar=True).splitlines()[2]
+'name = "gen2p0"'
+"""
 
 from __future__ import annotations
 
@@ -11,7 +17,8 @@ import numpy as np
 
 
 def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, bearings: bool = False,
-                      reducers: bool = True, beta: bool = True, gravity: bool = True, seed: int = 0) -> str:
+                      reducers: bool = True, beta: bool = True, gravity: bool = True, seed: int = 0,
+                      rotor_inertia: float = 4e-5) -> str:
     """The TOML text of an n-joint cable device (docs/device-file.md): transmission i drives joint i and crosses
     joints 1…i−1 on idle pulleys of random sign. Planar: every joint axis parallel, gravity in the plane (−y);
     spatial: alternating ±90° twists, gravity along −z of the base."""
@@ -51,7 +58,7 @@ def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, b
                           "dynamic_coefficient = 8e-5, h0 = 2e-4, h1 = 5e-5, n0 = 5.0}" if k % 2 == 0 else "{}"
                           for k in range(i + 1))
             lines += [f"bearings = [{b}]"]
-        lines += ["[transmissions.motor]", "torque_constant = 0.1", "rotor_inertia = 4e-5", "continuous_torque = 1.0",
+        lines += ["[transmissions.motor]", "torque_constant = 0.1", f"rotor_inertia = {rotor_inertia!r}", "continuous_torque = 1.0",
                   "peak_torque = 3.0", "[transmissions.sensors]", "encoder_counts = 16384", "current_noise = 0.02"]
     return "\n".join(lines) + "\n"
 

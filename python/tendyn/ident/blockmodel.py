@@ -1,0 +1,646 @@
+"""Block-oriented nonlinear models of a bench, fitted by output error (simulation error) to its logs.
+
+A linear block G (discrete transfer function of order n, sample time of the logs) and a static nonlinearity
+f (:data:`NONLINEARITIES`) in one of two orders:
+
+* Wiener:      x = G u,  ŷ = f(x)     (S1's dead-band plant, §4.2 and Fig. 8: linear tendon dynamics, then
+  the single-valued dead-band of the breakaway friction model, which makes the hysteresis-like loops);
+* Hammerstein: v = f(u), ŷ = G v.
+
+G(z) = (b_0 + b_1 z⁻¹ + … + b_n z⁻ⁿ) / (1 + a_1 z⁻¹ + … + a_n z⁻ⁿ). Each nonlinearity has slope one in its
+linear part (dead-zone outside the band, saturation inside, polynomial x + c_2 x² + …), so the gain of the
+chain lives in G alone and the parameters are identifiable.
+
+Output error: θ = (b, a, p) minimises Σ_records Σ_t (y_t − ŷ_t(θ))², ŷ simulated from rest over the whole
+record (not one step ahead). The simulation is ``scipy.signal.lfilter`` (compiled) and so is the exact
+Jacobian: ∂x/∂b_k = (z⁻ᵏ/A) u, ∂x/∂a_k = −(z⁻ᵏ/A) x — two filters per record for all of (b, a) — chained
+through f′ (Wiener) or filtered through G (the nonlinearity's parameters in Hammerstein form). The
+minimiser is ``scipy.optimize.least_squares`` (trust region, bounds on the thresholds) started from a linear
+initial estimate: ARX least squares, refined to linear output error, then the nonlinearity's parameters by
+linear least squares over a grid of thresholds (the gain of G rescaled at the same time).
+
+RMS [output unit] and NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (1: no better than the mean) are reported on the fit and
+on validation records. :class:`BlockModel` is the estimator (hyper-parameters in ``__init__``, learned values
+with a trailing ``_``, ``fit`` / ``predict`` / ``score``); its ``result_`` a :class:`BlockModelFit`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+from scipy import signal
+
+from tendyn.results import Result, format_table
+
+__all__ = ["NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity", "Record", "nrms",
+           "records_from_logs", "simulate"]
+
+STRUCTURES = ("wiener", "hammerstein")
+
+
+# ---- static nonlinearities --------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Nonlinearity:
+    """A static nonlinearity f(x; p): its parameter names, f, ∂f/∂x, ∂f/∂p (one column per parameter), the
+    lower bounds of p, and whether its one parameter is a threshold (found on a grid by the initial
+    estimate, :func:`_initial_nonlinear`)."""
+
+    name: str
+    params: tuple
+    f: Callable
+    dfdx: Callable
+    dfdp: Callable
+    lower: tuple
+    description: str
+    threshold: bool = False          # one threshold parameter, found by a grid in the initial estimate
+
+
+def _sgn(x):
+    return np.sign(x)
+
+
+def _dz(x, p):
+    return np.sign(x) * np.maximum(np.abs(x) - p[0], 0.0)
+
+
+def _sat(x, p):
+    return np.clip(x, -p[0], p[0])
+
+
+NONLINEARITIES: dict[str, Nonlinearity] = {n.name: n for n in (
+    Nonlinearity("dead-zone", ("width",), _dz,
+                 lambda x, p: (np.abs(x) > p[0]).astype(float),
+                 lambda x, p: (-np.sign(x) * (np.abs(x) > p[0]))[:, None],
+                 (0.0,), "f = sgn(x) max(|x| − δ, 0): dead-band of half-width δ [x unit] (S1 Fig. 8)", True),
+    Nonlinearity("coulomb", ("level",), lambda x, p: x + p[0] * _sgn(x),
+                 lambda x, p: np.ones_like(x),
+                 lambda x, p: _sgn(x)[:, None],
+                 (-np.inf,), "f = x + c sgn(x): a relay of height c on the identity (c < 0: a Coulomb loss)"),
+    Nonlinearity("saturation", ("limit",), _sat,
+                 lambda x, p: (np.abs(x) < p[0]).astype(float),
+                 lambda x, p: (np.sign(x) * (np.abs(x) >= p[0]))[:, None],
+                 (1e-300,), "f = clip(x, −s, s) [x unit]", True),
+    Nonlinearity("abs", (), lambda x, p: np.abs(x),
+                 lambda x, p: _sgn(x),
+                 lambda x, p: np.zeros((x.size, 0)),
+                 (), "f = |x| (a sensor blind to the sign)"),
+)}
+NONLINEARITIES["dead-band"] = NONLINEARITIES["dead-zone"]
+IDENTITY = Nonlinearity("identity", (), lambda x, p: x, lambda x, p: np.ones_like(x),
+                        lambda x, p: np.zeros((x.size, 0)), (), "f = x (the linear output-error fit)")
+NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "saturation", "abs", "polynomial")
+
+
+def polynomial(degree: int) -> Nonlinearity:
+    """f = x + c_2 x² + … + c_d x^d."""
+    if int(degree) < 2:
+        raise ValueError(f"degree must be >= 2 (got {degree!r})")
+    ks = np.arange(2, int(degree) + 1)
+    return Nonlinearity(
+        "polynomial", tuple(f"c{k}" for k in ks),
+        lambda x, p: x + sum(c * x ** k for c, k in zip(p, ks)),
+        lambda x, p: 1.0 + sum(k * c * x ** (k - 1) for c, k in zip(p, ks)),
+        lambda x, p: np.column_stack([x ** k for k in ks]),
+        tuple(-np.inf for _ in ks), f"f = x + Σ_k c_k x^k, k = 2…{int(degree)}")
+
+
+def nonlinearity(name: str, degree: int = 3) -> Nonlinearity:
+    """The nonlinearity called ``name`` (:data:`NONLINEARITY_NAMES`; ``degree`` for the polynomial)."""
+    if name == "polynomial":
+        return polynomial(degree)
+    if name not in NONLINEARITIES:
+        raise ValueError(f"unknown nonlinearity {name!r} (known: {', '.join(NONLINEARITY_NAMES)})")
+    return NONLINEARITIES[name]
+
+
+# ---- records ----------------------------------------------------------------------------------------------
+
+@dataclass
+class Record:
+    """One input/output record: ``u`` [input unit], ``y`` [output unit], sampled at ``rate_hz`` [Hz]."""
+
+    u: np.ndarray
+    y: np.ndarray
+    rate_hz: float
+    name: str = ""
+
+    def __post_init__(self):
+        self.u = np.ascontiguousarray(self.u, float).ravel()
+        self.y = np.ascontiguousarray(self.y, float).ravel()
+        if self.u.shape != self.y.shape or self.u.size < 10:
+            raise ValueError(f"record {self.name or ''}: u and y must have the same length >= 10 "
+                             f"(got {self.u.size}, {self.y.size})")
+        if not np.all(np.isfinite(self.u)) or not np.all(np.isfinite(self.y)):
+            raise ValueError(f"record {self.name}: values must be finite")
+
+
+def records_from_logs(logs, input: str, output: str, shift: int = 0) -> tuple[list, dict]:
+    """Records of ``input`` → ``output`` (column names or ``meta.signals`` names) from logs or paths, and the
+    units ``{"input": …, "output": …}`` (the logs must agree).
+
+    ``shift`` pairs y_k with u_{k+shift} [samples]. The model's G(z) is the zero-order-hold sampling of G(s)
+    when u_k is the command held from t_k to t_{k+1} (shift 0: a controller that logs what it sends at t_k);
+    a log whose u_k was held over the interval that *ends* at t_k (the twins' logs, ``bench_log``) needs
+    shift 1."""
+    from tendyn.io import Log, read_log
+
+    if int(shift) != shift:
+        raise ValueError(f"shift must be a whole number of samples (got {shift!r})")
+    shift = int(shift)
+    out, units = [], None
+    for k, lg in enumerate(logs if isinstance(logs, (list, tuple)) else [logs]):
+        name = str(lg) if not isinstance(lg, Log) else f"log {k + 1}"
+        lg = lg if isinstance(lg, Log) else read_log(lg)
+        ci, co = lg.resolve(input), lg.resolve(output)
+        u_units = {"input": lg.units[ci], "output": lg.units[co]}
+        if units is not None and u_units != units:
+            raise ValueError(f"{name}: units {u_units} differ from the first log's {units}")
+        units = u_units
+        u, y, n = lg[ci], lg[co], lg.n_samples
+        u, y = (u[shift:], y[:n - shift]) if shift >= 0 else (u[:n + shift], y[-shift:])
+        out.append(Record(u, y, float(lg.meta["rate_hz"]), name))
+    return out, units
+
+
+def _as_records(data, rate_hz) -> list:
+    if isinstance(data, Record):
+        return [data]
+    if isinstance(data, tuple) and len(data) == 2 and np.ndim(data[0]) == 1:
+        return [Record(data[0], data[1], rate_hz)]
+    return [d if isinstance(d, Record) else Record(d[0], d[1], rate_hz) for d in data]
+
+
+def nrms(y, yhat) -> float:
+    """‖y − ŷ‖ / ‖y − ȳ‖ [-]."""
+    y = np.asarray(y, float)
+    d = np.linalg.norm(y - y.mean())
+    return float(np.linalg.norm(y - yhat) / d) if d > 0 else math.inf
+
+
+# ---- simulation and Jacobian ----------------------------------------------------------------------------
+
+def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
+    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1)."""
+    A = np.concatenate([[1.0], a])
+    if structure == "wiener":
+        return nl.f(signal.lfilter(b, A, u), p)
+    return signal.lfilter(b, A, nl.f(u, p))
+
+
+def _shifted(w, k):
+    if k == 0:
+        return w
+    out = np.zeros_like(w)
+    out[k:] = w[:-k]
+    return out
+
+
+def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
+    b, a, p = theta[:n + 1], theta[n + 1:2 * n + 1], theta[2 * n + 1:]
+    A = np.concatenate([[1.0], a])
+    res, jacs = [], []
+    for r in records:
+        v = r.u if structure == "wiener" else nl.f(r.u, p)
+        x = signal.lfilter(b, A, v)
+        yhat = nl.f(x, p) if structure == "wiener" else x
+        res.append((yhat - r.y)[skip:])
+        if not want_jac:
+            continue
+        wv = signal.lfilter([1.0], A, v)
+        wx = signal.lfilter([1.0], A, x)
+        J = np.empty((r.u.size, theta.size))
+        for k in range(n + 1):
+            J[:, k] = _shifted(wv, k)
+        for k in range(1, n + 1):
+            J[:, n + k] = -_shifted(wx, k)
+        if structure == "wiener":
+            J[:, :2 * n + 1] *= nl.dfdx(x, p)[:, None]
+            J[:, 2 * n + 1:] = nl.dfdp(x, p)
+        else:
+            dp = nl.dfdp(r.u, p)
+            for j in range(dp.shape[1]):
+                J[:, 2 * n + 1 + j] = signal.lfilter(b, A, dp[:, j])
+        jacs.append(J[skip:])
+    r = np.concatenate(res)
+    bad = ~np.isfinite(r)
+    if bad.any():                                    # an unstable trial point: a large, finite cost
+        r = np.where(bad, 1e6, np.clip(r, -1e6, 1e6))
+    if not want_jac:
+        return r
+    J = np.concatenate(jacs)
+    return r, np.nan_to_num(J, nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def _stabilise(a):
+    """Reflect the poles of 1 + a_1 z⁻¹ + … outside the unit circle inside it (same magnitude response shape)."""
+    roots = np.roots(np.concatenate([[1.0], a]))
+    big = np.abs(roots) >= 1.0
+    if not big.any():
+        return a
+    roots[big] = 0.98 / np.conj(roots[big])
+    return np.real(np.poly(roots))[1:]
+
+
+def _arx(records, n, nl_in=None):
+    """ARX least squares y_t + Σ a_k y_{t−k} = Σ b_k v_{t−k} (v = u, or f(u) for Hammerstein); stable a."""
+    rows, rhs = [], []
+    for r in records:
+        v = r.u if nl_in is None else nl_in(r.u)
+        y = r.y
+        cols = [_shifted(v, k) for k in range(n + 1)] + [-_shifted(y, k) for k in range(1, n + 1)]
+        rows.append(np.column_stack(cols)[n:])
+        rhs.append(y[n:])
+    theta, *_ = np.linalg.lstsq(np.concatenate(rows), np.concatenate(rhs), rcond=None)
+    return theta[:n + 1], _stabilise(theta[n + 1:])
+
+
+@dataclass
+class _Solution:
+    x: np.ndarray
+    cost: float
+    nfev: int
+
+
+def _solve(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol=1e-10):
+    """Levenberg–Marquardt on the output error with the exact Jacobian: the normal equations JᵀJ are
+    (2n + 1 + p)² small, so a step costs the simulation and two filters per record, never a factorisation of
+    J (a thin SVD of a 10 000 × 8 Jacobian costs more than the whole simulation); thresholds are kept above
+    their lower bounds by projection."""
+    with np.errstate(over="ignore", invalid="ignore"):     # unstable trial points are rejected by their cost
+        return _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol)
+
+
+def _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol):
+    lb = np.concatenate([np.full(2 * n + 1, -np.inf), lower_nl])
+    theta = np.maximum(np.asarray(theta0, float), lb)
+    r, J = _residual_and_jac(structure, nl, n, theta, records, True, skip)
+    cost, lam, nfev = float(r @ r), 1e-3, 1
+    while nfev < max_nfev:
+        g, H = J.T @ r, J.T @ J
+        d = np.diag(H).copy()
+        d[d <= 0] = 1.0
+        while nfev < max_nfev:
+            try:
+                step = np.linalg.solve(H + lam * np.diag(d), -g)
+            except np.linalg.LinAlgError:
+                step = np.zeros_like(theta)
+            trial = np.maximum(theta + step, lb)
+            r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
+            nfev += 1
+            c2 = float(r2 @ r2)
+            if c2 < cost:
+                break
+            lam *= 4.0
+            if lam > 1e12:
+                return _Solution(theta, cost, nfev)
+        else:
+            break
+        small = (cost - c2 <= tol * cost) or np.linalg.norm(trial - theta) <= tol * (np.linalg.norm(theta) + tol)
+        theta, r, J, cost = trial, r2, J2, c2
+        lam = max(lam / 3.0, 1e-12)
+        if small:
+            break
+    return _Solution(theta, cost, nfev)
+
+
+def _initial_nonlinear(structure, nl, n, b, a, records, degree_cols):
+    """Rescale G and choose p by linear least squares on the basis of the nonlinearity (module docstring)."""
+    A = np.concatenate([[1.0], a])
+    z = [signal.lfilter(b, A, r.u) if structure == "wiener" else r.u for r in records]
+    y = np.concatenate([r.y for r in records])
+
+    def design(phis):       # Wiener: Φ(z); Hammerstein: G Φ(u)
+        if structure == "wiener":
+            return np.column_stack([np.concatenate([phi(zz) for zz in z]) for phi in phis])
+        return np.column_stack([np.concatenate([signal.lfilter(b, A, phi(zz)) for zz in z]) for phi in phis])
+
+    if nl.threshold:
+        mag = np.abs(np.concatenate(z))
+        best = None
+        for q in (0.0, 0.02, 0.05, 0.1, 0.15, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8):
+            t = max(float(np.quantile(mag, q)), 1e-12 * (mag.max() or 1.0))
+            X = design([lambda s, t=t: nl.f(s, [t])])
+            g = float(X[:, 0] @ y / (X[:, 0] @ X[:, 0])) if X[:, 0] @ X[:, 0] > 0 else 0.0
+            cost = float(np.sum((y - g * X[:, 0]) ** 2))
+            if g > 0 and (best is None or cost < best[0]):
+                best = (cost, g, t)
+        if best is None:
+            return b, np.array([1e-6 * (mag.max() or 1.0)])
+        _, g, t = best
+        return g * b, np.array([g * t if structure == "wiener" else t])
+    if nl.name == "abs":
+        X = design([np.abs])
+        g = float(X[:, 0] @ y / (X[:, 0] @ X[:, 0]))
+        return g * b, np.zeros(0)
+    if nl.name == "coulomb":
+        w, *_ = np.linalg.lstsq(design([lambda s: s, np.sign]), y, rcond=None)
+        g = w[0] if abs(w[0]) > 1e-12 else 1.0
+        return g * b, np.array([w[1] if structure == "wiener" else w[1] / g])
+    ks = np.arange(1, degree_cols + 2)
+    w, *_ = np.linalg.lstsq(design([lambda s, k=k: s ** k for k in ks]), y, rcond=None)
+    g = w[0] if abs(w[0]) > 1e-12 else 1.0
+    c = [w[k - 1] / (g ** k if structure == "wiener" else g) for k in ks[1:]]
+    return g * b, np.array(c)
+
+
+def _kernel_signs(records, lags=24):
+    """A sign sequence for x = G u from y = |x|: y² = (g * u)² is a quadratic form in the lagged inputs,
+    y²_t ≈ Σ_ij Q_ij u_{t−i} u_{t−j} with Q = g gᵀ (g the first ``lags`` samples of G's impulse response);
+    Q by least squares, g (up to its sign) its leading eigenvector, s = sgn(g * u)."""
+    rows, rhs = [], []
+    iu = np.triu_indices(lags)
+    for r in records:
+        U = np.column_stack([_shifted(r.u, k) for k in range(lags)])
+        rows.append((U[:, iu[0]] * U[:, iu[1]])[lags:])
+        rhs.append(r.y[lags:] ** 2)
+    q, *_ = np.linalg.lstsq(np.concatenate(rows), np.concatenate(rhs), rcond=None)
+    Q = np.zeros((lags, lags))
+    Q[iu] = q
+    Q = 0.5 * (Q + Q.T)
+    w, V = np.linalg.eigh(Q)
+    g = V[:, -1] * math.sqrt(max(w[-1], 0.0))
+    return [np.sign(np.convolve(r.u, g)[:r.u.size]) + 0.0 for r in records]
+
+
+def _abs_sign_recovery(records, n, skip, max_nfev, rounds=4):
+    """Linear initial estimate of a Wiener model with f = |x| (its best linear approximation is zero: f is
+    even). Two sign sequences are tried for x — sgn(u) and the output's own dips (:func:`_output_signs`) —
+    each refined by alternating an ARX fit of s·y on u with s = sgn(G u), then by output error with |·|;
+    the one of lower cost is kept (G and −G are the same model)."""
+    nl = NONLINEARITIES["abs"]
+    best = None
+    for signs in ([np.sign(r.u) for r in records], _kernel_signs(records)):
+        signs = [s + (s == 0) for s in signs]
+        for _ in range(rounds):
+            b, a = _arx([Record(r.u, s * r.y, r.rate_hz) for r, s in zip(records, signs)], n)
+            signs = [np.sign(signal.lfilter(b, np.concatenate([[1.0], a]), r.u)) for r in records]
+            signs = [s + (s == 0) for s in signs]
+        sol = _solve("wiener", nl, n, np.concatenate([b, a]), records, skip, max_nfev, np.zeros(0))
+        if best is None or sol.cost < best.cost:
+            best = sol
+    return best.x[:n + 1], _stabilise(best.x[n + 1:2 * n + 1])
+
+
+# ---- the result and the estimator -------------------------------------------------------------------------
+
+@dataclass(eq=False)
+class BlockModelFit(Result):
+    """A fitted Wiener or Hammerstein model: G(z) = B/A at ``dt`` [s], the nonlinearity and its parameters,
+    RMS [output unit] and NRMS [-] on the fit and validation records, NRMS per order tried."""
+
+    structure: str
+    nonlinearity: str
+    order: int
+    b: np.ndarray
+    a: np.ndarray
+    params: dict
+    dt: float
+    fit_rms: float
+    fit_nrms: float
+    validation_rms: list = field(default_factory=list)
+    validation_nrms: list = field(default_factory=list)
+    order_nrms: dict = field(default_factory=dict)
+    units: dict = field(default_factory=lambda: {"input": "-", "output": "-"})
+    nfev: int = 0
+    seconds: float = 0.0
+    example: tuple | None = field(default=None, repr=False)     # (title, time, y, ŷ) of one record, ≤ 2 s
+
+    def linear_tf(self):
+        """G(z) as a python-control discrete ``TransferFunction`` (dt [s])."""
+        import control
+
+        b = np.where(np.abs(self.b) < 1e-12 * np.abs(self.b).max(), 0.0, self.b)   # a round-off b_0 is a delay
+        return control.tf(b, np.concatenate([[1.0], self.a]), self.dt)
+
+    def linear_continuous(self):
+        """G(s) with the same zero-order-hold samples as G(z) (matrix logarithm of the sampled state
+        space), as a python-control ``TransferFunction``. Raises ValueError if a pole of G(z) lies on the
+        negative real axis (no real continuous equivalent)."""
+        import control
+        from scipy.linalg import expm, logm
+
+        sysd = control.ss(self.linear_tf())
+        nx = sysd.A.shape[0]
+        poles = np.linalg.eigvals(sysd.A)
+        if np.any((np.abs(poles.imag) < 1e-12) & (poles.real <= 0)):
+            raise ValueError("a pole of G(z) lies on the non-positive real axis: no continuous equivalent")
+        M = np.zeros((nx + 1, nx + 1))
+        M[:nx, :nx], M[:nx, nx:] = sysd.A, sysd.B
+        M[nx, nx] = 1.0
+        L = np.real(logm(M)) / self.dt
+        assert np.allclose(expm(L * self.dt), M, atol=1e-8 * np.abs(M).max())
+        return control.tf(control.ss(L[:nx, :nx], L[:nx, nx:], sysd.C, sysd.D))
+
+    def frequency_response(self, omega) -> np.ndarray:
+        """G(e^{jωdt}) on ``omega`` [rad/s]."""
+        z = np.exp(1j * np.asarray(omega, float) * self.dt)
+        zi = 1.0 / z
+        num = np.polyval(self.b[::-1], zi)
+        den = np.polyval(np.concatenate([[1.0], self.a])[::-1], zi)
+        return num / den
+
+    def predict(self, u) -> np.ndarray:
+        return simulate(self.structure, nonlinearity(self.nonlinearity, len(self.params) + 1), self.b, self.a,
+                        np.array(list(self.params.values()), float), np.asarray(u, float))
+
+    def _draw(self, ax) -> None:
+        if self.example is None:
+            ax.text(0.5, 0.5, "no validation record", ha="center")
+            return
+        title, t, y, yh = self.example
+        ax.plot(t, y, lw=1.0, label="measured")
+        ax.plot(t, yh, lw=1.0, ls="--", label=f"simulated from rest ({self.structure}, {self.nonlinearity})")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(f"output [{self.units['output']}]")
+        ax.set_title(title)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+
+    def to_dict(self) -> dict:
+        d = {"structure": self.structure, "nonlinearity": self.nonlinearity, "order": self.order,
+             "b": [float(v) for v in self.b], "a": [1.0] + [float(v) for v in self.a], "dt_s": self.dt,
+             "nonlinearity_params": {k: float(v) for k, v in self.params.items()},
+             "fit_rms": self.fit_rms, "fit_nrms": self.fit_nrms, "validation_rms": list(self.validation_rms),
+             "validation_nrms": list(self.validation_nrms),
+             "order_nrms": {str(k): v for k, v in self.order_nrms.items()}, "units": dict(self.units),
+             "nfev": self.nfev, "seconds": self.seconds}
+        try:
+            G = self.linear_continuous()
+            d["continuous"] = {"num": [float(v) for v in np.ravel(G.num[0][0])],
+                               "den": [float(v) for v in np.ravel(G.den[0][0])]}
+        except ValueError:
+            d["continuous"] = None
+        return d
+
+    def table(self) -> str:
+        rows = [(k, v) for k, v in self.params.items()]
+        rows += [("fit RMS [" + self.units["output"] + "]", self.fit_rms), ("fit NRMS", self.fit_nrms)]
+        rows += [(f"validation {i + 1} NRMS", v) for i, v in enumerate(self.validation_nrms)]
+        rows += [(f"order {k}: NRMS", v) for k, v in self.order_nrms.items()]
+        return format_table(("quantity", "value"), rows,
+                            f"{self.structure} model, {self.nonlinearity}, order {self.order} "
+                            f"({self.nfev} evaluations, {self.seconds:.2f} s)")
+
+
+class BlockModel:
+    """Estimator of a Wiener or Hammerstein model by output error (module docstring).
+
+    Parameters (hyper-parameters, stored as given)
+    ----------
+    structure : {"wiener", "hammerstein"}
+    nonlinearity : str
+        One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``.
+    order : int or None
+        Order n of G(z); None chooses it in 1…``max_order`` by the NRMS on the validation records (or, without
+        them, on the last third of each fit record, the model fitted on the first two thirds), then refits.
+    max_order : int
+    degree : int
+        Degree of the polynomial nonlinearity.
+    skip : int
+        Samples at the start of each record left out of the cost (an initial state that is not rest).
+    max_nfev : int
+        Evaluations allowed to the output-error minimiser per fit.
+    rate_hz : float or None
+        Sample rate [Hz] of records given as (u, y) arrays (records from logs carry their own).
+
+    Learned attributes
+    ------------------
+    order_ : int;  b_, a_ : the coefficients of G(z) (``a_`` without its leading 1);  params_ : dict of the
+    nonlinearity's parameters [its input's unit];  dt_ : [s];  linear_ : G(z) (python-control);
+    fit_rms_, fit_nrms_ ;  validation_nrms_ : list;  order_nrms_ : {order: NRMS};  nfev_ ;  result_ :
+    :class:`BlockModelFit`.
+    """
+
+    def __init__(self, structure: str = "wiener", nonlinearity: str = "dead-zone", order: int | None = None,
+                 max_order: int = 4, degree: int = 3, skip: int = 0, max_nfev: int = 200,
+                 rate_hz: float | None = None):
+        self.structure = structure
+        self.nonlinearity = nonlinearity
+        self.order = order
+        self.max_order = max_order
+        self.degree = degree
+        self.skip = skip
+        self.max_nfev = max_nfev
+        self.rate_hz = rate_hz
+
+    def get_params(self, deep: bool = True) -> dict:
+        return {k: getattr(self, k) for k in ("structure", "nonlinearity", "order", "max_order", "degree", "skip",
+                                              "max_nfev", "rate_hz")}
+
+    # ---- fitting ----
+    def _nl(self) -> Nonlinearity:
+        return nonlinearity(self.nonlinearity, self.degree)
+
+    def _fit_order(self, records, n, warm=None):
+        """θ and evaluations of the order-n model; ``warm``, the order n − 1 solution, is also tried padded
+        with a pole and a zero at the origin (the same model), so a higher order never fits worse."""
+        nl = self._nl()
+        if self.structure == "wiener" and nl.name == "abs":
+            b, a = _abs_sign_recovery(records, n, self.skip, self.max_nfev)
+        else:   # linear output error (identity in place of f) from ARX
+            b, a = _arx(records, n)
+            sol = _solve(self.structure, IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
+                         np.zeros(0))
+            b, a = sol.x[:n + 1], _stabilise(sol.x[n + 1:2 * n + 1])
+        b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
+        sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
+                     np.array(nl.lower, float))
+        if warm is not None:
+            padded = np.concatenate([warm[:n], [0.0], warm[n:2 * n - 1], [0.0], warm[2 * n - 1:]])
+            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float))
+            if other.cost < sol.cost:
+                sol = _Solution(other.x, other.cost, other.nfev + sol.nfev)
+        theta = sol.x
+        if self.structure == "wiener" and nl.name == "abs" and np.sum(theta[:n + 1]) < 0:
+            theta = np.concatenate([-theta[:n + 1], theta[n + 1:]])     # |G u| = |−G u|: G(1) > 0 by convention
+        return theta, sol.nfev
+
+    def fit(self, records, validation=None) -> "BlockModel":
+        """Fit to records: a :class:`Record`, a ``(u, y)`` pair or a list of either (``rate_hz`` needed for
+        arrays); ``validation`` the same kinds. Returns self."""
+        import time
+
+        if self.structure not in STRUCTURES:
+            raise ValueError(f"structure must be one of {STRUCTURES} (got {self.structure!r})")
+        nl = self._nl()
+        recs = _as_records(records, self.rate_hz)
+        val = _as_records(validation, self.rate_hz) if validation is not None else []
+        rates = {r.rate_hz for r in recs + val}
+        if len(rates) != 1 or None in rates:
+            raise ValueError(f"all records need one sample rate (got {sorted(map(str, rates))})")
+        if self.order is not None and (int(self.order) < 1 or int(self.order) > 12):
+            raise ValueError(f"order must be 1…12 (got {self.order!r})")
+        t0 = time.perf_counter()
+        self.order_nrms_ = {}
+        if self.order is None:
+            if val:
+                sel_fit, sel_val = recs, val
+            else:
+                sel_fit = [Record(r.u[:2 * r.u.size // 3], r.y[:2 * r.y.size // 3], r.rate_hz) for r in recs]
+                sel_val = [Record(r.u[2 * r.u.size // 3:], r.y[2 * r.y.size // 3:], r.rate_hz) for r in recs]
+            fits = {0: (None, 0)}
+            for n in range(1, int(self.max_order) + 1):
+                fits[n] = self._fit_order(sel_fit, n, warm=fits[n - 1][0])
+                self._set(fits[n][0], n, nl, recs[0].rate_hz)
+                self.order_nrms_[n] = float(np.mean([self.nrms(r.u, r.y) for r in sel_val]))
+            n = min(self.order_nrms_, key=lambda k: (round(self.order_nrms_[k], 3), k))
+            # with validation records the selection fitted on all the fit records already
+            th, nfev = fits[n] if val else self._fit_order(recs, n, warm=fits[n - 1][0])
+        else:
+            n = int(self.order)
+            th, nfev = self._fit_order(recs, n)
+        self._set(th, n, nl, recs[0].rate_hz)
+        self.nfev_ = int(nfev)
+        yh = [self.predict(r.u) for r in recs]
+        err = np.concatenate([(y - r.y)[self.skip:] for y, r in zip(yh, recs)])
+        ally = np.concatenate([r.y[self.skip:] for r in recs])
+        self.fit_rms_ = float(np.sqrt(np.mean(err ** 2)))
+        self.fit_nrms_ = float(np.linalg.norm(err) / np.linalg.norm(ally - ally.mean()))
+        self.validation_rms_ = [self.rms(r.u, r.y) for r in val]
+        self.validation_nrms_ = [self.nrms(r.u, r.y) for r in val]
+        k = int(np.argmin(self.validation_nrms_)) if val else 0     # the validation record the model fits best
+        ex = val[k] if val else recs[0]
+        m = min(ex.u.size, int(2.0 * ex.rate_hz))
+        title = (f"validation record {k + 1} of {len(val)}: NRMS {self.validation_nrms_[k]:.3f} (first {m / ex.rate_hz:g} s)"
+                 if val else f"fit: NRMS {self.fit_nrms_:.3f}")
+        example = (title, np.arange(m) / ex.rate_hz, ex.y[:m], self.predict(ex.u)[:m])
+        self.result_ = BlockModelFit(self.structure, nl.name, n, self.b_.copy(), self.a_.copy(), dict(self.params_),
+                                     self.dt_, self.fit_rms_, self.fit_nrms_, self.validation_rms_,
+                                     self.validation_nrms_, dict(self.order_nrms_), nfev=self.nfev_,
+                                     seconds=time.perf_counter() - t0, example=example)
+        return self
+
+    def _set(self, theta, n, nl, rate_hz):
+        self.order_ = n
+        self.b_ = np.asarray(theta[:n + 1], float)
+        self.a_ = np.asarray(theta[n + 1:2 * n + 1], float)
+        self.params_ = {k: float(v) for k, v in zip(nl.params, theta[2 * n + 1:])}
+        self.dt_ = 1.0 / float(rate_hz)
+
+    @property
+    def linear_(self):
+        return self.result_.linear_tf()
+
+    # ---- using the model ----
+    def predict(self, u) -> np.ndarray:
+        """ŷ [output unit] simulated from rest for the input ``u``."""
+        return simulate(self.structure, self._nl(), self.b_, self.a_, np.array(list(self.params_.values()), float),
+                        np.asarray(u, float))
+
+    def rms(self, u, y) -> float:
+        """RMS of y − ŷ [output unit] (after ``skip``)."""
+        e = (np.asarray(y, float) - self.predict(u))[self.skip:]
+        return float(np.sqrt(np.mean(e ** 2)))
+
+    def nrms(self, u, y) -> float:
+        """NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (after ``skip``)."""
+        y = np.asarray(y, float)
+        return nrms(y[self.skip:], self.predict(u)[self.skip:])
+
+    def score(self, u, y) -> float:
+        """1 − NRMS [-] (1 perfect, 0 no better than the mean; higher is better, as scikit-learn's score)."""
+        return 1.0 - self.nrms(u, y)
