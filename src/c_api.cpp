@@ -199,6 +199,39 @@ tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, d
   return TENDYN_OK;
 }
 
+tendyn_status tendyn_compensator_passivity(const tendyn_compensator* c, double* energy, double* damping,
+                                           double* torque, double* energy_injected, double* energy_budget) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  if (!c->model.passivity.enabled) return TENDYN_INVALID_MODEL;
+  const int n = c->model.transmission.n;
+  const tendyn::PassivityData& p = c->data.passivity;
+  if (energy) Eigen::Map<Eigen::VectorXd>(energy, n) = p.energy;
+  if (damping) Eigen::Map<Eigen::VectorXd>(damping, n) = p.damping;
+  if (torque) Eigen::Map<Eigen::VectorXd>(torque, n) = p.torque;
+  if (energy_injected) Eigen::Map<Eigen::VectorXd>(energy_injected, n) = p.energy_injected;
+  if (energy_budget) Eigen::Map<Eigen::VectorXd>(energy_budget, n) = p.energy_budget;
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_compensator_tracking(const tendyn_compensator* c, double* scale_constant, double* scale_viscous,
+                                         long* updates) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  if (!c->model.tracking.enabled) return TENDYN_INVALID_MODEL;
+  const int n = c->model.transmission.n;
+  const tendyn::FrictionTrackingData& t = c->data.tracking;
+  if (scale_constant) Eigen::Map<Eigen::VectorXd>(scale_constant, n) = t.scale_constant;
+  if (scale_viscous) Eigen::Map<Eigen::VectorXd>(scale_viscous, n) = t.scale_viscous;
+  if (updates)
+    for (int i = 0; i < n; ++i) updates[i] = t.updates(i);
+  return TENDYN_OK;
+}
+
+tendyn_status tendyn_compensator_set_tracking_active(tendyn_compensator* c, int active) {
+  if (!c) return TENDYN_NULL_ARGUMENT;
+  c->data.tracking_active = active != 0;
+  return TENDYN_OK;
+}
+
 tendyn_status tendyn_renderer_create(const tendyn_compensator* c, double stiffness, double damping,
                                      double surface_friction, tendyn_renderer** out) {
   if (!c || !out) return TENDYN_NULL_ARGUMENT;

@@ -46,6 +46,49 @@ void expose_compensator(nb::module_& m) {
         [need_valid](const C& c, CD& d, VecRef q) { need_valid(c); return check(chain_gravity_torque(c, d, q), "chain_gravity_torque"); },
         nb::arg("model"), nb::arg("data"), nb::arg("q"));
 
+  using PM = PassivityModel;
+  using PD = PassivityData;
+  nb::class_<PM>(m, "PassivityModel",
+                 "Passivity observer + controller at the motor ports (passivity.hpp), all motor side.")
+      .def(nb::init<>())
+      .def_rw("enabled", &PM::enabled)
+      .def_rw("dissipation_coulomb", &PM::dissipation_coulomb)
+      .def_rw("dissipation_viscous", &PM::dissipation_viscous)
+      .def_rw("reserve", &PM::reserve)
+      .def_rw("damping_max", &PM::damping_max)
+      .def("first_issue", &PM::first_issue, nb::arg("n"));
+  nb::class_<PD>(m, "PassivityData")
+      .def(nb::init<int>(), nb::arg("n") = 0)
+      .def("reset", &PD::reset)
+      .def_ro("energy", &PD::energy)
+      .def_ro("damping", &PD::damping)
+      .def_ro("torque", &PD::torque)
+      .def_ro("torque_added_prev", &PD::torque_added_prev)
+      .def_ro("energy_injected", &PD::energy_injected)
+      .def_ro("energy_budget", &PD::energy_budget);
+
+  using TM = FrictionTrackingModel;
+  using TD = FrictionTrackingData;
+  nb::class_<TM>(m, "FrictionTrackingModel", "Online friction tracking settings (friction_tracking.hpp).")
+      .def(nb::init<>())
+      .def_rw("enabled", &TM::enabled)
+      .def_rw("forgetting", &TM::forgetting)
+      .def_rw("velocity_min", &TM::velocity_min)
+      .def_rw("acceleration_max", &TM::acceleration_max)
+      .def_rw("scale_min", &TM::scale_min)
+      .def_rw("scale_max", &TM::scale_max)
+      .def_rw("covariance_max", &TM::covariance_max)
+      .def("first_issue", &TM::first_issue);
+  nb::class_<TD>(m, "FrictionTrackingData")
+      .def_ro("scale_constant", &TD::scale_constant)
+      .def_ro("scale_viscous", &TD::scale_viscous)
+      .def_ro("covariance", &TD::covariance)
+      .def_ro("friction_constant", &TD::friction_constant)
+      .def_ro("friction_viscous", &TD::friction_viscous)
+      .def_ro("acceleration", &TD::acceleration)
+      .def_ro("residual", &TD::residual)
+      .def_ro("updates", &TD::updates);
+
   using M = CompensatorModel;
   using D = CompensatorData;
   nb::class_<M>(m, "CompensatorModel", "Real-time compensator model (compensator.hpp); validate() before use.")
@@ -56,6 +99,8 @@ void expose_compensator(nb::module_& m) {
       .def_rw("velocity_band", &M::velocity_band)
       .def_rw("velocity_cutoff_hz", &M::velocity_cutoff_hz)
       .def_rw("rate_hz", &M::rate_hz)
+      .def_rw("passivity", &M::passivity)
+      .def_rw("tracking", &M::tracking)
       .def_rw("device", &M::device)
       .def_prop_rw(
           "loss_source",
@@ -91,8 +136,13 @@ void expose_compensator(nb::module_& m) {
            },
            nb::arg("model"))
       .def("reset", &D::reset)
+      .def("restart", &D::restart)
       .def_ro("q_motor", &D::q_motor)
       .def_ro("qd_motor", &D::qd_motor)
+      .def_ro("motor_step", &D::motor_step)
+      .def_ro("passivity", &D::passivity)
+      .def_ro("tracking", &D::tracking)
+      .def_rw("tracking_active", &D::tracking_active)
       .def_ro("q", &D::q)
       .def_ro("qd", &D::qd)
       .def_ro("torque_joint_wanted", &D::torque_joint_wanted)
@@ -131,6 +181,16 @@ void expose_compensator(nb::module_& m) {
         if (!save_compensator_model(mo, path, &error)) throw nb::value_error(error.c_str());
       },
       nb::arg("model"), nb::arg("path"), "Write the compensator model file (compensator_file.hpp) atomically.");
+  m.def(
+      "parse_compensator_model",
+      [](const std::string& text, const std::string& name, const std::string& expected_device) {
+        M mo;
+        std::string error;
+        if (!parse_compensator_model(text, name, expected_device, &mo, &error)) throw nb::value_error(error.c_str());
+        return mo;
+      },
+      nb::arg("text"), nb::arg("name") = "compensator", nb::arg("expected_device") = "",
+      "Parse a compensator model file's text (ValueError names the name, line and field).");
   m.def(
       "load_compensator_model",
       [](const std::string& path, const std::string& expected_device) {

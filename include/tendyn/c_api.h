@@ -109,6 +109,25 @@ TENDYN_API tendyn_status tendyn_compensator_cycle_force(tendyn_compensator* c, c
 TENDYN_API tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, double* qd,
                                                   double* qd_motor, double* gravity_torque, double* ee_position);
 
+/* Passivity observer and controller of the last cycle (include/tendyn/passivity.hpp; on when the model file
+ * has `section passivity 1` with `enabled 1`); any pointer may be NULL, each (n): energy [J] the compensator
+ * injected beyond the certified dissipation (> 0: the controller is damping), damping [N m s/rad] and
+ * torque [N m] the controller adds this cycle, energy_injected and energy_budget [J] since the last reset.
+ * Returns TENDYN_INVALID_MODEL when the model has no passivity controller (the outputs are then untouched). */
+TENDYN_API tendyn_status tendyn_compensator_passivity(const tendyn_compensator* c, double* energy, double* damping,
+                                                      double* torque, double* energy_injected,
+                                                      double* energy_budget);
+
+/* Online friction tracking (include/tendyn/friction_tracking.hpp; on when the model file has `section
+ * tracking 1` with `enabled 1`). scale_constant, scale_viscous (n) [-] (may be NULL): the tracked scales of the
+ * model's constant (tau0, beta, bearings) and viscous (nu) losses per transmission (1 = as identified); updates
+ * (n) (may be NULL): RLS updates since the last reset. TENDYN_INVALID_MODEL without tracking. */
+TENDYN_API tendyn_status tendyn_compensator_tracking(const tendyn_compensator* c, double* scale_constant,
+                                                     double* scale_viscous, long* updates);
+/* Gate the tracker: active = 0 while an unknown external force acts on the device (a hand on the handle),
+ * 1 when the motion is the device's own (a self-test trajectory, a position-controlled task). Default 1. */
+TENDYN_API tendyn_status tendyn_compensator_set_tracking_active(tendyn_compensator* c, int active);
+
 /* A haptic renderer on a copy of a compensator (S0 eq. 23, corrected: ERRATA):
  * F_d = (K_st + K_d s)(X_god - X_hat) + F_fr + F_T, god-object proxy against planes and one sphere, torques
  * through the compensator. Create and shape the scene at setup; then one tendyn_renderer_cycle per period. */

@@ -13,7 +13,12 @@
 //   6. output C_m = C₀ + k · w_i · C_f,i with the under-estimation factor k ∈ [0, 1.5] (C46: friction
 //      compensated with under-estimated coefficients) and w_i = min(1, |q̇_m,i| / v_band) fading the
 //      friction feedforward linearly to zero inside the velocity band (no chatter at rest; static friction
-//      is not compensated, S0 §III).
+//      is not compensated, S0 §III);
+//   6b. with model.tracking enabled, C_f is split into its constant and viscous parts and scaled by the
+//      scales tracked online (friction_tracking.hpp: RLS with forgetting), which are updated from the last
+//      cycle's command first;
+//   7. with model.passivity enabled: the passivity observer at each motor port and the controller's damping
+//      torque τ_pc added to C_m (passivity.hpp: Hannaford & Ryu's PO/PC against a certified dissipation bound).
 // The compute time of the cycle is reported in the output (data.compute_time [s]), as Ruckig does.
 // Model / Data convention; no allocation, no exception on the real-time path; every call returns a Status.
 #pragma once
@@ -26,7 +31,9 @@
 #include <Eigen/Core>
 
 #include "tendyn/chain.hpp"
+#include "tendyn/friction_tracking.hpp"
 #include "tendyn/losses.hpp"
+#include "tendyn/passivity.hpp"
 
 namespace tendyn {
 
@@ -73,6 +80,8 @@ struct CompensatorModel {
   double velocity_band = 0.0;      ///< v_band [rad/s], motor side: friction fades to 0 below it (0 = off)
   double velocity_cutoff_hz = 0.0; ///< cut-off of the first-order velocity filter [Hz] (0 = raw difference)
   double rate_hz = 1000.0;         ///< control rate [Hz] (one cycle per period)
+  PassivityModel passivity;        ///< passivity observer + controller at the motor ports (off by default)
+  FrictionTrackingModel tracking;  ///< online friction tracking (off by default)
   std::string device;              ///< name of the device the model belongs to (setup-time checks only)
   /// Source of each loss term (loss_terms order): all Device for a model built from a device file alone.
   std::array<LossSource, loss_term_count> loss_source{};
@@ -98,6 +107,8 @@ struct CompensatorModel {
       return "rate_hz = " + format_double(rate_hz) + ": must be in [100, 100000] Hz";
     if (!(velocity_cutoff_hz >= 0.0 && velocity_cutoff_hz < 0.5 * rate_hz))
       return "velocity_cutoff_hz = " + format_double(velocity_cutoff_hz) + ": must be in [0, rate_hz / 2)";
+    if (std::string p = passivity.first_issue(transmission.n); !p.empty()) return p;
+    if (std::string t = tracking.first_issue(); !t.empty()) return t;
     return loss_sources_issue(transmission, loss_source);
   }
   Status validate() const { return first_issue().empty() ? Status::Ok : Status::InvalidModel; }
@@ -117,6 +128,7 @@ struct CompensatorData {
   Eigen::VectorXd q_motor;                ///< last encoder reading [rad]
   Eigen::VectorXd q_motor_prev;           ///< previous reading [rad]
   Eigen::VectorXd qd_motor;               ///< filtered motor velocity estimate [rad/s]
+  Eigen::VectorXd motor_step;             ///< displacement over the last period q_m − q_m,prev [rad]
   Eigen::VectorXd q, qd;                  ///< joint position [rad] / velocity [rad/s] estimates
   Eigen::VectorXd torque_joint_wanted;    ///< joint torques wanted on top of gravity [N·m]
   Eigen::VectorXd torque_joint;           ///< joint torques delivered: wanted + gravity [N·m]
@@ -124,6 +136,9 @@ struct CompensatorData {
   Eigen::VectorXd torque_motor_friction;  ///< k w C_f, the friction part commanded [N·m]
   Eigen::VectorXd friction_weight;        ///< w_i in [0, 1] (velocity band)
   Eigen::VectorXd torque_motor;           ///< C_m to command [N·m]
+  PassivityData passivity;                ///< observer energy and controller torque per motor
+  FrictionTrackingData tracking;          ///< tracked friction scales and the RLS state
+  bool tracking_active = true;            ///< the caller's gate: false while an unknown force (a hand) acts
   bool first = true;                      ///< no previous reading yet (velocity 0)
   long cycles = 0;
   double compute_time = 0.0;              ///< wall time of the last cycle [s]
@@ -132,20 +147,31 @@ struct CompensatorData {
   explicit CompensatorData(const CompensatorModel& m)
       : transmission(m.transmission), chain(m.chain),
         q_motor(Eigen::VectorXd::Zero(m.transmission.n)), q_motor_prev(Eigen::VectorXd::Zero(m.transmission.n)),
-        qd_motor(Eigen::VectorXd::Zero(m.transmission.n)), q(Eigen::VectorXd::Zero(m.transmission.n)),
+        qd_motor(Eigen::VectorXd::Zero(m.transmission.n)), motor_step(Eigen::VectorXd::Zero(m.transmission.n)),
+        q(Eigen::VectorXd::Zero(m.transmission.n)),
         qd(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_joint_wanted(Eigen::VectorXd::Zero(m.transmission.n)), torque_joint(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_motor_lossless(Eigen::VectorXd::Zero(m.transmission.n)),
         torque_motor_friction(Eigen::VectorXd::Zero(m.transmission.n)),
         friction_weight(Eigen::VectorXd::Zero(m.transmission.n)),
-        torque_motor(Eigen::VectorXd::Zero(m.transmission.n)), filter_alpha(m.filter_gain()) {}
+        torque_motor(Eigen::VectorXd::Zero(m.transmission.n)), passivity(m.transmission.n),
+        tracking(m.transmission, m.tracking), filter_alpha(m.filter_gain()) {}
 
-  /// Forget the velocity history (the next reading starts at rest).
-  void reset() {
+  /// Forget the velocity history and the observed energy (the next reading starts at rest); keep what the
+  /// friction tracker has learnt.
+  void restart() {
     first = true;
     cycles = 0;
     qd_motor.setZero();
+    motor_step.setZero();
     qd.setZero();
+    passivity.reset();
+    tracking.has_prev = false;
+  }
+  /// restart() and back to the identified friction (tracked scales 1).
+  void reset() {
+    restart();
+    tracking.reset();
   }
 };
 
@@ -167,7 +193,8 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
   }
   const double alpha = d.filter_alpha, rate = m.rate_hz;
   for (int i = 0; i < n; ++i) {
-    d.qd_motor(i) += alpha * ((d.q_motor(i) - d.q_motor_prev(i)) * rate - d.qd_motor(i));
+    d.motor_step(i) = d.q_motor(i) - d.q_motor_prev(i);
+    d.qd_motor(i) += alpha * (d.motor_step(i) * rate - d.qd_motor(i));
     d.q_motor_prev(i) = d.q_motor(i);
   }
   Status s = joint_from_motor(m.transmission, d.transmission, d.q_motor);
@@ -180,6 +207,36 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
   chain_end_effector(m.chain, d.chain, jacobian);
   return Status::Ok;
 }
+
+namespace detail {
+/// Tracker step of compensator_command (friction_tracking.hpp), after the full feedforward of this cycle is in
+/// d.transmission.torque_motor: acceleration estimate, RLS update from the last cycle, this cycle's split.
+inline Status friction_tracking_step(const CompensatorModel& m, CompensatorData& d) {
+  const int n = m.transmission.n;
+  FrictionTrackingData& t = d.tracking;
+  const FrictionTrackingModel& fm = m.tracking;
+  for (int i = 0; i < n; ++i) {
+    const double a_raw = t.has_prev ? (d.qd_motor(i) - t.velocity_prev(i)) * m.rate_hz : 0.0;
+    t.acceleration(i) += d.filter_alpha * (a_raw - t.acceleration(i));
+    t.residual(i) = 0.0;
+    if (!t.has_prev || !d.tracking_active) continue;
+    const double phi_c = t.regressor_prev(i), phi_v = t.regressor_prev(n + i);
+    if (std::abs(t.velocity_prev(i)) < fm.velocity_min || std::abs(t.acceleration(i)) > fm.acceleration_max ||
+        std::abs(phi_c) + std::abs(phi_v) < 1e-9)
+      continue;  // no information: near rest, accelerating, or nothing to scale
+    friction_tracking_update(fm, t, i, phi_c, phi_v, t.torque_motor_prev(i) - t.gravity_motor_prev(i));
+  }
+  const Status s = motor_torque_feedforward(t.constant_model, t.constant_data, d.torque_joint, d.qd);
+  if (is_error(s)) return s;
+  for (int i = 0; i < n; ++i) {
+    t.friction_constant(i) = t.constant_data.torque_motor(i) - d.torque_motor_lossless(i);
+    t.friction_viscous(i) = d.transmission.torque_motor(i) - t.constant_data.torque_motor(i);
+    t.regressor_prev(i) = t.friction_constant(i);
+    t.regressor_prev(n + i) = t.friction_viscous(i);
+  }
+  return s;
+}
+}  // namespace detail
 
 /// Steps 4–6: motor torques that deliver `torque_joint_wanted` plus gravity, with the losses covered.
 /// Call compensator_sense first in the same cycle. Returns Ok, SelfLocked (flag) or an error.
@@ -195,19 +252,39 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
   }
   d.torque_motor_lossless.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.torque_joint);
   Status s = Status::Ok;
-  if (m.underestimation > 0.0) {
+  const bool tracking = m.tracking.enabled;
+  if (m.underestimation > 0.0 || tracking) {
     s = motor_torque_feedforward(m.transmission, d.transmission, d.torque_joint, d.qd);
+    if (is_error(s)) return s;
+  }
+  if (tracking) {
+    s = worst(s, detail::friction_tracking_step(m, d));
     if (is_error(s)) return s;
   }
   for (int i = 0; i < n; ++i) {
     const double v = std::abs(d.qd_motor(i));
     const double w = m.velocity_band > 0.0 ? std::min(1.0, v / m.velocity_band) : 1.0;
     d.friction_weight(i) = w;
-    d.torque_motor_friction(i) =
-        m.underestimation > 0.0
-            ? m.underestimation * w * (d.transmission.torque_motor(i) - d.torque_motor_lossless(i))
-            : 0.0;
+    const double friction = tracking ? d.tracking.scale_constant(i) * d.tracking.friction_constant(i) +
+                                           d.tracking.scale_viscous(i) * d.tracking.friction_viscous(i)
+                                     : d.transmission.torque_motor(i) - d.torque_motor_lossless(i);
+    d.torque_motor_friction(i) = m.underestimation > 0.0 ? m.underestimation * w * friction : 0.0;
     d.torque_motor(i) = d.torque_motor_lossless(i) + d.torque_motor_friction(i);
+  }
+  if (m.passivity.enabled) {
+    const double T = m.period();
+    for (int i = 0; i < n; ++i) {
+      passivity_observe(m.passivity, d.passivity, i, d.motor_step(i), T);
+      const double pc = passivity_control(m.passivity, d.passivity, i, d.qd_motor(i), T);
+      d.torque_motor(i) += pc;
+      d.passivity.torque_added_prev(i) = d.torque_motor_friction(i) + pc;
+    }
+  }
+  if (tracking) {  // what the next cycle's tracker update measures against
+    d.tracking.torque_motor_prev = d.torque_motor;
+    d.tracking.gravity_motor_prev.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.chain.gravity_torque);
+    d.tracking.velocity_prev = d.qd_motor;
+    d.tracking.has_prev = true;
   }
   ++d.cycles;
   return s;

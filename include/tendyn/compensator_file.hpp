@@ -32,11 +32,25 @@
 //     bearings none
 //     reducer_efficiency identified
 //     friction friction.json                 (optional: where the identified friction came from)
+//     section passivity 1                    (optional: absent = no passivity controller, passivity.hpp)
+//     enabled 1                              0 or 1
+//     dissipation_coulomb 0.01 …             c_i [N·m] per motor, certified lower bound of its Coulomb friction
+//     dissipation_viscous 1e-4 …             b_i [N·m·s/rad] per motor, the same for its viscous friction
+//     reserve 0.005                          [J], most dissipated energy the observer banks per motor
+//     damping_max 0.05                       α_max [N·m·s/rad], bound of the controller's damping
+//     section tracking 1                     (optional: absent = no online friction tracking, friction_tracking.hpp)
+//     enabled 1                              0 or 1
+//     forgetting 0.9999                      λ [-] in (0.9, 1]
+//     velocity_min 2                         [rad/s], no update below
+//     acceleration_max 10                    [rad/s²], no update above
+//     scale_min 0.2                          bounds of the tracked scales [-]
+//     scale_max 3
+//     covariance_max 1                       bound on trace(P) [-]
 //
 // Section losses records one loss model at a time (CompensatorModel::loss_source): identified and device terms
 // never mix, and a term recorded as none must be lossless in the transmission part; a file that breaks this is
 // refused. Every field of the chain and compensator sections is required, once (of section losses: the five
-// terms); unknown sections, versions or fields, wrong counts,
+// terms; of sections passivity and tracking, when there, every field: files without them still load); unknown sections, versions or fields, wrong counts,
 // values that are not numbers (NaN and Inf are refused) and a model that fails validation are errors whose
 // message names the file, the line and the field (`lexos.comp: line 31: mass: 3 values, expected 4`).
 // A caller may name the device it expects: a file for another device is refused, naming `device`.
@@ -56,6 +70,8 @@ namespace tendyn {
 inline constexpr int chain_section_version = 1;
 inline constexpr int compensator_section_version = 1;
 inline constexpr int losses_section_version = 1;
+inline constexpr int passivity_section_version = 1;
+inline constexpr int tracking_section_version = 1;
 
 /// Text of the compensator model file of `m` (format above).
 inline std::string compensator_model_text(const CompensatorModel& m) {
@@ -105,6 +121,30 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
   for (int k = 0; k < loss_term_count; ++k)
     out += std::string(loss_terms[k]) + " " + loss_source_names[static_cast<int>(m.loss_source[k])] + "\n";
   if (!m.friction_source.empty()) out += "friction " + m.friction_source + "\n";
+  const PassivityModel& p = m.passivity;
+  if (p.enabled) {  // written only when on: files of compensators without it stay as they were
+    out += "section passivity " + std::to_string(passivity_section_version) + "\n";
+    out += "# passivity observer + controller at the motor ports (include/tendyn/passivity.hpp), motor side\n";
+    const double on = 1.0;
+    line("enabled", &on, 1);
+    line("dissipation_coulomb", p.dissipation_coulomb.data(), static_cast<int>(p.dissipation_coulomb.size()));
+    line("dissipation_viscous", p.dissipation_viscous.data(), static_cast<int>(p.dissipation_viscous.size()));
+    line("reserve", &p.reserve, 1);
+    line("damping_max", &p.damping_max, 1);
+  }
+  const FrictionTrackingModel& t = m.tracking;
+  if (t.enabled) {
+    out += "section tracking " + std::to_string(tracking_section_version) + "\n";
+    out += "# online friction tracking, RLS with forgetting (include/tendyn/friction_tracking.hpp)\n";
+    const double on = 1.0;
+    line("enabled", &on, 1);
+    line("forgetting", &t.forgetting, 1);
+    line("velocity_min", &t.velocity_min, 1);
+    line("acceleration_max", &t.acceleration_max, 1);
+    line("scale_min", &t.scale_min, 1);
+    line("scale_max", &t.scale_max, 1);
+    line("covariance_max", &t.covariance_max, 1);
+  }
   return out;
 }
 
@@ -131,10 +171,14 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   static const char* chain_keys[] = {"device", "n", "gravity", "parent", "placement", "axis",
                                      "prismatic", "mass", "com", "ee_joint", "ee_point"};
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
-  constexpr int n_chain = 11, n_comp = 4;
-  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0};
-  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 losses
-  int section_line[4] = {0, 0, 0, 0};
+  static const char* pass_keys[] = {"enabled", "dissipation_coulomb", "dissipation_viscous", "reserve", "damping_max"};
+  static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min", "acceleration_max",
+                                     "scale_min", "scale_max",  "covariance_max"};
+  constexpr int n_chain = 11, n_comp = 4, n_pass = 5, n_track = 7;
+  int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0}, track_seen[n_track] = {0};
+  static const char* section_names[] = {"", "chain", "compensator", "losses", "passivity", "tracking"};
+  int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 losses, 4 passivity, 5 tracking
+  int section_line[6] = {0, 0, 0, 0, 0, 0};
   int loss_seen[loss_term_count + 1] = {0};  // the five terms, then `friction`
   int n = -1;
   std::istringstream in(text);
@@ -151,10 +195,15 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       std::string sname;
       int version = 0;
       if (!(ls >> sname >> version)) return fail(lineno, "section: expected 'section <name> <version>'");
-      const int which = sname == "chain" ? 1 : sname == "compensator" ? 2 : sname == "losses" ? 3 : 0;
-      if (!which) return fail(lineno, "section " + sname + ": unknown section (known: chain, compensator, losses)");
-      const int want = which == 1 ? chain_section_version : which == 2 ? compensator_section_version
-                                                                        : losses_section_version;
+      int which = 0;
+      for (int k = 1; k < 6; ++k)
+        if (sname == section_names[k]) which = k;
+      if (!which)
+        return fail(lineno, "section " + sname +
+                                ": unknown section (known: chain, compensator, losses, passivity, tracking)");
+      static const int versions[] = {0, chain_section_version, compensator_section_version, losses_section_version,
+                                     passivity_section_version, tracking_section_version};
+      const int want = versions[which];
       if (version != want)
         return fail(lineno, "section " + sname + ": version " + std::to_string(version) +
                                 " is not supported (this build reads " + std::to_string(want) + ")");
@@ -189,17 +238,19 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       m.loss_source[idx] = static_cast<LossSource>(src);
       continue;
     }
-    const char* const* keys = section == 1 ? chain_keys : comp_keys;
-    const int count = section == 1 ? n_chain : n_comp;
-    int* seen = section == 1 ? chain_seen : comp_seen;
+    const char* const* all_keys[] = {nullptr, chain_keys, comp_keys, nullptr, pass_keys, track_keys};
+    const int counts[] = {0, n_chain, n_comp, 0, n_pass, n_track};
+    int* all_seen[] = {nullptr, chain_seen, comp_seen, nullptr, pass_seen, track_seen};
+    const char* const* keys = all_keys[section];
+    const int count = counts[section];
+    int* seen = all_seen[section];
     int idx = -1;
     for (int k = 0; k < count; ++k)
       if (key == keys[k]) idx = k;
     if (idx < 0) {
       std::string known;
       for (int k = 0; k < count; ++k) known += std::string(k ? ", " : "") + keys[k];
-      return fail(lineno, key + ": unknown field of section " + (section == 1 ? "chain" : "compensator") +
-                              " (known: " + known + ")");
+      return fail(lineno, key + ": unknown field of section " + section_names[section] + " (known: " + known + ")");
     }
     if (seen[idx]) return fail(lineno, key + ": given twice (first on line " + std::to_string(seen[idx]) + ")");
     seen[idx] = lineno;
@@ -222,6 +273,36 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       return false;
     };
     auto integer = [](double v) { return v == std::floor(v) && std::abs(v) < 1e9; };
+    if (section == 5) {
+      if (!expect(1, "one number")) return false;
+      FrictionTrackingModel& t = m.tracking;
+      if (idx == 0) {
+        if (values[0] != 0.0 && values[0] != 1.0) return fail(lineno, "enabled: must be 0 or 1");
+        t.enabled = values[0] == 1.0;
+        continue;
+      }
+      double* dst[] = {nullptr,      &t.forgetting, &t.velocity_min,  &t.acceleration_max,
+                       &t.scale_min, &t.scale_max,  &t.covariance_max};
+      *dst[idx] = values[0];
+      continue;
+    }
+    if (section == 4) {
+      PassivityModel& p = m.passivity;
+      const int nt = m.transmission.n;
+      if (idx == 1 || idx == 2) {
+        if (!expect(nt, "one per motor")) return false;
+        (idx == 1 ? p.dissipation_coulomb : p.dissipation_viscous) = Eigen::Map<const Eigen::VectorXd>(values.data(), nt);
+        continue;
+      }
+      if (!expect(1, "one number")) return false;
+      if (idx == 0) {
+        if (values[0] != 0.0 && values[0] != 1.0) return fail(lineno, "enabled: must be 0 or 1");
+        p.enabled = values[0] == 1.0;
+      } else {
+        (idx == 3 ? p.reserve : p.damping_max) = values[0];
+      }
+      continue;
+    }
     if (section == 2) {
       if (!expect(1, "one number")) return false;
       double* dst[] = {&m.underestimation, &m.velocity_band, &m.velocity_cutoff_hz, &m.rate_hz};
@@ -292,6 +373,12 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   if (section_line[3])
     for (int k = 0; k < loss_term_count; ++k)
       if (!loss_seen[k]) return fail(0, std::string("losses.") + loss_terms[k] + ": missing required field");
+  if (section_line[4])
+    for (int k = 0; k < n_pass; ++k)
+      if (!pass_seen[k]) return fail(0, std::string("passivity.") + pass_keys[k] + ": missing required field");
+  if (section_line[5])
+    for (int k = 0; k < n_track; ++k)
+      if (!track_seen[k]) return fail(0, std::string("tracking.") + track_keys[k] + ": missing required field");
   const std::string problem = m.first_issue();
   if (!problem.empty()) return fail(0, problem);
   *out = std::move(m);

@@ -89,6 +89,21 @@ int main(int argc, char** argv) {
   r.sphere_radius = 0.04;
   tendyn::RenderData rd;
   tendyn::CompensatorData rcd(m);
+  // The same model with the passivity observer + controller on, over-compensating (k = 1.5): its cycles
+  // must not allocate either, and the controller must act (energy observed, damping applied).
+  tendyn::CompensatorModel mp = m;
+  mp.underestimation = 1.5;
+  mp.passivity.enabled = true;
+  mp.passivity.dissipation_coulomb = Eigen::VectorXd::Constant(m.transmission.n, 1e-3);
+  mp.passivity.dissipation_viscous = Eigen::VectorXd::Constant(m.transmission.n, 1e-5);
+  mp.passivity.reserve = 1e-3;
+  mp.passivity.damping_max = 0.05;
+  mp.tracking.enabled = true;  // and online friction tracking (one more statics evaluation, RLS updates)
+  expect(mp.first_issue().empty(), "passivity model valid: " + mp.first_issue());
+  tendyn::CompensatorData pd(mp);
+  tendyn::RenderData prd;
+  tendyn::CompensatorData prcd(mp);
+  long damped = 0;
 
   std::mt19937 rng(4321);
   std::normal_distribution<double> N(0.0, 1.0);
@@ -108,14 +123,52 @@ int main(int argc, char** argv) {
     if (tendyn::is_error(tendyn::compensator_cycle(m, d, qm, tau))) ++bad;
     if (tendyn::is_error(tendyn::compensator_cycle_force(m, d, qm, f))) ++bad;
     if (tendyn::is_error(tendyn::render_cycle(r, rd, m, rcd, qm))) ++bad;
+    if (tendyn::is_error(tendyn::compensator_cycle(mp, pd, qm, tau))) ++bad;
+    if (tendyn::is_error(tendyn::render_cycle(r, prd, mp, prcd, qm))) ++bad;
     contacts += rd.in_contact;
+    damped += pd.passivity.damping.maxCoeff() > 0.0;
   }
+  const long tracked = pd.tracking.updates.sum();
   counting::armed = false;
   std::printf("%ld cycles x (compensator, compensator force, renderer): %ld allocations, %ld error statuses, "
               "%ld cycles in contact\n", cycles, counting::count, bad, contacts);
   expect(counting::count == 0, "allocations in the real-time cycles");
   expect(bad == 0, "error statuses");
   expect(contacts > 0 && contacts < cycles, "the path must touch the scene and leave it");
+  std::printf("passivity controller damping in %ld of %ld cycles (k = 1.5)\n", damped, cycles);
+  expect(damped > 0, "the passivity controller never acted at k = 1.5");
+  std::printf("friction tracker: %ld updates\n", tracked);
+  expect(tracked > 0, "the friction tracker never updated");
+
+  // Section passivity: optional (the file without it loads, off), written when on, read back the same.
+  {
+    tendyn::CompensatorModel back;
+    expect(!m.passivity.enabled, "a file without section passivity loads with the controller off");
+    const std::string ptext = tendyn::compensator_model_text(mp);
+    expect(ptext.find("section passivity 1") != std::string::npos, "section passivity written when on");
+    expect(tendyn::compensator_model_text(m).find("section passivity") == std::string::npos,
+           "section passivity not written when off (older readers keep working)");
+    expect(tendyn::parse_compensator_model(ptext, "p.comp", "", &back, &error), "passivity file read back: " + error);
+    expect(back.passivity.enabled && back.passivity.dissipation_coulomb.isApprox(mp.passivity.dissipation_coulomb) &&
+               back.passivity.dissipation_viscous.isApprox(mp.passivity.dissipation_viscous) &&
+               back.passivity.reserve == mp.passivity.reserve && back.passivity.damping_max == mp.passivity.damping_max,
+           "passivity settings round trip");
+    expect(back.tracking.enabled && back.tracking.forgetting == mp.tracking.forgetting &&
+               back.tracking.acceleration_max == mp.tracking.acceleration_max,
+           "tracking settings round trip");
+    refused(replace_line(ptext, "covariance_max", ""), "", "tracking.covariance_max", "missing tracking field");
+    refused(replace_line(ptext, "scale_max", "scale_max 0.5"), "", "tracking.scale_min / scale_max",
+            "tracking bounds exclude the model");
+    refused(replace_line(ptext, "damping_max", ""), "", "passivity.damping_max", "missing passivity field");
+    refused(replace_line(ptext, "reserve", "reserve -1"), "", "passivity.reserve", "negative reserve");
+    refused(replace_line(ptext, "dissipation_coulomb", "dissipation_coulomb 1 2"), "", "dissipation_coulomb",
+            "wrong count of dissipation_coulomb");
+    refused(replace_line(ptext, "enabled", "enabled 2"), "", "enabled", "enabled not 0/1");
+    refused(replace_line(ptext, "reserve", "reserve 1\nspeed 3"), "", "speed", "unknown passivity field");
+    std::string v2 = ptext;
+    v2.replace(v2.find("section passivity 1"), 19, "section passivity 2");
+    refused(v2, "", "section passivity: version 2", "passivity version 2");
+  }
 
   // Bad files: each refused, the message naming the field.
   refused(replace_line(text, "motor_radius", ""), "", "motor_radius", "missing transmission field");

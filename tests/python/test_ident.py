@@ -340,6 +340,12 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
     assert main(["identify", "tx40", str(log), "--stream", "--json"]) == 0
     streamed = json.loads(capsys.readouterr().out)
     assert streamed["method"] == "ols+stream" and len(streamed["params"]) == len(doc["params"])
+    db = tmp_path / "history.sqlite"                  # --record: the base parameters and σ in the history
+    assert main(["identify", "tx40", str(log), "--out", str(out), "--record", "--db", str(db), "--quiet"]) == 0
+    from tendyn.ident.history import history
+
+    recorded = {r["name"]: (r["value"], r["sigma"]) for r in history(load_device(bundled("tx40")), db=db).rows}
+    assert recorded == {p["name"]: (p["value"], p["stderr"]) for p in json.loads(out.read_text())["params"]}
     bad = tmp_path / "no_torque.csv"
     from tendyn.io import write_log
 

@@ -421,3 +421,20 @@ def test_cli_main_runs_the_commands_one_line_errors(comparison, tmp_path, capsys
     assert "--transmission: must be 1…4" in capsys.readouterr().err
     assert main(["decompose", "lexos", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["max_relative_mismatch"] < 1e-12
+
+
+def test_identify_friction_record_adds_the_fit_to_the_calibration_history(comparison, tmp_path, capsys):
+    """`--record --db`: the identified C_m0 and ν of every transmission, with their σ, are in the history."""
+    from tendyn.cli import main
+    from tendyn.ident.history import history
+
+    cmp, runs = comparison
+    paths = [str(write_log(runs[(t, "S2")].log, tmp_path / f"t{t}.parquet")) for t in range(1, 5)]
+    db = tmp_path / "history.sqlite"
+    out = tmp_path / "friction.json"
+    assert main(["identify-friction", "lexos", *paths, "--out", str(out), "--record", "--db", str(db)]) == 0
+    doc = json.loads(out.read_text())
+    rows = {r["name"]: r for r in history(load_device(bundled("lexos")), db=db).rows}
+    assert len(rows) == 8
+    assert rows["C_m0[2]"]["value"] == doc["coulomb_motor"][1]
+    assert rows["nu[4]"]["sigma"] == doc["fits"][3]["viscous_motor_std"]

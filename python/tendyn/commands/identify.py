@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from tendyn.commands.args import existing_file, number
+from tendyn.commands.history import add_record_arguments, check_record, record_result
 from tendyn.errors import UsageError
 
 
@@ -35,6 +36,7 @@ def register(subparsers) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
+    add_record_arguments(p)
     p.set_defaults(func=cmd_identify)
 
 
@@ -79,6 +81,7 @@ def cmd_identify(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
     if args.out is not None and Path(args.out).suffix.lower() != ".json":
         raise UsageError(f"must end in .json (got {args.out})", "out")
+    check_record(args)
     if args.stream:
         return _identify_stream(dev, args)
     from tendyn.ident.estimate import cached_model
@@ -107,6 +110,7 @@ def cmd_identify(args) -> int:
     res = est.result_
     doc = to_jsonable(res.to_dict())
     doc["logs"] = [str(p) for p in args.logs]
+    record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     if args.report:
@@ -137,6 +141,7 @@ def _identify_stream(dev, args) -> int:
     res = est.result_
     doc = to_jsonable(res.to_dict())
     doc["logs"] = [str(p) for p in args.logs]
+    record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     print(json.dumps(doc, indent=2) if args.json else res.table())

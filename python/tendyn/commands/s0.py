@@ -164,6 +164,9 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
                    help="load-dependent term c_L |C_0|: fit it when the logs determine it (auto, default), always, "
                         "or never (S0's law)")
     p.add_argument("--json", action="store_true", help="print FRICTION.json on stdout too")
+    from tendyn.commands.history import add_record_arguments
+
+    add_record_arguments(p)
     p.set_defaults(func=run_identify_friction)
     return p
 
@@ -220,13 +223,17 @@ def run_identify_friction(args) -> int:
     from tendyn.ident.friction_file import write_friction, FORMAT
     from tendyn.io import read_log
 
+    from tendyn.commands.history import check_record, record_result
+
     dev = _load_device(args.device)
     if dev.n_transmissions == 0:
         raise UsageError(f"{dev.name} has no tendon transmissions", "device")
+    check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
                             load=args.load)
     write_friction(doc, args.out)
+    record_result(args, dev, "identify-friction", doc, source=", ".join(str(p) for p in args.logs))
     if args.json:
         _print_json(doc)
     else:

@@ -87,6 +87,38 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None, s
     return identified_losses(compiled, friction, shares).transmission(compiled.device)
 
 
+def _passivity(compiled: CompiledDevice, passivity, friction, rate_hz: float) -> Any:
+    """The PassivityModel of :meth:`Compensator.from_device`'s ``passivity`` argument."""
+    from tendyn.control.passivity import passivity_model
+
+    if passivity is None or passivity is False:
+        return _core.PassivityModel()
+    if isinstance(passivity, _core.PassivityModel):
+        return passivity
+    options = {} if passivity is True else dict(passivity)
+    options.setdefault("friction", friction)
+    options.setdefault("rate_hz", rate_hz)
+    return passivity_model(compiled, **options)
+
+
+def _tracking(tracking) -> Any:
+    """The FrictionTrackingModel of :meth:`Compensator.from_device`'s ``tracking`` argument."""
+    if isinstance(tracking, _core.FrictionTrackingModel):
+        return tracking
+    t = _core.FrictionTrackingModel()
+    if tracking is None or tracking is False:
+        return t
+    t.enabled = True
+    for key, value in ({} if tracking is True else dict(tracking)).items():
+        if key == "enabled" or not hasattr(t, key):
+            raise TypeError(f"tracking: unknown setting {key!r}")
+        setattr(t, key, float(value))
+    problem = t.first_issue()
+    if problem:
+        raise ValueError(problem)
+    return t
+
+
 class Compensator:
     """Gravity + transmission-loss compensator on the C++ core (one model, its preallocated data).
 
@@ -109,7 +141,7 @@ class Compensator:
                     underestimation: float = DEFAULT_UNDERESTIMATION,
                     velocity_band: float = DEFAULT_VELOCITY_BAND,
                     velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ,
-                    rate_hz: float = 1000.0) -> "Compensator":
+                    rate_hz: float = 1000.0, passivity=None, tracking=None) -> "Compensator":
         """Compensator of a serial cable-driven device.
 
         Parameters
@@ -124,6 +156,13 @@ class Compensator:
         velocity_band : v_band [rad/s], motor side; the friction feedforward fades linearly to zero below it
         velocity_cutoff_hz : first-order velocity-filter cut-off [Hz] (0: raw difference)
         rate_hz : control rate [Hz]
+        passivity : None (off), True, a mapping of :func:`tendyn.control.passivity.passivity_model` options
+            (``friction`` — the reference friction of the certified dissipation bound, by default the same
+            ``friction`` as the compensator's —, ``margin``, ``reserve``, ``damping_max``) or a
+            ``_core.PassivityModel``: the passivity observer and controller at the motor ports
+        tracking : None (off), True (defaults), a mapping of ``_core.FrictionTrackingModel`` fields
+            (``forgetting``, ``velocity_min``, ``acceleration_max``, ``scale_min``, ``scale_max``,
+            ``covariance_max``) or a ``_core.FrictionTrackingModel``: online friction tracking (RLS)
         """
         compiled = compile_device(device)
         if compiled.transmission is None:
@@ -143,6 +182,8 @@ class Compensator:
         m.velocity_band = float(velocity_band)
         m.velocity_cutoff_hz = float(velocity_cutoff_hz)
         m.rate_hz = float(rate_hz)
+        m.passivity = _passivity(compiled, passivity, friction, m.rate_hz)
+        m.tracking = _tracking(tracking)
         m.device = compiled.name
         return cls(m)
 
@@ -153,9 +194,16 @@ class Compensator:
 
     def with_settings(self, **settings) -> "Compensator":
         """A new compensator with the same transmission and chain and other settings (underestimation,
-        velocity_band, velocity_cutoff_hz, rate_hz)."""
+        velocity_band, velocity_cutoff_hz, rate_hz, passivity: a ``_core.PassivityModel`` or None for off,
+        tracking: as in :meth:`from_device`)."""
         m = _core.CompensatorModel()
         m.transmission, m.chain, m.device = self._model.transmission, self._model.chain, self._model.device
+        if "passivity" in settings:
+            p = settings.pop("passivity")
+            m.passivity = p if p is not None else _core.PassivityModel()
+        else:
+            m.passivity = self._model.passivity
+        m.tracking = _tracking(settings.pop("tracking")) if "tracking" in settings else self._model.tracking
         m.loss_source, m.friction_source = self._model.loss_source, self._model.friction_source
         for key in ("underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"):
             value = settings.pop(key, getattr(self._model, key))
@@ -199,7 +247,8 @@ class Compensator:
 
     # ---- cycles ------------------------------------------------------------------------------
     def reset(self) -> None:
-        """Forget the velocity history (the next cycle starts at rest)."""
+        """Forget the velocity history and the observed energy (the next cycle starts at rest) and go back to
+        the identified friction (tracked scales 1); ``data.restart()`` keeps the tracked friction."""
         self._data.reset()
 
     def cycle(self, q_motor, torque_joint=None) -> np.ndarray:

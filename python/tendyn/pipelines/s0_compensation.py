@@ -181,6 +181,8 @@ class HandRun:
     energy_to_hand_per_cycle : work the device does on the hand per closed cycle [J] (< 0: the hand works)
     cycles : number of closed cycles measured
     compute_time_mean : mean compensator cycle time inside the loop [s]
+    energy_to_hand : (steps,) work the device has done on the hand since the start [J], after each period
+    settle : blend-in time before the measured cycles [s]
     """
 
     underestimation: float
@@ -191,13 +193,29 @@ class HandRun:
     energy_to_hand_per_cycle: float
     cycles: int
     compute_time_mean: float
+    energy_to_hand: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    settle: float = 0.0
+
+    def energy_windows(self, window: float) -> np.ndarray:
+        """Work done on the hand over consecutive windows of ``window`` seconds from the end of the blend-in
+        [J]; > 0 in a window means the device gave the hand net energy in it."""
+        end_of_period = self.time + (self.time[1] - self.time[0])
+        return windowed_energy(end_of_period, self.energy_to_hand, window, self.settle)
+
+
+def windowed_energy(time: np.ndarray, energy: np.ndarray, window: float, start: float = 0.0) -> np.ndarray:
+    """Increments of a cumulative energy [J] sampled at ``time`` [s] over consecutive windows [s] from start."""
+    edges = np.arange(start, time[-1] + 1e-12, window)
+    values = np.interp(edges, time, energy)
+    return np.diff(values)
 
 
 def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, radius: float | None = None,
              period: float = 4.0, cycles: int = 1, settle: float = 0.5, hand_stiffness: float = 400.0,
              hand_damping: float = 10.0, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
              q0=None, seed: int = 7, encoders: str = "quantised", velocity_band: float = DEFAULT_VELOCITY_BAND,
-             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ) -> HandRun:
+             velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ, passivity=None, compensator=None,
+             twin_friction_scale: float = 1.0) -> HandRun:
     """The hand pulls the handle around a circle (radius [m], period [s]) in the plane of :func:`hand_task` for
     ``settle`` seconds of blend-in plus ``cycles`` closed cycles, with the compensator at ``underestimation`` k.
     ``q0`` [rad] and ``radius`` default to the hand task's.
@@ -206,7 +224,10 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     does not jerk. RMS and energy are taken over the ``cycles`` closed cycles after ``settle``.
     ``encoders``: ``"quantised"`` (the twin's motor encoders, S0's position sensors) or ``"exact"`` (the motor
     positions themselves, an ideal sensor, C12); ``velocity_band`` [rad/s] and ``velocity_cutoff_hz`` [Hz] are
-    the compensator's (:meth:`tendyn.control.Compensator.from_device`).
+    the compensator's (:meth:`tendyn.control.Compensator.from_device`), so is ``passivity`` (None: off).
+    ``compensator``: use this :class:`tendyn.control.Compensator` (its state kept, its tracker gated off: the
+    hand is an unknown force) instead of building one; ``twin_friction_scale`` multiplies the twin's τ_0 and ν
+    (:func:`tendyn.pipelines.tracking.scale_twin_friction`), the compensator keeps its model.
     """
     if encoders not in ("quantised", "exact"):
         raise ValueError(f"encoders must be 'quantised' or 'exact' (got {encoders!r})")
@@ -216,9 +237,21 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = task.q0 if q0 is None else np.asarray(q0, float)
+    if twin_friction_scale != 1.0:
+        from tendyn.pipelines.tracking import scale_twin_friction
+
+        scale_twin_friction(sim, compiled.transmission, twin_friction_scale)
     _reset(sim, data, q0, seed)
-    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
-                                   velocity_band=velocity_band, velocity_cutoff_hz=velocity_cutoff_hz)
+    if compensator is None:
+        comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation,
+                                       rate_hz=control_hz, velocity_band=velocity_band,
+                                       velocity_cutoff_hz=velocity_cutoff_hz, passivity=passivity)
+    else:
+        comp = compensator
+        if comp.model.rate_hz != control_hz:
+            raise ValueError(f"the compensator runs at {comp.model.rate_hz:g} Hz, the hand at {control_hz:g} Hz")
+        comp.data.restart()                      # a new motion: velocity history gone, tracked friction kept
+        comp.data.tracking_active = False
     read = _encoders if encoders == "quantised" else (lambda sim_, data_: np.array(data_.q_motor))
     handle = _Handle(compiled)
     x0, _ = handle(q0)
@@ -229,6 +262,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     torque_hand = np.empty((periods, sim.na))
     force_hand = np.empty((periods, 3))
     ctime = np.empty(periods)
+    to_hand = np.empty(periods)
     work_at_settle = 0.0
     for s, t in enumerate(time):
         if abs(t - settle) < 0.5 / control_hz:
@@ -248,11 +282,12 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
         block.run(data, torque_motor, tau)      # one control period, the hand held (1 kHz) like the motors
         torque_hand[s] = tau
         force_hand[s] = f
+        to_hand[s] = -data.work_external
     measured = time >= settle - 0.5 / control_hz
     rms = float(np.sqrt(np.mean(torque_hand[measured, 0] ** 2)))
     energy = -(data.work_external - work_at_settle) / cycles   # work done on the hand [J per cycle]
-    return HandRun(float(underestimation), time, torque_hand, force_hand, rms, float(energy), int(cycles),
-                   float(np.mean(ctime)))
+    return HandRun(float(comp.model.underestimation), time, torque_hand, force_hand, rms, float(energy),
+                   int(cycles), float(np.mean(ctime)), to_hand, float(settle))
 
 
 @dataclass(eq=False)
@@ -267,6 +302,7 @@ class WallRun:
     force : (control periods, 3) rendered F_d [N]
     oscillation : peak-to-peak height over the last ``window`` seconds [m]
     limit_cycle : True when the oscillation stays above ``tolerance``
+    energy_to_hand : (steps,) work the device has done on the hand since the start [J], after each period
     """
 
     underestimation: float
@@ -276,23 +312,32 @@ class WallRun:
     force: np.ndarray
     oscillation: float
     limit_cycle: bool
+    energy_to_hand: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def energy_windows(self, window: float, start: float = 0.0) -> np.ndarray:
+        """Work done on the hand over consecutive windows of ``window`` seconds from ``start`` [s] [J]."""
+        end_of_period = self.time + (self.time[1] - self.time[0])
+        return windowed_energy(end_of_period, self.energy_to_hand, window, start)
 
 
 def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *, friction=None,
              stiffness: float = 3000.0, damping: float = 0.0, push: float = 0.02, duration: float = 1.5,
              window: float = 0.5, tolerance: float = 2e-4, hand_stiffness: float = 400.0, hand_damping: float = 2.0,
-             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=None, seed: int = 7) -> WallRun:
+             rate_hz: float = 10_000.0, control_hz: float = 1_000.0, q0=None, seed: int = 7,
+             passivity=None) -> WallRun:
     """A wall 5 mm from the handle, across the hand task's wall normal (a floor where the handle moves
     vertically); the hand's target is ``push`` [m] inside it (it presses with about ``hand_stiffness · push``
     newtons). Peak-to-peak height over the last ``window`` seconds tells whether the contact settled (passive) or
-    keeps a limit cycle. ``friction``: the identified losses the compensator uses (as :func:`hand_run`)."""
+    keeps a limit cycle. ``friction``: the identified losses the compensator uses (as :func:`hand_run`);
+    ``passivity``: the compensator's passivity controller (:meth:`tendyn.control.Compensator.from_device`)."""
     compiled = _device(device)
     task = hand_task(compiled)
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
     data = _core.SimData(sim)
     q0 = task.q0 if q0 is None else np.asarray(q0, float)
     _reset(sim, data, q0, seed)
-    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz)
+    comp = Compensator.from_device(compiled, friction=friction, underestimation=underestimation, rate_hz=control_hz,
+                                   passivity=passivity)
     handle = _Handle(compiled)
     x0, _ = handle(q0)
     normal = task.wall_normal
@@ -301,6 +346,7 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     periods = int(round(duration * control_hz))
     target = x0 - normal * (0.005 + push)
     time, height, forces = np.arange(periods) / control_hz, np.empty(periods), np.empty((periods, 3))
+    to_hand = np.empty(periods)
     block = _Block(sim)
     for s, t in enumerate(time):
         torque_motor = rend.cycle(_encoders(sim, data))
@@ -311,9 +357,11 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
         f = hand_stiffness * (goal - x) - hand_damping * (J @ np.array(data.qd))
         block.run(data, torque_motor, J.T @ f)
         height[s] = float(normal @ x) - floor
+        to_hand[s] = -data.work_external
     last = time >= duration - window
     osc = float(np.ptp(height[last]))
-    return WallRun(float(underestimation), float(stiffness), time, height, forces, osc, bool(osc > tolerance))
+    return WallRun(float(underestimation), float(stiffness), time, height, forces, osc, bool(osc > tolerance),
+                   to_hand)
 
 
 @dataclass(eq=False)

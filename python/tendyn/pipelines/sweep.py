@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -160,6 +161,49 @@ def local_cluster(n_workers: int = 2):
                             dashboard_address=None)
 
 
+@contextmanager
+def dask_client(scheduler: str | None = None, n_workers: int = 2, client=None):
+    """A Dask client for a grid: ``client`` itself when given (left open); else a client of the scheduler at
+    ``scheduler`` (ConnectionError when unreachable) or of a :func:`local_cluster` of ``n_workers``, both
+    closed on exit."""
+    from dask.distributed import Client
+
+    if client is not None:
+        yield client
+        return
+    cluster = None
+    if scheduler:
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ConnectionError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+    else:
+        cluster = local_cluster(n_workers)
+        client = Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def gather_in_order(futures, desc: str, unit: str, progress: bool = True) -> list:
+    """The results of Dask futures in submission order, gathered as they complete (progress bar on stderr)."""
+    import sys
+
+    from dask.distributed import as_completed
+    from tqdm import tqdm
+
+    index = {f.key: i for i, f in enumerate(futures)}
+    rows: list = [None] * len(futures)
+    with tqdm(total=len(futures), desc=desc, unit=unit, disable=not progress or None, file=sys.stderr) as bar:
+        for fut in as_completed(futures):
+            rows[index[fut.key]] = fut.result()
+            bar.update(1)
+    return rows
+
+
 def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), freqs_hz=None, metric="peak_shift_hz",
               loop: str = "open", scheduler: str | None = None, n_workers: int = 2, progress: bool = True,
               client=None) -> SweepResult:
@@ -167,9 +211,6 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
     cluster of ``n_workers`` single-threaded processes, :func:`local_cluster`, closed afterwards); ``client``
     an existing Client. ``loop="closed"`` adds S1's loop-shaping controller (needed by
     ``metric="closed_loop_spread_db"``)."""
-    from dask.distributed import Client, as_completed
-    from tqdm import tqdm
-
     if metric not in METRICS:
         raise ValueError(f"metric must be one of {', '.join(METRICS)} (got {metric!r})")
     if loop not in LOOPS:
@@ -183,32 +224,10 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
             raise KeyError(k)
     freqs_hz = list(np.arange(8.0, 42.0, 2.0)) if freqs_hz is None else list(freqs_hz)
     grid = design_grid(params)
-    own = client is None
-    cluster = None
-    if own:
-        if scheduler:
-            try:
-                client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise ConnectionError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
-        else:
-            cluster = local_cluster(n_workers)
-            client = Client(cluster)
-    try:
+    with dask_client(scheduler, n_workers, client) as client:
         futures = client.map(evaluate_design, [fields] * len(grid), grid, [list(amplitudes)] * len(grid),
                              [freqs_hz] * len(grid), loop=loop, pure=False)
-        index = {f.key: i for i, f in enumerate(futures)}
-        rows: list = [None] * len(grid)
-        with tqdm(total=len(grid), desc=f"{bench.name}: sweep", unit="design", disable=not progress or None,
-                  file=__import__("sys").stderr) as bar:
-            for fut in as_completed(futures):
-                rows[index[fut.key]] = fut.result()
-                bar.update(1)
-    finally:
-        if own:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+        rows = gather_in_order(futures, f"{bench.name}: sweep", "design", progress)
     return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)")
 
 

@@ -1,0 +1,105 @@
+"""`tendyn zwidth DEVICE [--compensator X.comp] [--stiffness LO:HI:N] [--damping LO:HI:N] [--modes M,…]
+[--scheduler ADDRESS] [--out TABLE.parquet] [--json]`: the Z-width of the rendered wall on the twin, on Dask
+(:mod:`tendyn.pipelines.zwidth`)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from tendyn.commands.args import number
+from tendyn.errors import UsageError
+
+
+def register(subparsers) -> None:
+    from tendyn.pipelines.zwidth import DEFAULT_DAMPING, DEFAULT_STIFFNESS, MODES
+
+    p = subparsers.add_parser("zwidth", help="stable wall stiffness/damping region (Z-width) on the twin, on Dask")
+    p.add_argument("device", help="device file or bundled twin (a serial device with cable transmissions)")
+    p.add_argument("--compensator", default=None, metavar="X.comp",
+                   help="compensator model file [default: the device's own, k = 0.9]")
+    k, b = DEFAULT_STIFFNESS, DEFAULT_DAMPING
+    p.add_argument("--stiffness", default=f"{k[0]:g}:{k[1]:g}:{k[2]}", metavar="LO:HI:N",
+                   help=f"wall stiffness grid K [N/m], log-spaced over a decade or more [default: {k[0]:g}:{k[1]:g}:{k[2]}]")
+    p.add_argument("--damping", default=f"{b[0]:g}:{b[1]:g}:{b[2]}", metavar="LO:HI:N",
+                   help=f"wall damping grid B [N·s/m] [default: {b[0]:g}:{b[1]:g}:{b[2]}]")
+    p.add_argument("--modes", default=",".join(MODES), metavar="M,…",
+                   help=f"compensation modes, among {', '.join(MODES)} [default: all]")
+    p.add_argument("--push", type=number(0.0, 1000.0, lo_open=True, unit="N"), default=10.0,
+                   help="constant hand force pressing the handle into the wall [N] [default: 10]")
+    p.add_argument("--horizon", type=number(0.05, 60.0, unit="s"), default=0.6,
+                   help="length of each run [s] [default: 0.6]")
+    p.add_argument("--tolerance", type=number(0.0, 0.1, lo_open=True, unit="m"), default=1e-4,
+                   help="peak-to-peak height of a limit cycle [m] [default: 1e-4]")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler [default: a local cluster; 'none': in process]")
+    p.add_argument("--workers", type=int, default=2, help="workers of the local cluster [default: 2]")
+    p.add_argument("--out", default=None, metavar="TABLE.parquet",
+                   help="write the table (.parquet) and the figure beside it (.png)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    p.set_defaults(func=run)
+
+
+def _grid(text: str, option: str, lo_min: float):
+    from tendyn.pipelines.sweep import parse_param
+
+    try:
+        _, grid = parse_param(f"{option}={text}")
+    except ValueError as exc:
+        raise UsageError(str(exc), option) from None
+    if grid.min() < lo_min or len(grid) > 10000:
+        raise UsageError(f"values must be >= {lo_min:g} and at most 10000 points (got {text})", option)
+    return grid
+
+
+def run(args) -> int:
+    from tendyn import _core
+    from tendyn.cli import _load, _print_json
+    from tendyn.pipelines.sweep import write_outputs
+    from tendyn.pipelines.zwidth import MODES, run_zwidth
+
+    dev = _load(args.device)
+    if dev.kind != "serial" or not getattr(dev, "transmissions", None):
+        raise UsageError(f"{dev.name} is not a serial device with cable transmissions", "device")
+    stiffness = _grid(args.stiffness, "stiffness", 0.0)
+    damping = _grid(args.damping, "damping", 0.0)
+    modes = [m.strip() for m in args.modes.split(",") if m.strip()]
+    if not modes or any(m not in MODES for m in modes) or len(set(modes)) != len(modes):
+        raise UsageError(f"a comma-separated subset of {', '.join(MODES)} (got {args.modes!r})", "modes")
+    text = None
+    if args.compensator is not None:
+        path = Path(args.compensator)
+        try:
+            text = path.read_text(encoding="utf-8")
+            _core.parse_compensator_model(text, path.name, dev.name)
+        except (OSError, UnicodeDecodeError) as exc:
+            raise UsageError(f"{path}: cannot read: {exc.strerror if isinstance(exc, OSError) else exc}",
+                             "compensator") from None
+        except ValueError as exc:
+            raise UsageError(str(exc), "compensator") from None
+    out = Path(args.out) if args.out else None
+    if out is not None:
+        if out.suffix.lower() != ".parquet":
+            raise UsageError(f"{out}: the table must be a .parquet file", "out")
+        if not out.parent.is_dir():
+            raise UsageError(f"{out.parent}: folder not found", "out")
+    if args.workers < 1:
+        raise UsageError(f"must be >= 1 (got {args.workers})", "workers")
+    scheduler = None if args.scheduler is None else args.scheduler
+    try:
+        res = run_zwidth(dev, stiffness=stiffness, damping=damping, modes=modes, compensator_text=text,
+                         scheduler=scheduler, n_workers=args.workers, progress=not args.quiet, push=args.push,
+                         horizon=args.horizon, tolerance=args.tolerance)
+    except ConnectionError as exc:
+        raise UsageError(str(exc), "scheduler") from None
+    doc = res.to_dict()
+    if out is not None:
+        out, fig_path = write_outputs(res, out)
+        doc |= {"table": str(out), "figure": str(fig_path)}
+    if args.json:
+        _print_json(doc)
+    else:
+        print(res.table())
+        if out is not None:
+            print(f"table: {out}\nfigure: {fig_path}")
+    return 0

@@ -1,0 +1,146 @@
+"""Calibration history (tendyn.ident.history, `tendyn history`, `--record`): records keyed by the device file's hash
+and the date, drift beyond 3σ between consecutive records, schema versions migrated, CSV/Parquet/plot exports."""
+
+import json
+import sqlite3
+import subprocess
+import sys
+from datetime import datetime, timedelta, timezone
+
+import pytest
+
+from tendyn.device import load_device
+from tendyn.devices import bundled
+from tendyn.ident import history as hist
+
+
+def _friction_doc(c0, nu, sigma=0.002):
+    """A FRICTION.json-like document (the fields history reads) for len(c0) transmissions."""
+    return {"fits": [{"transmission": t + 1, "coulomb_motor": c, "coulomb_motor_std": sigma,
+                      "viscous_motor": v, "viscous_motor_std": sigma / 10} for t, (c, v) in enumerate(zip(c0, nu))]}
+
+
+@pytest.fixture
+def lexos():
+    return load_device(bundled("lexos"))
+
+
+@pytest.fixture
+def db(tmp_path, lexos):
+    """Three identify-friction records a day apart; the third moves C_m0[2] by 5σ and nu[1] by 2.5σ."""
+    path = tmp_path / "h.sqlite"
+    day = datetime(2026, 3, 1, tzinfo=timezone.utc)
+    c0, nu = [0.05, 0.06, 0.04, 0.03], [0.001, 0.002, 0.001, 0.001]
+    hist.record(lexos, "identify-friction", _friction_doc(c0, nu), db=path, created=day)
+    hist.record(lexos, "identify-friction", _friction_doc(c0, nu), db=path, created=day + timedelta(days=1))
+    moved_c0, moved_nu = list(c0), list(nu)
+    moved_c0[1] += 5 * 0.002 * 2 ** 0.5      # 5 combined σ (both records σ = 0.002)
+    moved_nu[0] += 2.5 * 0.0002 * 2 ** 0.5   # 2.5 combined σ: 3.5 σ of one record alone, not a drift
+    hist.record(lexos, "identify-friction", _friction_doc(moved_c0, moved_nu), db=path,
+                created=day + timedelta(days=2))
+    return path
+
+
+def test_history_flags_only_changes_beyond_three_sigma(db, lexos):
+    h = hist.history(lexos, db=db)
+    assert len(h.rows) == 3 * 8
+    assert [(r["name"], r["created"][:10]) for r in h.drifts()] == [("C_m0[2]", "2026-03-03")]
+    c = [r["value"] for r in h.rows if r["name"] == "C_m0[2]"]
+    assert c[0] == c[1] < c[2]
+    assert [r["created"] for r in h.rows] == sorted(r["created"] for r in h.rows)      # oldest first
+    only = hist.history(lexos, db=db, names={"nu[1]"})
+    assert {r["name"] for r in only.rows} == {"nu[1]"} and not only.drifts()
+
+
+def test_records_are_keyed_by_the_device_files_hash(db, lexos, tmp_path):
+    """An edited device file is another device: its history is empty, the old records are counted apart."""
+    edited = tmp_path / "lexos_edited.toml"
+    edited.write_text(bundled("lexos").read_text() + "\n# new cable\n")
+    other = load_device(edited)
+    assert other.name == lexos.name and hist.device_hash(other) != hist.device_hash(lexos)
+    h = hist.history(other, db=db)
+    assert h.rows == [] and h.other_hashes == 3
+
+
+def test_an_older_schema_is_migrated_and_a_newer_one_refused(tmp_path, lexos):
+    path = tmp_path / "v1.sqlite"
+    con = sqlite3.connect(path)
+    con.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+    for sql in hist.MIGRATIONS[0]:
+        con.execute(sql)
+    con.execute("INSERT INTO meta VALUES ('schema_version', '1')")
+    con.execute("INSERT INTO runs (device, device_hash, kind, created, source, document) VALUES (?, ?, ?, ?, ?, ?)",
+                (lexos.name, hist.device_hash(lexos), "identify-friction", "2025-01-01T00:00:00+00:00", "", "{}"))
+    con.execute("INSERT INTO parameters VALUES (1, 'C_m0[1]', 0.05, 0.002, 'N·m')")
+    con.commit()
+    con.close()
+    h = hist.history(lexos, db=path)                     # migrated on open, the v1 record kept
+    assert [r["name"] for r in h.rows] == ["C_m0[1]"]
+    con = sqlite3.connect(path)
+    assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()[0] == str(hist.SCHEMA_VERSION)
+    assert "tendyn_version" in [c[1] for c in con.execute("PRAGMA table_info(runs)")]
+    con.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    con.commit()
+    con.close()
+    with pytest.raises(ValueError, match="newer"):
+        hist.history(lexos, db=path)
+    (tmp_path / "junk.sqlite").write_bytes(b"not a database at all" * 100)
+    with pytest.raises(ValueError, match="not a tendyn history database"):
+        hist.connect(tmp_path / "junk.sqlite")
+
+
+def test_default_database_is_in_the_users_data_folder(monkeypatch, tmp_path):
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    assert hist.default_db() == tmp_path / "xdg" / "tendyn" / "history.sqlite"
+
+
+def test_validate_and_identify_documents_are_recorded_too(tmp_path, lexos):
+    path = tmp_path / "h.sqlite"
+    hist.record(lexos, "identify", {"params": [{"name": "ZZ1", "value": 0.5, "stderr": 0.01, "unit": "kg·m²"}]},
+                db=path)
+    hist.record(lexos, "validate", {"metrics": {"reduction_joint1": 0.735, "rms_joint1": {"value": 0.07,
+                                                                                           "sigma": 0.002,
+                                                                                           "unit": "N·m"}}}, db=path)
+    names = {r["name"]: r for r in hist.history(lexos, db=path).rows}
+    assert names["ZZ1"]["sigma"] == 0.01 and names["reduction_joint1"]["sigma"] is None
+    assert names["rms_joint1"]["unit"] == "N·m"
+    with pytest.raises(ValueError, match="kind"):
+        hist.record(lexos, "guess", {}, db=path)
+
+
+def _tendyn(*args):
+    return subprocess.run([sys.executable, "-m", "tendyn.cli", *args], capture_output=True, text=True)
+
+
+def test_history_command_shows_exports_and_plots(db, tmp_path):
+    out = _tendyn("history", "lexos", "--db", str(db), "--json", "--csv", str(tmp_path / "h.csv"),
+                  "--parquet", str(tmp_path / "h.parquet"), "--plot", str(tmp_path / "h.png"))
+    assert out.returncode == 0, out.stderr
+    doc = json.loads(out.stdout)
+    assert len(doc["rows"]) == 24 and [d["name"] for d in doc["drifts"]] == ["C_m0[2]"]
+    assert (tmp_path / "h.csv").read_text().count("\n") == 25 and (tmp_path / "h.png").stat().st_size > 1000
+    import pyarrow.parquet as pq
+
+    assert pq.read_table(tmp_path / "h.parquet").num_rows == 24
+    text = _tendyn("history", "lexos", "--db", str(db))
+    assert text.returncode == 0 and "DRIFT" in text.stdout
+
+
+@pytest.mark.parametrize("argv,problem", [
+    (["--db", "/nonexistent/h.sqlite"], "--db"),
+    (["--parameter", "C_m0[9]"], "--parameter"),
+    (["--csv", "h.txt"], "--csv"),
+])
+def test_history_command_usage_errors(db, argv, problem):
+    args = [a if a != "DB" else str(db) for a in argv]
+    if "--db" not in args:
+        args += ["--db", str(db)]
+    out = _tendyn("history", "lexos", *args)
+    assert out.returncode == 2 and problem in out.stderr and out.stderr.count("\n") == 1, out.stderr
+
+
+def test_record_options_are_checked_before_any_work(tmp_path):
+    out = _tendyn("identify-friction", "lexos", str(bundled("lexos")), "--out", str(tmp_path / "f.json"),
+                  "--db", str(tmp_path / "h.sqlite"))
+    assert out.returncode == 2 and "--db needs --record" in out.stderr
