@@ -22,8 +22,12 @@ def register(subparsers) -> None:
     p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
                    help="decimation factor of the parallel filter (default rate / (10 x bandwidth))")
     p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=None,
-                   help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: 2 %% of "
-                        "each joint's peak speed)")
+                   help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: a fraction "
+                        "of each joint's peak speed, tendyn.ident.treatment.DEFAULT_VELOCITY_FRACTION; the "
+                        "treatment line prints it)")
+    p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
+                   help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
+                        "differentiated positions (default: the logged ones when the log has them)")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--parameters", default=None, metavar="NAMES",
                    help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
@@ -97,7 +101,7 @@ def cmd_identify(args) -> int:
     est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
                velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
-               parameters=_parameters(args.parameters, model))
+               parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto")
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
     except ValueError as exc:

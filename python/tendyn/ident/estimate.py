@@ -19,14 +19,15 @@ import numpy as np
 from tendyn.results import Result, format_table, new_figure
 
 from .model import IdentModel, unit_of
-from .treatment import Block, default_treatment, stack_blocks, treat
+from .treatment import DEFAULT_VELOCITY_FRACTION, Block, default_treatment, drop_stale, stack_blocks, treat
 
-__all__ = ["IDIM", "IdentificationResult", "least_squares"]
+__all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
 _MODELS: dict = {}
 
-DEFAULT_VELOCITY_FRACTION = 0.02
-"""Default velocity threshold: samples of a joint slower than this fraction of its peak |q̇| are dropped."""
+VELOCITIES = ("auto", "logged", "differentiate")
+"""Where the joint velocities come from: the log's ``qd_motor_<i>``/``qd_joint_<j>`` when it has them
+("auto"), always the log's ("logged"), or the filtered positions differentiated ("differentiate")."""
 
 
 def cached_model(device) -> IdentModel:
@@ -149,7 +150,11 @@ class IDIM:
         Butterworth order.
     velocity_threshold : float or None
         Drop a joint's rows where its |q̇| is below this [rad/s] (the sign of the Coulomb term is undefined
-        there); 0 keeps all; None (default): 2 % of each joint's peak |q̇| in the log.
+        there); 0 keeps all; None (default): ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log.
+    velocities : "auto", "logged" or "differentiate"
+        Joint velocities from the log's ``qd_motor_<i>`` (or ``qd_joint_<j>``) or from the positions
+        (:data:`VELOCITIES`); "auto" uses the logged ones when present. Stale rows (repeats of the previous
+        sample) are always dropped and the log re-timed (:func:`tendyn.ident.treatment.drop_stale`).
     essential : bool
         Keep only the essential parameters.
     essential_tol : float
@@ -168,8 +173,9 @@ class IDIM:
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None):
+                 parameters=None, velocities="auto"):
         self.device = device
+        self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
         self.decimate = decimate
@@ -192,7 +198,9 @@ class IDIM:
         """Treated (Y, W_standard, rows, times) of the logs; ``parts`` (a, b) keeps the fraction [a, b) of each."""
         model = self._model()
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
-        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold)
+        if self.velocities not in VELOCITIES:
+            raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.velocities)
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -208,7 +216,8 @@ class IDIM:
             if bar is not None:
                 bar.close()
         allblocks = [b for b, _ in out]
-        self.treatment_ = out[-1][1]
+        self.treatment_ = dataclasses.replace(out[-1][1], stale_dropped=sum(tr.stale_dropped for _, tr in out),
+                                              retimed=any(tr.retimed for _, tr in out))
         na = model.n_active
         Ys, Ws, Rs, Ts = [], [], [], []
         for blocks in allblocks:
@@ -236,13 +245,25 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
+        from tendyn.io.logs import LogError
+
+        *settings, velocities = settings
         time, q, tau = model.joint_signals(log)
+        qd = None if velocities == "differentiate" else model.joint_velocities(log)
+        if velocities == "logged" and qd is None:
+            raise LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{model.n_motors} "
+                           f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
         if parts is not None:
             n = time.size
             sl = slice(int(parts[0] * n), int(parts[1] * n))
             time, q, tau = time[sl], q[sl], tau[sl]
-        tr = default_treatment(float(log.meta["rate_hz"]), getattr(model.device, "bandwidth_hz", None), *settings)
-        return treat(model, time, q, tau, tr), tr
+            qd = None if qd is None else qd[sl]
+        rate = float(log.meta["rate_hz"])
+        time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings)
+        tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
+                                 retimed=retimed)
+        return treat(model, time, q, tau, tr, qd=qd), tr
 
     def _distributed(self, logs, parts, settings):
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""

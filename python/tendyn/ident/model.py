@@ -295,3 +295,21 @@ class IdentModel:
         q = np.linalg.solve(self.G, qm.T).T + self.joint_offsets
         tau = y @ self.G
         return log.time, q, tau
+
+    def joint_velocities(self, log):
+        """Logged active joint velocities [rad/s] (n, n_a), or None when the log has none.
+
+        From the motor velocities ``qd_motor_<i>`` (q̇ = G⁻¹ q̇_motor), else from ``qd_joint_<j>`` of every
+        active joint j (file joint numbers)."""
+        from tendyn.io.logs import LogError
+
+        if log.column_names("qd_motor_"):
+            qdm = log.stack("qd_motor_")
+            if qdm.shape[1] != self.n_motors:
+                raise LogError(f"the log has {qdm.shape[1]} motor velocities, the device {self.device.name} has "
+                               f"{self.n_motors} motors", column="qd_motor_")
+            return np.linalg.solve(self.G, qdm.T).T
+        names = [f"qd_joint_{n}" for n in self.active_numbers]
+        if all(n in log for n in names):
+            return np.column_stack([log[n] for n in names])
+        return None

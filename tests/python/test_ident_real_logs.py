@@ -1,0 +1,192 @@
+"""Identification on logs as real benches write them (issue 18): stale rows, logged velocities, units, the
+velocity threshold in one place and honoured by --stream, implausible values said.
+
+The logs are generated here from a device generated here (a 2-joint cable arm, not a bundled twin): joint
+torques by Pinocchio's RNEA plus viscous and Coulomb friction chosen by the test. The estimator reads only
+the log; the test compares its parameters with the truth it built.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tendyn.device import load_device
+from tendyn.devices.generate import write_cable_device
+from tendyn.ident import IDIM, IdentModel
+from tendyn.ident.treatment import drop_stale
+from tendyn.io import make_log
+
+FV = np.array([0.35, 0.2])      # N·m·s/rad, the test's truth
+FS = np.array([0.12, 0.08])     # N·m
+
+
+@pytest.fixture(scope="module")
+def arm(tmp_path_factory):
+    path = write_cable_device(tmp_path_factory.mktemp("dev"), 2, seed=3)
+    m = IdentModel(load_device(path))
+    m.file = path
+    return m
+
+
+def _motion(t, n, seed):
+    rng = np.random.default_rng(seed)
+    q = np.zeros((t.size, n)); qd = np.zeros_like(q); qdd = np.zeros_like(q)
+    for j in range(n):
+        for k in range(1, 4):
+            a, f, ph = rng.uniform(0.2, 0.5) / k, 0.3 * k * (1 + 0.4 * j), rng.uniform(0, 2 * np.pi)
+            w = 2 * np.pi * f
+            q[:, j] += a * np.sin(w * t + ph); qd[:, j] += a * w * np.cos(w * t + ph)
+            qdd[:, j] -= a * w * w * np.sin(w * t + ph)
+    return q, qd, qdd
+
+
+def synthetic_log(m, rate_hz=1000.0, duration=12.0, seed=0, velocities=False, noise=0.0, counts=None, fv=FV):
+    """A log of the arm following sums of sines; ``counts``: encoder counts per motor turn (quantised q);
+    ``fv``: the viscous coefficients [N·m·s/rad] of the truth."""
+    import pinocchio as pin
+
+    t = np.arange(int(duration * rate_hz)) / rate_hz
+    q, qd, qdd = _motion(t, m.n_active, seed)
+    model = m.compiled.pinocchio_model
+    data = model.createData()
+    tau = np.array([pin.rnea(model, data, q[s], qd[s], qdd[s]) for s in range(t.size)])
+    tau += fv * qd + FS * np.tanh(qd / 1e-3)
+    qm = (q - m.joint_offsets) @ m.G.T
+    if counts:
+        qm = np.round(qm * counts / (2 * np.pi)) * 2 * np.pi / counts
+    y = np.linalg.solve(m.G.T, tau.T).T + noise * np.random.default_rng(seed + 100).normal(size=tau.shape)
+    cols = {"time": t}
+    cols.update({f"q_motor_{i + 1}": qm[:, i] for i in range(m.n_motors)})
+    if velocities:
+        qdm = qd @ m.G.T
+        cols.update({f"qd_motor_{i + 1}": qdm[:, i] for i in range(m.n_motors)})
+    cols.update({f"torque_motor_{i + 1}": y[:, i] for i in range(m.n_motors)})
+    return make_log(cols, device=m.device.name, rate_hz=rate_hz, seed=seed, experiment="exciting")
+
+
+def true_base(m) -> np.ndarray:
+    """The truth as base parameters: the device file's links (the RNEA's), no rotor, the test's friction."""
+    x = m.prior()
+    names = m.standard_names
+    for k, n in enumerate(names):
+        stem, num = n.rstrip("0123456789"), n[len(n.rstrip("0123456789")):]
+        if stem in ("IA", "IAm", "FVm", "FSm", "OFFSET"):
+            x[k] = 0.0
+        elif stem == "FV":
+            x[k] = FV[m.active_numbers.index(int(num))]
+        elif stem == "FS":
+            x[k] = FS[m.active_numbers.index(int(num))]
+    return m.base.combination @ x
+
+
+def torque_error(m, est, clean) -> float:
+    """‖W (x̂ − x)‖ / ‖W x‖ on the treated clean log: how far the identified model's torques are from the truth's."""
+    _, W, _, _, _ = IDIM(m.device, cutoff_hz=est.cutoff_hz, decimate=est.decimate,
+                         velocity_threshold=0.0).observations(clean)
+    Wb = W[:, list(m.base.columns)]
+    xt = true_base(m)
+    return float(np.linalg.norm(Wb @ (est.params_ - xt)) / np.linalg.norm(Wb @ xt))
+
+
+def with_stale_rows(log, fraction, seed):
+    """The log with ``fraction`` of its rows replaced by a repeat of the previous row (all but time): a logger
+    writing samples the sensors had not refreshed."""
+    rng = np.random.default_rng(seed)
+    n = log.n_samples
+    stale = np.zeros(n, bool)
+    stale[1 + rng.choice(n - 1, int(fraction * n), replace=False)] = True
+    cols = {}
+    for name, x in log.columns.items():
+        x = x.copy()
+        if name != "time":
+            for k in np.flatnonzero(stale):       # sample-and-hold: a run of stale rows holds the first value
+                x[k] = x[k - 1]
+        cols[name] = x
+    return make_log(cols, device=log.meta["device"], rate_hz=log.meta["rate_hz"], seed=log.meta["seed"],
+                    experiment="exciting"), int(stale.sum())
+
+
+# -- 1a. stale rows ----------------------------------------------------------------------------------------
+
+def test_drop_stale_differentiates_on_the_true_time_stamps():
+    """A sine logged with 15 % stale rows: after drop_stale its central differences match the true derivative
+    as on a clean log; taken on the stale rows they are off by the full signal speed."""
+    rate = 200.0
+    t = np.arange(2000) / rate
+    x = np.sin(2 * np.pi * 0.7 * t)[:, None]
+    tau = np.cos(2 * np.pi * 0.3 * t)[:, None]
+    rng = np.random.default_rng(1)
+    xs, taus = x.copy(), tau.copy()
+    idx = np.sort(1 + rng.choice(t.size - 2, 300, replace=False))
+    for k in idx:
+        xs[k], taus[k] = xs[k - 1], taus[k - 1]
+    tt, xq, tq, _, n, retimed = drop_stale(t, rate, xs, taus)
+    assert n == np.count_nonzero(np.all(xs[1:] == xs[:-1], axis=1) & np.all(taus[1:] == taus[:-1], axis=1))
+    assert retimed and tt.size == t.size
+    truth = 2 * np.pi * 0.7 * np.cos(2 * np.pi * 0.7 * tt)
+    err_dropped = np.max(np.abs(np.gradient(xq[:, 0], 1 / rate) - truth)[1:-1])
+    err_raw = np.max(np.abs(np.gradient(xs[:, 0], 1 / rate) - 2 * np.pi * 0.7 * np.cos(2 * np.pi * 0.7 * t))[1:-1])
+    assert err_dropped < 0.05 * 2 * np.pi * 0.7 < err_raw
+    # a clean uniform log passes through untouched
+    tt, xq, tq, _, n, retimed = drop_stale(t, rate, x, tau)
+    assert n == 0 and not retimed and xq is x
+
+
+def test_stale_rows_are_dropped_and_counted(arm):
+    clean = synthetic_log(arm, rate_hz=200.0, duration=30.0, seed=2)
+    stale, n_stale = with_stale_rows(clean, 0.15, seed=5)
+    kw = dict(cutoff_hz=10.0, decimate=2, velocity_threshold=0.0)
+    e_clean = torque_error(arm, IDIM(arm.device, **kw).fit(clean, crossval=False), clean)
+    est = IDIM(arm.device, **kw).fit(stale, crossval=False)
+    assert est.treatment_.stale_dropped == n_stale > 0.1 * clean.n_samples
+    assert est.treatment_.retimed
+    assert f"{n_stale} stale samples dropped" in est.result_.table()
+    assert est.result_.to_dict()["treatment"]["stale_dropped"] == n_stale
+    e_stale = torque_error(arm, est, clean)
+    assert e_clean < 0.01
+    assert e_stale < 0.02, f"stale rows dropped: torque error {e_stale:.4f} (clean log: {e_clean:.4f})"
+
+
+# -- 1b. logged velocities ---------------------------------------------------------------------------------
+
+def test_logged_velocities_are_used_and_said(arm):
+    """Coarse encoder (256 counts per motor turn): differentiated positions are noisy, the logged velocities
+    are not; the fit with them is closer to the truth, and the treatment says which were used."""
+    log = synthetic_log(arm, rate_hz=1000.0, duration=12.0, seed=4, velocities=True, counts=256)
+    clean = synthetic_log(arm, rate_hz=1000.0, duration=12.0, seed=4)
+    kw = dict(cutoff_hz=20.0, decimate=10, velocity_threshold=0.0)
+    auto = IDIM(arm.device, **kw).fit(log, crossval=False)
+    diff = IDIM(arm.device, velocities="differentiate", **kw).fit(log, crossval=False)
+    assert auto.treatment_.velocities == "logged" and diff.treatment_.velocities == "differentiate"
+    assert "logged velocities" in auto.result_.table()
+    assert auto.result_.to_dict()["treatment"]["velocities"] == "logged"
+    e_logged, e_diff = torque_error(arm, auto, clean), torque_error(arm, diff, clean)
+    assert e_logged < 0.5 * e_diff, f"logged {e_logged:.4f} vs differentiated {e_diff:.4f}"
+
+
+def test_logged_velocities_asked_for_but_absent(arm):
+    from tendyn.io import LogError
+
+    log = synthetic_log(arm, duration=2.0)
+    with pytest.raises(LogError, match="qd_motor_"):
+        IDIM(arm.device, velocities="logged").fit(log, crossval=False)
+    assert IDIM(arm.device).fit(log, crossval=False).treatment_.velocities == "differentiate"
+
+
+
+def test_cli_velocities_option(arm, tmp_path, capsys):
+    """--velocities logged on a log without velocity columns: one line, exit 2; the JSON says which were used."""
+    import json
+
+    from tendyn.cli import main
+    from tendyn.io import write_log
+
+    bare = write_log(synthetic_log(arm, duration=3.0), tmp_path / "bare.csv")
+    assert main(["identify", str(arm.file), str(bare), "--velocities", "logged", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "qd_motor_" in err and len(err.strip().splitlines()) == 1
+    full = write_log(synthetic_log(arm, duration=3.0, velocities=True), tmp_path / "full.csv")
+    for opt, said in ((["--velocities", "differentiate"], "differentiate"), ([], "logged")):
+        assert main(["identify", str(arm.file), str(full), "--json", "--quiet", *opt]) == 0
+        assert json.loads(capsys.readouterr().out)["treatment"]["velocities"] == said
