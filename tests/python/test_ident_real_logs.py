@@ -190,3 +190,41 @@ def test_cli_velocities_option(arm, tmp_path, capsys):
     for opt, said in ((["--velocities", "differentiate"], "differentiate"), ([], "logged")):
         assert main(["identify", str(arm.file), str(full), "--json", "--quiet", *opt]) == 0
         assert json.loads(capsys.readouterr().out)["treatment"]["velocities"] == said
+
+
+# -- 2. one velocity-threshold default, honoured by --stream -------------------------------------------------
+
+@pytest.mark.parametrize("threshold", [None, 0.4])
+def test_stream_honours_the_velocity_threshold(arm, tmp_path, threshold):
+    """--stream and in memory agree, with the default threshold (a fraction of the peak speed) and a given one;
+    and the threshold does change the fit (so agreeing is not agreeing on "no threshold")."""
+    from tendyn.ident.stream import StreamingIDIM
+    from tendyn.io import write_log
+
+    log = synthetic_log(arm, rate_hz=1000.0, duration=10.0, seed=6, noise=0.01)
+    path = write_log(log, tmp_path / "log.parquet")
+    kw = dict(cutoff_hz=20.0, decimate=10, velocity_threshold=threshold)
+    mem = IDIM(arm.device, **kw).fit(log, crossval=False)
+    st = StreamingIDIM(arm.device, chunk_rows=1234, **kw).fit(path)
+    assert st.result_.n_rows == mem.result_.n_rows
+    np.testing.assert_allclose(st.treatment_.velocity_threshold, mem.treatment_.velocity_threshold, rtol=1e-9)
+    np.testing.assert_allclose(st.params_, mem.params_, rtol=1e-7, atol=1e-9 * np.max(np.abs(mem.params_)))
+    none = IDIM(arm.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(log, crossval=False)
+    assert none.result_.n_rows > mem.result_.n_rows
+
+
+def test_cli_stream_passes_the_velocity_threshold(arm, tmp_path, capsys):
+    import json
+
+    from tendyn.cli import main
+    from tendyn.io import write_log
+
+    path = write_log(synthetic_log(arm, duration=6.0, seed=7, noise=0.01), tmp_path / "log.parquet")
+    docs = []
+    for extra in ([], ["--velocity-threshold", "0.5"]):
+        assert main(["identify", str(arm.file), str(path), "--stream", "--json", *extra]) == 0
+        docs.append(json.loads(capsys.readouterr().out))
+    assert docs[1]["treatment"]["velocity_threshold"] == [0.5, 0.5]
+    assert docs[0]["treatment"]["velocity_threshold"] != [0.0, 0.0]
+    assert docs[1]["n_rows"] != docs[0]["n_rows"]
+

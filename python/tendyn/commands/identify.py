@@ -126,6 +126,7 @@ def cmd_identify(args) -> int:
     return 0
 
 
+
 def _identify_stream(dev, args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident.stream import StreamingIDIM
@@ -133,11 +134,11 @@ def _identify_stream(dev, args) -> int:
 
     if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
         raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
-    for opt in ("consistent", "essential", "parameters"):
+    for opt in ("consistent", "essential", "parameters", "velocities"):
         if getattr(args, opt):
             raise UsageError(f"--{opt} is not available with --stream", opt)
     est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
-                        decimate=args.decimate).fit(args.logs[0])
+                        decimate=args.decimate, velocity_threshold=args.velocity_threshold).fit(args.logs[0])
     res = est.result_
     doc = to_jsonable(res.to_dict())
     doc["logs"] = [str(p) for p in args.logs]
