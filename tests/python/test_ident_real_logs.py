@@ -228,3 +228,34 @@ def test_cli_stream_passes_the_velocity_threshold(arm, tmp_path, capsys):
     assert docs[0]["treatment"]["velocity_threshold"] != [0.0, 0.0]
     assert docs[1]["n_rows"] != docs[0]["n_rows"]
 
+
+# -- 3. implausible values said ----------------------------------------------------------------------------
+
+def test_negative_viscous_coefficient_is_flagged(arm, tmp_path, capsys):
+    """A log whose joint 2 has a negative viscous term (a model that misses something): OLS returns FV2 < 0
+    and says so in the table, the JSON and on stderr, naming FV2 and --consistent; the positive FV1 is not
+    flagged; the physically consistent estimate has no warning."""
+    import json
+
+    from tendyn.cli import main
+    from tendyn.io import write_log
+
+    log = synthetic_log(arm, duration=8.0, seed=8, noise=0.01, fv=np.array([0.35, -0.05]))
+    est = IDIM(arm.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
+    fv2 = est.params_[est.names_.index("FV2")]
+    assert fv2 < 0
+    warn = {w.split(" ")[0]: w for w in est.result_.warnings}
+    assert "FV2" in warn and "FV1" not in warn and "--consistent" in warn["FV2"]
+    # every flagged value is negative and of a stem that must be positive (IAm2 = 0 in the truth may dip below)
+    assert all(est.params_[est.names_.index(n)] < 0 and n.rstrip("0123456789") in ("FV", "FS", "IA", "IAm", "FVm",
+               "FSm") for n in warn)
+    assert "warning: FV2 = " in est.result_.table()
+    path = write_log(log, tmp_path / "log.csv")
+    assert main(["identify", str(arm.file), str(path), "--json", "--quiet", "--cutoff-hz", "20",
+                 "--decimate", "10"]) == 0
+    out = capsys.readouterr()
+    doc = json.loads(out.out)
+    assert "FV2" in [w.split(" ")[0] for w in doc["warnings"]]
+    assert "warning: FV2" in out.err
+    cons = IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True).fit(log, crossval=False)
+    assert cons.result_.warnings == []

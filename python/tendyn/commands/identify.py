@@ -120,11 +120,17 @@ def cmd_identify(args) -> int:
         save_png(res.plot(), out / "torques.png")
     if args.json:
         print(json.dumps(doc, indent=2))
+        _warn(res)
     else:
         print(res.table())
     print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
     return 0
 
+
+def _warn(res) -> None:
+    """The implausible values on stderr when stdout holds JSON (the table holds them otherwise)."""
+    for w in res.warnings:
+        print(f"tendyn identify: warning: {w}", file=sys.stderr)
 
 
 def _identify_stream(dev, args) -> int:
@@ -145,4 +151,6 @@ def _identify_stream(dev, args) -> int:
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     print(json.dumps(doc, indent=2) if args.json else res.table())
+    if args.json:
+        _warn(res)
     return 0

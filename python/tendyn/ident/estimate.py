@@ -55,6 +55,26 @@ def _treat_log(device, log, parts, settings):
     return IDIM._treat_here(cached_model(device), log, parts, settings)
 
 
+_MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a viscous coefficient",
+                     "FVm": "a viscous coefficient", "FS": "a Coulomb friction", "FSm": "a Coulomb friction"}
+"""Stems of the parameters that are physically ≥ 0 on their own (not regrouped: a name without the R)."""
+
+
+def implausible(names, values, stderr=None) -> list[str]:
+    """Warnings for identified values that cannot be physical: a negative rotor inertia, viscous coefficient or
+    Coulomb friction (a base parameter that is one standard parameter alone, ``IA6``, ``FVm6``), named with its
+    value, σ, and the fix (the physically consistent estimate)."""
+    out = []
+    for i, (n, v) in enumerate(zip(names, values)):
+        stem = n.rstrip("0123456789")
+        if stem in _MUST_BE_POSITIVE and v < 0:
+            sig = f" (σ {stderr[i]:.2g})" if stderr is not None else ""
+            out.append(f"{n} = {v:.4g} {unit_of(n)}{sig} is negative: {_MUST_BE_POSITIVE[stem]} cannot be; "
+                       "the data do not determine it (excite that joint more) or the model misses a term; "
+                       "--consistent constrains it to be physical")
+    return out
+
+
 def least_squares(W, Y):
     """OLS with statistics: (x, stderr, sigma2, cov). σ̂² = ‖Y − W x‖² / (r − b)."""
     r, b = W.shape
@@ -82,6 +102,7 @@ class IdentificationResult(Result):
         self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
         self.joint_numbers = list(joint_numbers)
         self.crossval = crossval
+        self.warnings = implausible(self.names, self.values, self.stderr)
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
@@ -94,7 +115,7 @@ class IdentificationResult(Result):
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
-                "params": params, "crossval": self.crossval,
+                "params": params, "crossval": self.crossval, "warnings": list(self.warnings),
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -112,6 +133,7 @@ class IdentificationResult(Result):
                         f"{100 * self.crossval['residual_rel']:.2f} %")
         if self.treatment is not None:
             tail.append(self.treatment.describe())
+        tail += [f"warning: {w}" for w in self.warnings]
         return text + "\n" + "\n".join(tail)
 
     def _draw(self, ax):
