@@ -259,3 +259,132 @@ def test_negative_viscous_coefficient_is_flagged(arm, tmp_path, capsys):
     assert "warning: FV2" in out.err
     cons = IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True).fit(log, crossval=False)
     assert cons.result_.warnings == []
+
+
+# -- 1c. prismatic joints in SI ------------------------------------------------------------------------------
+
+AXIS = """schema = 1
+[device]
+name = "axis_gen"
+description = "a generated horizontal linear axis (one prismatic DOF, a linear motor)"
+bandwidth_hz = 5.0
+[kinematics]
+convention = "mdh"
+gravity = [0.0, -9.81, 0.0]
+[[kinematics.joints]]
+name = "x"
+j = 1
+antecedent = 0
+mu = 1
+sigma = 1
+alpha = 0.0
+d = 0.0
+r = 0.0
+lower = -0.3
+upper = 0.3
+mass = 2.5
+com = [0.0, 0.0, 0.0]
+inertia = [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]
+[[actuators]]
+joint = 1
+ratio = 1.0
+"""
+
+MAP = """schema = 1
+[log]
+device = "axis_gen"
+experiment = "exciting"
+[[signals]]
+column = "t"
+signal = "time"
+[[signals]]
+column = "x_mm"
+signal = "q_motor_1"
+scale = 0.001
+{unit_q}
+[[signals]]
+column = "force"
+signal = "torque_motor_1"
+{unit_f}
+"""
+
+
+def _axis_files(tmp_path, units=True):
+    """A bench's CSV of the axis (position in mm, force in N at 500 Hz) and its import map; the truth:
+    moving mass 3.1 kg, viscous 12 N·s/m, Coulomb 3 N, offset 1.5 N."""
+    rate = 500.0
+    t = np.arange(int(20 * rate)) / rate
+    x = np.zeros_like(t); v = np.zeros_like(t); a = np.zeros_like(t)
+    for k, (amp, f) in enumerate(((0.12, 0.4), (0.04, 1.1), (0.015, 2.3))):
+        w = 2 * np.pi * f
+        x += amp * np.sin(w * t + k); v += amp * w * np.cos(w * t + k); a -= amp * w * w * np.sin(w * t + k)
+    force = 3.1 * a + 12.0 * v + 3.0 * np.tanh(v / 1e-4) + 1.5
+    raw = tmp_path / "axis.csv"
+    rows = zip(t.tolist(), (1000 * x).tolist(), force.tolist())
+    raw.write_text("t,x_mm,force\n" + "".join(f"{a!r},{b!r},{c!r}\n" for a, b, c in rows))
+    mp = tmp_path / "axis_import.toml"
+    mp.write_text(MAP.format(unit_q='unit = "m"' if units else "", unit_f='unit = "N"' if units else ""))
+    dev = tmp_path / "axis_gen.toml"
+    dev.write_text(AXIS)
+    return raw, mp, dev
+
+
+def test_prismatic_axis_in_si_from_log_import_to_identify(tmp_path, capsys):
+    """log import keeps metres and newtons (meta.units, the file's headers); identify labels the axis' terms
+    kg, N·s/m and N and finds the truth the test built (3.1 kg moving, where the device file says 2.5 kg)."""
+    import json
+
+    from tendyn.cli import main
+    from tendyn.io import read_log
+
+    raw, mp, dev = _axis_files(tmp_path)
+    out = tmp_path / "axis_log.csv"
+    assert main(["log", "import", str(raw), "--map", str(mp), "--out", str(out)]) == 0
+    capsys.readouterr()
+    log = read_log(out)
+    assert log.units["q_motor_1"] == "m" and log.units["torque_motor_1"] == "N"
+    assert "q_motor_1 [m]" in out.read_text().splitlines()[1]
+    assert main(["identify", str(dev), str(out), "--json", "--quiet"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    p = {q["name"]: q for q in doc["params"]}
+    assert p["FV1"]["unit"] == "N·s/m" and p["FS1"]["unit"] == "N" and p["OFFSET1"]["unit"] == "N"
+    assert p["M1R"]["unit"] == "kg"
+    assert p["FV1"]["value"] == pytest.approx(12.0, rel=0.02)
+    assert p["FS1"]["value"] == pytest.approx(3.0, rel=0.05)
+    assert p["OFFSET1"]["value"] == pytest.approx(1.5, rel=0.05)
+    assert p["M1R"]["value"] == pytest.approx(3.1, rel=0.02)
+
+
+def test_prismatic_axis_logged_in_rad_is_refused(tmp_path, capsys):
+    """The map route without units labels metres as rad: identify says which column and how to fix it."""
+    from tendyn.cli import main
+
+    raw, mp, dev = _axis_files(tmp_path, units=False)
+    out = tmp_path / "axis_log.parquet"
+    assert main(["log", "import", str(raw), "--map", str(mp), "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(dev), str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "q_motor_1" in err and "prismatic joint 1" in err and 'unit = "m"' in err
+
+
+def test_linear_units_on_a_revolute_joint_are_refused(arm):
+    from tendyn.io import LogError
+
+    log = synthetic_log(arm, duration=1.0)
+    cols = dict(log.columns)
+    lin = make_log(cols, device="x", rate_hz=1000.0, seed=None, experiment="e", units={"q_motor_2": "m"})
+    with pytest.raises(LogError, match="q_motor_2.*revolute joint 2"):
+        arm.joint_signals(lin)
+    with pytest.raises(LogError, match="meta.units"):
+        make_log(cols, device="x", rate_hz=1000.0, seed=None, experiment="e", units={"q_motor_2": "mm"})
+
+
+def test_import_map_unit_errors(tmp_path):
+    from tendyn.io import LogError
+    from tendyn.io.importer import import_logs
+
+    raw, mp, _ = _axis_files(tmp_path)
+    mp.write_text(mp.read_text().replace('unit = "N"', 'unit = "kN"'))
+    with pytest.raises(LogError, match=r"signals\[3\].unit: torque_motor_1 is in N·m or N"):
+        import_logs([raw], mp)

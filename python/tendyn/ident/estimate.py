@@ -60,7 +60,7 @@ _MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a
 """Stems of the parameters that are physically ≥ 0 on their own (not regrouped: a name without the R)."""
 
 
-def implausible(names, values, stderr=None) -> list[str]:
+def implausible(names, values, stderr=None, units=None) -> list[str]:
     """Warnings for identified values that cannot be physical: a negative rotor inertia, viscous coefficient or
     Coulomb friction (a base parameter that is one standard parameter alone, ``IA6``, ``FVm6``), named with its
     value, σ, and the fix (the physically consistent estimate)."""
@@ -69,7 +69,7 @@ def implausible(names, values, stderr=None) -> list[str]:
         stem = n.rstrip("0123456789")
         if stem in _MUST_BE_POSITIVE and v < 0:
             sig = f" (σ {stderr[i]:.2g})" if stderr is not None else ""
-            out.append(f"{n} = {v:.4g} {unit_of(n)}{sig} is negative: {_MUST_BE_POSITIVE[stem]} cannot be; "
+            out.append(f"{n} = {v:.4g} {units[i] if units else unit_of(n)}{sig} is negative: {_MUST_BE_POSITIVE[stem]} cannot be; "
                        "the data do not determine it (excite that joint more) or the model misses a term; "
                        "--consistent constrains it to be physical")
     return out
@@ -94,7 +94,8 @@ class IdentificationResult(Result):
     _figsize = (8.0, 6.0)
 
     def __init__(self, device, method, names, expressions, values, stderr, cond, n_rows, residual_rel,
-                 per_joint_residual_rel, treatment, time, y, y_hat, rows, joint_numbers, crossval=None):
+                 per_joint_residual_rel, treatment, time, y, y_hat, rows, joint_numbers, crossval=None,
+                 units=None):
         self.device, self.method, self.names, self.expressions = device, method, list(names), list(expressions)
         self.values, self.stderr = np.asarray(values), np.asarray(stderr)
         self.cond, self.n_rows, self.residual_rel = float(cond), int(n_rows), float(residual_rel)
@@ -102,16 +103,18 @@ class IdentificationResult(Result):
         self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
         self.joint_numbers = list(joint_numbers)
         self.crossval = crossval
-        self.warnings = implausible(self.names, self.values, self.stderr)
+        self.units = list(units) if units is not None else [unit_of(n) for n in self.names]
+        self.warnings = implausible(self.names, self.values, self.stderr, self.units)
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
         return 100.0 * self.stderr / np.maximum(np.abs(self.values), 1e-300)
 
     def to_dict(self) -> dict:
-        params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": unit_of(n),
+        params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": u,
                    "expression": e}
-                  for n, v, s, p, e in zip(self.names, self.values, self.stderr, self.rel_stderr_pct, self.expressions)]
+                  for n, v, s, p, e, u in zip(self.names, self.values, self.stderr, self.rel_stderr_pct,
+                                              self.expressions, self.units)]
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
@@ -119,7 +122,8 @@ class IdentificationResult(Result):
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
-        rows = [(n, f"{v:.5g}", unit_of(n), f"{p:.3g}") for n, v, p in zip(self.names, self.values, self.rel_stderr_pct)]
+        rows = [(n, f"{v:.5g}", u, f"{p:.3g}") for n, v, p, u in zip(self.names, self.values, self.rel_stderr_pct,
+                                                                    self.units)]
         text = format_table(("Parameter", "Value", "Unit", "Relative deviation %"), rows,
                             title=f"{self.device}: base parameters ({self.method.upper()}), cond(W) = {self.cond:.4g}"
                                   + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
@@ -151,7 +155,7 @@ class IdentificationResult(Result):
             ax.plot(t, self.y[sel], lw=0.8, label=f"measured, joint {num}", color=f"C{j}")
             ax.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated" if j == 0 else None)
         ax.set_xlabel("time [s] (decimated samples)")
-        ax.set_ylabel("joint torque [N·m]")
+        ax.set_ylabel("joint torque [N·m] (force [N] at a prismatic joint)")
         ax.set_title(f"{self.device}: measured vs estimated torque, {n} joints")
         ax.legend(loc="best", fontsize=7)
 
@@ -393,7 +397,7 @@ class IDIM:
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
-                                            model.active_numbers, cv)
+                                            model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
         self._cols = cols
         return self

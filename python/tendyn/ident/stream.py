@@ -283,5 +283,6 @@ class StreamingIDIM:
         self.result_ = IdentificationResult(
             model.device.name, self.method + "+stream", self.names_,
             [base.expression(i, model.standard_names) for i in range(len(base.names))], x, se, cond,
-            int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv)
+            int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv,
+            units=[model.unit(n) for n in self.names_])
         return self

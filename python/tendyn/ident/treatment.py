@@ -101,7 +101,7 @@ class Treatment:
         if v is None:
             return f"{100 * DEFAULT_VELOCITY_FRACTION:g} % of each joint's peak speed"
         if isinstance(v, tuple):
-            return "(" + ", ".join(f"{x:.3g}" for x in v) + ") rad/s per joint"
+            return "(" + ", ".join(f"{x:.3g}" for x in v) + ") rad/s per joint (m/s at a prismatic joint)"
         return f"{v:g} rad/s"
 
     def _samples_text(self) -> str:
