@@ -76,7 +76,7 @@ def _parameters(text, model):
 def cmd_identify(args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident import IDIM
-    from tendyn.io import atomic_write_text, read_log, save_png, to_jsonable
+    from tendyn.io import atomic_write_text, read_log, save_png
 
     dev = _device(args.device)
     if dev.kind != "serial":
@@ -109,8 +109,7 @@ def cmd_identify(args) -> int:
             raise
         raise UsageError(str(exc)) from None
     res = est.result_
-    doc = to_jsonable(res.to_dict())
-    doc["logs"] = [str(p) for p in args.logs]
+    doc = _document(res, dev, args.logs)
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     if args.report:
@@ -127,6 +126,15 @@ def cmd_identify(args) -> int:
     return 0
 
 
+def _document(res, dev, logs) -> dict:
+    """PARAMS.json: the result, its provenance (format, device file and SHA-256) and the logs; it loads back
+    with ``tendyn.ident.identified.IdentifiedModel.load``."""
+    from tendyn.ident.identified import provenance
+    from tendyn.io import to_jsonable
+
+    return {**provenance(dev), **to_jsonable(res.to_dict()), "logs": [str(p) for p in logs]}
+
+
 def _warn(res) -> None:
     """The implausible values on stderr when stdout holds JSON (the table holds them otherwise)."""
     for w in res.warnings:
@@ -136,7 +144,7 @@ def _warn(res) -> None:
 def _identify_stream(dev, args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident.stream import StreamingIDIM
-    from tendyn.io import atomic_write_text, to_jsonable
+    from tendyn.io import atomic_write_text
 
     if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
         raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
@@ -146,8 +154,7 @@ def _identify_stream(dev, args) -> int:
     est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
                         decimate=args.decimate, velocity_threshold=args.velocity_threshold).fit(args.logs[0])
     res = est.result_
-    doc = to_jsonable(res.to_dict())
-    doc["logs"] = [str(p) for p in args.logs]
+    doc = _document(res, dev, args.logs)
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     print(json.dumps(doc, indent=2) if args.json else res.table())

@@ -439,7 +439,16 @@ class IDIM:
         return {"fit": desc[0], "validate": desc[1], "residual_rel": float(np.linalg.norm(res) / np.linalg.norm(Yv)),
                 "per_joint_residual_rel": per, "params": [float(v) for v in x]}
 
+    def identified_model(self):
+        """The fitted parameters as a :class:`tendyn.ident.identified.IdentifiedModel` (save, load, predict a
+        log's torques at its own time stamps, score)."""
+        from .identified import IdentifiedModel
+
+        d = self.result_.to_dict()
+        return IdentifiedModel(self._model().device, d["params"], d["method"], d["treatment"])
+
     def predict(self, logs) -> np.ndarray:
-        """Estimated joint torques (joint-major stacked, treated samples) of logs with the fitted parameters."""
+        """Estimated joint torques (joint-major stacked, treated samples) of logs with the fitted parameters;
+        a time series at the log's own samples is :meth:`identified_model` ``.predict(log)``."""
         Y, W, rows, t, na = self.observations(logs)
         return W[:, list(self._model().base.columns)][:, self._cols] @ self.params_

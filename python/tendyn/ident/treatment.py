@@ -155,7 +155,7 @@ def drop_stale(time, rate_hz: float, q, tau, qd=None):
         stale[1:] = np.all(q[1:] == q[:-1], axis=1) & np.all(tau[1:] == tau[:-1], axis=1)
     n_stale = int(stale.sum())
     dt = 1.0 / rate_hz
-    grid = time[0] + dt * np.arange(int(np.floor((time[-1] - time[0]) * rate_hz + 1e-6)) + 1)
+    grid = time[0] + dt * np.arange(int(np.round((time[-1] - time[0]) * rate_hz)) + 1)
     on_grid = grid.size == time.size and np.max(np.abs(time - grid)) <= RETIME_TOLERANCE * dt
     if n_stale == 0 and on_grid:
         return time, q, tau, qd, 0, False
