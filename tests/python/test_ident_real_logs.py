@@ -457,3 +457,30 @@ def test_params_json_of_the_cli_loads_back_and_refuses_a_changed_device(arm, tmp
     dev.write_text(dev.read_text() + "\n# edited\n")
     with pytest.raises(ValueError, match="another version"):
         IdentifiedModel.load(out)
+
+
+def test_cli_validate(arm, tmp_path, capsys):
+    """tendyn validate: per-log, per-joint relative errors (JSON, table, a figure per log); a log of the
+    same arm with other friction scores worse; a bad PARAMS.json is one line, exit 2."""
+    import json
+
+    from tendyn.cli import main
+    from tendyn.io import write_log
+
+    fit = write_log(synthetic_log(arm, duration=8.0, seed=21, noise=0.01), tmp_path / "fit.csv")
+    same = write_log(synthetic_log(arm, duration=4.0, seed=22, noise=0.01), tmp_path / "same.parquet")
+    other = write_log(synthetic_log(arm, duration=4.0, seed=22, noise=0.01, fv=3 * FV), tmp_path / "other.csv")
+    params = tmp_path / "params.json"
+    assert main(["identify", str(arm.file), str(fit), "--out", str(params), "--quiet"]) == 0
+    capsys.readouterr()
+    rep = tmp_path / "rep"
+    assert main(["validate", str(arm.file), str(params), str(same), str(other), "--json", "--report", str(rep)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    e_same, e_other = (np.array(d["relative_error"]) for d in doc["logs"])
+    assert e_same.shape == (2,) and np.all(e_other > 2 * e_same)
+    assert (rep / "table.txt").is_file() and (rep / "same.png").is_file() and (rep / "other.png").is_file()
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps({"params": [{"name": "ZZ1R", "value": "x", "expression": "ZZ1"}]}))
+    assert main(["validate", str(arm.file), str(bad), str(same)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "params[0].value" in err and len(err.splitlines()) == 1

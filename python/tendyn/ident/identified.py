@@ -139,21 +139,25 @@ class IdentifiedModel:
     def load(cls, path, device=None) -> "IdentifiedModel":
         """Read a PARAMS.json (``tendyn identify --out``). ``device``: the device (object, file or bundled
         name); default the file it names (``device_file``, else the bundled device of its name). Raises
-        ValueError when the device's file has changed since the identification (its SHA-256 differs)."""
+        :class:`tendyn.analysis.operational.ParamsError` (a ValueError naming the file and the field) for a bad
+        document or one identified on another version of the device file (its SHA-256 differs)."""
+        from tendyn.analysis.operational import ParamsError, read_params
+
+        params = read_params(path)          # the one validated reader of PARAMS.json
         doc = json.loads(Path(path).read_text(encoding="utf-8"))
-        if not isinstance(doc, dict) or not isinstance(doc.get("params"), list):
-            raise ValueError(f"{path}: not a PARAMS.json (no params list)")
+        if not isinstance(doc, dict):
+            raise ParamsError("must be the document of `tendyn identify --out`, a JSON object", None, str(path))
         fmt = doc.get("format", FORMAT)
         if fmt != FORMAT:
-            raise ValueError(f"{path}: format {fmt!r}, this tendyn reads {FORMAT!r}")
+            raise ParamsError(f"{fmt!r}: this tendyn reads {FORMAT!r}", "format", str(path))
         if device is None:
             device = doc.get("device_file") if doc.get("device_file") and Path(doc["device_file"]).is_file() \
                 else doc.get("device")
-        model = cls(device, doc["params"], doc.get("method", "ols"), doc.get("treatment"))
+        model = cls(device, params, doc.get("method", "ols"), doc.get("treatment"))
         want, have = doc.get("device_sha256"), device_digest(model.device)
         if want and have and want != have:
-            raise ValueError(f"{path}: identified on another version of {model.device.name}'s file (SHA-256 "
-                             f"{want[:12]}… in PARAMS.json, {have[:12]}… now)")
+            raise ParamsError(f"identified on another version of {model.device.name}'s file (SHA-256 {want[:12]}… "
+                              f"in PARAMS.json, {have[:12]}… now)", "device_sha256", str(path))
         return model
 
     # -- use --------------------------------------------------------------------------------------------
