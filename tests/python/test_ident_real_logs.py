@@ -70,7 +70,11 @@ def synthetic_log(m, rate_hz=1000.0, duration=12.0, seed=0, velocities=False, no
         qdm = qd @ m.G.T
         cols.update({f"qd_motor_{i + 1}": qdm[:, i] for i in range(m.n_motors)})
     cols.update({f"torque_motor_{i + 1}": y[:, i] for i in range(m.n_motors)})
-    return make_log(cols, device=m.device.name, rate_hz=rate_hz, seed=seed, experiment="exciting")
+    linear = [i + 1 for i, j in enumerate(m.motor_joints) if j in m.prismatic_numbers]
+    units = {f"{c}_{i}": u for i in linear for c, u in (("q_motor", "m"), ("qd_motor", "m/s"),
+                                                        ("torque_motor", "N")) if f"{c}_{i}" in cols}
+    return make_log(cols, device=m.device.name, rate_hz=rate_hz, seed=seed, experiment="exciting",
+                    units=units or None)
 
 
 def true_base(m) -> np.ndarray:
@@ -484,3 +488,63 @@ def test_cli_validate(arm, tmp_path, capsys):
     assert main(["validate", str(arm.file), str(bad), str(same)]) == 2
     err = capsys.readouterr().err.strip()
     assert "params[0].value" in err and len(err.splitlines()) == 1
+
+
+MIXED = """schema = 1
+[device]
+name = "mixed_gen"
+description = "a generated mixed arm: a vertical prismatic joint carrying a revolute one"
+[kinematics]
+convention = "mdh"
+gravity = [0.0, 0.0, -9.81]
+[[kinematics.joints]]
+name = "z"
+j = 1
+antecedent = 0
+mu = 1
+sigma = 1
+alpha = 0.0
+d = 0.0
+r = 0.0
+lower = -0.3
+upper = 0.3
+mass = 1.8
+com = [0.0, 0.0, -0.05]
+inertia = [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]
+[[kinematics.joints]]
+name = "q2"
+j = 2
+antecedent = 1
+mu = 1
+sigma = 0
+alpha = 1.5707963267948966
+d = 0.0
+r = 0.0
+lower = -3.0
+upper = 3.0
+mass = 0.6
+com = [0.12, 0.0, 0.0]
+inertia = [0.002, 0.004, 0.004, 0.0, 0.0, 0.0]
+[[actuators]]
+joint = 1
+ratio = 1.0
+[[actuators]]
+joint = 2
+ratio = 10.0
+"""
+
+
+def test_mixed_prismatic_and_revolute_device(tmp_path):
+    """A vertical prismatic joint carrying a revolute one: joint 1's terms in N·s/m and N, joint 2's in
+    N·m·s/rad and N·m; the logged columns of motor 1 in m and N; the friction identified near the truth."""
+    dev = tmp_path / "mixed_gen.toml"
+    dev.write_text(MIXED)
+    m = IdentModel(load_device(dev))
+    log = synthetic_log(m, duration=12.0, seed=31, noise=0.005)
+    assert log.units["q_motor_1"] == "m" and log.units["torque_motor_2"] == "N·m"
+    est = IDIM(m.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(log, crossval=False)
+    units = dict(zip(est.names_, est.result_.units))
+    assert units["FV1"] == "N·s/m" and units["FS1"] == "N" and units["FV2"] == "N·m·s/rad" and units["FS2"] == "N·m"
+    for k, n in enumerate(("FV1", "FV2")):
+        assert est.params_[est.names_.index(n)] == pytest.approx(FV[k], rel=0.05)
+    assert torque_error(m, est, synthetic_log(m, duration=12.0, seed=31)) < 0.01
