@@ -69,7 +69,8 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
         stem = n.rstrip("0123456789")
         if stem in _MUST_BE_POSITIVE and v < 0:
             sig = f" (σ {stderr[i]:.2g})" if stderr is not None else ""
-            out.append(f"{n} = {v:.4g} {units[i] if units else unit_of(n)}{sig} is negative: {_MUST_BE_POSITIVE[stem]} cannot be; "
+            unit = units[i] if units else unit_of(n)
+            out.append(f"{n} = {v:.4g} {unit}{sig} is negative, which {_MUST_BE_POSITIVE[stem]} cannot be: either "
                        "the data do not determine it (excite that joint more) or the model misses a term; "
                        "--consistent constrains it to be physical")
     return out
