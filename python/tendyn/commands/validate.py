@@ -20,7 +20,7 @@ def register(subparsers) -> None:
 
 
 def cmd_validate(args) -> int:
-    from tendyn.analysis.operational import ParamsError
+    from tendyn.io.params import ParamsError
     from tendyn.cli import _check_out_folder, _load
     from tendyn.ident.identified import IdentifiedModel
     from tendyn.io import atomic_write_text, read_log, save_png

@@ -139,9 +139,9 @@ class IdentifiedModel:
     def load(cls, path, device=None) -> "IdentifiedModel":
         """Read a PARAMS.json (``tendyn identify --out``). ``device``: the device (object, file or bundled
         name); default the file it names (``device_file``, else the bundled device of its name). Raises
-        :class:`tendyn.analysis.operational.ParamsError` (a ValueError naming the file and the field) for a bad
+        :class:`tendyn.io.params.ParamsError` (a ValueError naming the file and the field) for a bad
         document or one identified on another version of the device file (its SHA-256 differs)."""
-        from tendyn.analysis.operational import ParamsError, read_params
+        from tendyn.io.params import ParamsError, read_params
 
         params = read_params(path)          # the one validated reader of PARAMS.json
         doc = json.loads(Path(path).read_text(encoding="utf-8"))

@@ -176,7 +176,7 @@ class IdentModel:
 
     def _check_units(self, log) -> None:
         """A motor of a prismatic joint logs m, m/s, N; any other motor rad, rad/s, N·m (``meta.units``)."""
-        from tendyn.io.logs import LogError
+        from tendyn.io.logs import LINEAR_UNITS, LogError
 
         units = log.units
         for i, j in enumerate(self.motor_joints):
@@ -184,7 +184,7 @@ class IdentModel:
             for name in (f"q_motor_{i + 1}", f"qd_motor_{i + 1}", f"torque_motor_{i + 1}"):
                 if name not in units:
                     continue
-                if (units[name] in ("m", "m/s", "N")) != linear:
+                if (units[name] in LINEAR_UNITS.values()) != linear:
                     want = ("m, m/s, N" if linear else "rad, rad/s, N·m")
                     raise LogError(f"unit {units[name]!r}: motor {i + 1} drives the "
                                    f"{'prismatic' if linear else 'revolute'} joint {j} of {self.device.name}, "

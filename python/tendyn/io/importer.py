@@ -130,11 +130,12 @@ def read_import_map(path) -> dict:
             names[s["name"]] = i
             entry["meta"] = {"name": s["name"], "unit": s["unit"]}
         else:
-            if "name" in s:
-                raise _err(p, f"{where}.name", f"only for generic signals (input_<k>, output_<k>); {sig} has "
-                                               "the registry's name")
             reg = column_spec(sig).unit
-            allowed = (reg,) + ((LINEAR_UNITS[reg],) if reg in LINEAR_UNITS else ())
+            for key in ("name",) if reg in LINEAR_UNITS else ("name", "unit"):
+                if key in s:
+                    raise _err(p, f"{where}.{key}", f"only for generic signals (input_<k>, output_<k>); {sig} has "
+                                                    f"the registry's name and unit [{reg}]")
+            allowed = (reg, LINEAR_UNITS[reg]) if reg in LINEAR_UNITS else (reg,)
             if "unit" in s and s["unit"] not in allowed:
                 raise _err(p, f"{where}.unit", f"{sig} is in {' or '.join(allowed)} (a linear joint or motor: "
                                                f"m, m/s, N); got {s['unit']!r}")
