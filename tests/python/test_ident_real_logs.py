@@ -502,3 +502,21 @@ def test_mixed_prismatic_and_revolute_device(tmp_path):
     for k, n in enumerate(("FV1", "FV2")):
         assert est.params_[est.names_.index(n)] == pytest.approx(FV[k], rel=0.05)
     assert torque_error(m, est, synthetic_log(m, duration=12.0, seed=31)) < 0.01
+
+
+# -- 5. treatment defaults printed with why ----------------------------------------------------------------
+
+def test_treatment_says_where_each_setting_came_from():
+    from tendyn.ident.treatment import DEFAULT_VELOCITY_FRACTION, default_treatment
+
+    tr = default_treatment(1000.0, 10.0, velocity_threshold=None)
+    assert tr.cutoff_hz == 50.0 and tr.decimate == 10
+    text = tr.describe()
+    assert "cut-off 5 x the bandwidth (50 Hz)" in text and "decimation to about 10 x the bandwidth (100 Hz)" in text
+    assert f"{100 * DEFAULT_VELOCITY_FRACTION:g} % of each joint's peak speed" in text
+    slow = default_treatment(200.0, 10.0, velocity_threshold=None)      # 5 x 10 Hz is above a tenth of 200 Hz
+    assert slow.cutoff_hz == 20.0 and "cut-off a tenth of the rate (20 Hz" in slow.describe()
+    given = default_treatment(1000.0, None, cutoff_hz=30.0, decimate=4, velocity_threshold=0.1)
+    assert given.why == ("the device file gives no bandwidth_hz, 10 Hz assumed", "cut-off given",
+                         "decimation given", "velocity threshold given")
+    assert given.to_dict()["why"] == list(given.why)

@@ -91,6 +91,8 @@ class Treatment:
     velocities: str = "differentiate"
     stale_dropped: int = 0
     retimed: bool = False
+    why: tuple = ()
+    """Where each setting came from, one phrase each (given, or which of Gautier's defaults and from what)."""
 
     @property
     def parallel_cutoff_hz(self) -> float:
@@ -117,26 +119,42 @@ class Treatment:
                 f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
                 f"({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); velocity threshold "
                 f"{self._vt_text()} (log rate {self.rate_hz:g} Hz, device bandwidth "
-                f"{self.bandwidth_hz:g} Hz)")
+                f"{self.bandwidth_hz:g} Hz)" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
 
     def to_dict(self) -> dict:
         v = self.velocity_threshold
         return {"cutoff_hz": self.cutoff_hz, "order": self.order, "decimate": self.decimate,
                 "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
                 "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz,
-                "velocities": self.velocities, "stale_dropped": self.stale_dropped, "retimed": self.retimed}
+                "velocities": self.velocities, "stale_dropped": self.stale_dropped, "retimed": self.retimed,
+                "why": list(self.why)}
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
                       velocity_threshold: float | None = 0.0) -> Treatment:
-    """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win)."""
+    """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win); each
+    setting's origin goes into :attr:`Treatment.why`."""
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    why = [] if bandwidth_hz else [f"the device file gives no bandwidth_hz, {bw:g} Hz assumed"]
     if cutoff_hz is None:
         cutoff_hz = min(5.0 * bw, rate_hz / 10.0)
+        why.append(f"cut-off 5 x the bandwidth ({5.0 * bw:g} Hz), above the motion and below the noise"
+                   if 5.0 * bw <= rate_hz / 10.0 else
+                   f"cut-off a tenth of the rate ({rate_hz / 10.0:g} Hz; 5 x the bandwidth would be above it)")
+    else:
+        why.append("cut-off given")
     if decimate is None:
         decimate = max(1, int(rate_hz // (10.0 * bw)))
+        why.append(f"decimation to about 10 x the bandwidth ({rate_hz / decimate:g} Hz)")
+    else:
+        why.append("decimation given")
+    if velocity_threshold is None:
+        why.append(f"velocity threshold {100 * DEFAULT_VELOCITY_FRACTION:g} % of each joint's peak speed "
+                   "(the sign of the Coulomb term is undefined near rest)")
+    else:
+        why.append("velocity threshold given")
     vt = None if velocity_threshold is None else float(velocity_threshold)
-    return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw)
+    return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw, why=tuple(why))
 
 
 def drop_stale(time, rate_hz: float, q, tau, qd=None):
