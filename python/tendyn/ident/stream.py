@@ -147,14 +147,16 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
     return (peak if peak_only else (ne, ne_b) if split_at is not None else ne), tr
 
 
-def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
+def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: bool = True):
     """(time, q, tau) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
-    :meth:`IdentModel.joint_signals`."""
+    :meth:`IdentModel.joint_signals`; ``torques=False`` reads no torque column (tau has no column: the
+    pass that only looks at the speeds)."""
     import pyarrow.parquet as pq
 
     nm = model.n_motors
     f = pq.ParquetFile(str(path))
-    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + [f"torque_motor_{i + 1}" for i in range(nm)]
+    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + \
+        ([f"torque_motor_{i + 1}" for i in range(nm)] if torques else [])
     Ginv = np.linalg.inv(model.G)
     # row group by row group: a reader over the whole file pre-buffers ahead and holds memory in proportion
     # to the file (measured: all of a 3 M-sample log); one group at a time holds at most one group
@@ -164,8 +166,8 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
         cols = [batch.column(k).to_numpy() for k in range(len(names))]
         t = cols[0]
         qm = np.column_stack(cols[1:1 + nm])
-        y = np.column_stack(cols[1 + nm:])
-        yield t, qm @ Ginv.T + model.joint_offsets, y @ model.G
+        y = np.column_stack(cols[1 + nm:]) @ model.G if torques else np.empty((t.size, 0))
+        yield t, qm @ Ginv.T + model.joint_offsets, y
 
 
 def prefetch(chunks, depth: int = 1):
@@ -258,8 +260,8 @@ class StreamingIDIM:
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
         if self.velocity_threshold is None:
-            peak, _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows)), rate, tr,
-                                 peak_only=True)
+            peak, _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows, torques=False)),
+                                 rate, tr, peak_only=True)
             thr = DEFAULT_VELOCITY_FRACTION * peak
         else:
             thr = np.full(model.n_active, float(self.velocity_threshold))
