@@ -520,3 +520,26 @@ def test_treatment_says_where_each_setting_came_from():
     assert given.why == ("the device file gives no bandwidth_hz, 10 Hz assumed", "cut-off given",
                          "decimation given", "velocity threshold given")
     assert given.to_dict()["why"] == list(given.why)
+
+
+def test_stream_on_a_prismatic_axis(tmp_path, capsys):
+    """--stream checks the file's units and labels the axis in SI as in memory."""
+    import json
+
+    from tendyn.cli import main
+
+    raw, mp, dev = _axis_files(tmp_path)
+    out = tmp_path / "axis.parquet"
+    assert main(["log", "import", str(raw), "--map", str(mp), "--out", str(out)]) == 0
+    capsys.readouterr()
+    docs = []
+    for extra in (["--stream"], []):
+        assert main(["identify", str(dev), str(out), "--json", "--quiet", *extra]) == 0
+        docs.append({p["name"]: p for p in json.loads(capsys.readouterr().out)["params"]})
+    assert docs[0]["FV1"]["unit"] == "N·s/m" and docs[0]["OFFSET1"]["unit"] == "N"
+    assert docs[0]["FV1"]["value"] == pytest.approx(docs[1]["FV1"]["value"], rel=1e-6)
+    raw, mp, dev = _axis_files(tmp_path, units=False)
+    assert main(["log", "import", str(raw), "--map", str(mp), "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["identify", str(dev), str(out), "--stream", "--quiet"]) == 2
+    assert "prismatic joint 1" in capsys.readouterr().err

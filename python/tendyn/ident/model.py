@@ -174,11 +174,12 @@ class IdentModel:
             return PRISMATIC_UNITS[stem]
         return unit_of(name)
 
-    def _check_units(self, log) -> None:
-        """A motor of a prismatic joint logs m, m/s, N; any other motor rad, rad/s, N·m (``meta.units``)."""
+    def check_units(self, units: dict) -> None:
+        """A motor of a prismatic joint logs m, m/s, N; any other motor rad, rad/s, N·m (``meta.units``).
+
+        units : column name → unit (:attr:`Log.units`, or a Parquet file's field units)."""
         from tendyn.io.logs import LINEAR_UNITS, LogError
 
-        units = log.units
         for i, j in enumerate(self.motor_joints):
             linear = j in self.prismatic_numbers
             for name in (f"q_motor_{i + 1}", f"qd_motor_{i + 1}", f"torque_motor_{i + 1}"):
@@ -308,7 +309,7 @@ class IdentModel:
         from tendyn.io.logs import LogError
 
         nm = self.n_motors
-        self._check_units(log)
+        self.check_units(log.units)
         try:
             qm = log.stack("q_motor_")
         except (KeyError, ValueError) as exc:

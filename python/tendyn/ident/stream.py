@@ -252,6 +252,9 @@ class StreamingIDIM:
         model = cached_model(self.device)
         pf = pq.ParquetFile(str(path))
         meta = json.loads(pf.schema_arrow.metadata[b"tendyn"].decode())
+        # the units of the file's columns (a prismatic joint's in m, N), checked as in memory
+        schema = pf.schema_arrow
+        model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})
         rate = float(meta["rate_hz"])
         tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
                                self.order)
