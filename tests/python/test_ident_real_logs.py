@@ -543,3 +543,30 @@ def test_stream_on_a_prismatic_axis(tmp_path, capsys):
     capsys.readouterr()
     assert main(["identify", str(dev), str(out), "--stream", "--quiet"]) == 2
     assert "prismatic joint 1" in capsys.readouterr().err
+
+
+# -- one estimator contract --------------------------------------------------------------------------------
+
+def test_estimators_share_the_contract(arm, tmp_path):
+    """IDIM and StreamingIDIM: get_params gives the __init__ arguments (a clone fits the same), set_params
+    refuses an unknown name, predict gives a time series at the log's stamps and score per-joint errors; the
+    streamed fit predicts like the in-memory one."""
+    from tendyn.ident.stream import StreamingIDIM
+    from tendyn.io import write_log
+
+    log = synthetic_log(arm, duration=6.0, seed=41, noise=0.01)
+    path = write_log(log, tmp_path / "log.parquet")
+    est = IDIM(arm.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0)
+    assert est.get_params()["cutoff_hz"] == 20.0 and "velocities" in est.get_params()
+    clone = IDIM(**est.get_params())
+    np.testing.assert_array_equal(clone.fit(log, crossval=False).params_, est.fit(log, crossval=False).params_)
+    with pytest.raises(ValueError, match="no parameter 'cutof'"):
+        est.set_params(cutof=3.0)
+    assert est.set_params(order=4) is est
+    st = StreamingIDIM(arm.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(path)
+    assert set(st.get_params()) == {"device", "method", "cutoff_hz", "decimate", "order", "chunk_rows",
+                                    "velocity_threshold"}
+    a, b = est.predict(log), st.predict(log)
+    assert np.array_equal(a.time, log.time) and a.joint.shape == (log.n_samples, 2)
+    np.testing.assert_allclose(b.joint, a.joint, rtol=1e-6, atol=1e-8 * np.abs(a.joint).max())
+    np.testing.assert_allclose(st.score(log), est.score(log), rtol=1e-6)

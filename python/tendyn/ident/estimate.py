@@ -448,8 +448,26 @@ class IDIM:
         d = self.result_.to_dict()
         return IdentifiedModel(self._model().device, d["params"], d["method"], d["treatment"])
 
-    def predict(self, logs) -> np.ndarray:
-        """Estimated joint torques (joint-major stacked, treated samples) of logs with the fitted parameters;
-        a time series at the log's own samples is :meth:`identified_model` ``.predict(log)``."""
-        Y, W, rows, t, na = self.observations(logs)
-        return W[:, list(self._model().base.columns)][:, self._cols] @ self.params_
+    def predict(self, log):
+        """Joint and motor torques of a log predicted with the fitted parameters, one per sample at the log's
+        own time stamps (:class:`tendyn.ident.identified.TorquePrediction`)."""
+        return self.identified_model().predict(log)
+
+    def score(self, log) -> np.ndarray:
+        """Per joint relative error ‖τ − τ̂‖ / ‖τ‖ [-] of a log (:meth:`predict`)."""
+        return self.identified_model().score(log)
+
+    def get_params(self, deep: bool = True) -> dict:
+        """The hyper-parameters given to ``__init__`` (scikit-learn's contract)."""
+        import inspect
+
+        return {k: getattr(self, k) for k in inspect.signature(type(self).__init__).parameters if k != "self"}
+
+    def set_params(self, **params) -> "IDIM":
+        """Change hyper-parameters by name; returns self. An unknown name raises ValueError."""
+        known = self.get_params()
+        for k, v in params.items():
+            if k not in known:
+                raise ValueError(f"{type(self).__name__} has no parameter {k!r} (known: {', '.join(known)})")
+            setattr(self, k, v)
+        return self

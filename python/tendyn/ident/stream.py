@@ -14,6 +14,7 @@ import dataclasses
 
 import numpy as np
 
+from .estimate import IDIM
 from .model import IdentModel
 from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
                         parallel_filter_taps)
@@ -241,6 +242,17 @@ class StreamingIDIM:
         self.decimate = decimate
         self.order = order
         self.chunk_rows = chunk_rows
+
+    # the IDIM's contract: hyper-parameters, prediction and score of a log with the fitted parameters
+    get_params, set_params, predict, score = IDIM.get_params, IDIM.set_params, IDIM.predict, IDIM.score
+
+    def identified_model(self):
+        """The fitted parameters as a :class:`tendyn.ident.identified.IdentifiedModel`."""
+        from .estimate import cached_model
+        from .identified import IdentifiedModel
+
+        d = self.result_.to_dict()
+        return IdentifiedModel(cached_model(self.device).device, d["params"], d["method"], d["treatment"])
 
     def fit(self, path):
         import json
