@@ -563,6 +563,9 @@ def test_estimators_share_the_contract(arm, tmp_path):
     with pytest.raises(ValueError, match="no parameter 'cutof'"):
         est.set_params(cutof=3.0)
     assert est.set_params(order=4) is est
+    cv = IDIM(arm.device, cutoff_hz=20.0, decimate=10).fit(log).result_
+    per = cv.crossval["per_joint_residual_rel"]
+    assert f"(per joint: 1: {100 * per[0]:.2f} %, 2: {100 * per[1]:.2f} %)" in cv.table()
     st = StreamingIDIM(arm.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(path)
     assert set(st.get_params()) == {"device", "method", "cutoff_hz", "decimate", "order", "chunk_rows",
                                     "velocity_threshold"}

@@ -134,8 +134,10 @@ class IdentificationResult(Result):
             f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
             f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
         if self.crossval:
+            per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
-                        f"{100 * self.crossval['residual_rel']:.2f} %")
+                        f"{100 * self.crossval['residual_rel']:.2f} %" + (" (per joint: " + ", ".join(
+                            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, per)) + ")" if per else ""))
         if self.treatment is not None:
             tail.append(self.treatment.describe())
         tail += [f"warning: {w}" for w in self.warnings]
