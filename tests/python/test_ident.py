@@ -394,7 +394,7 @@ def test_streaming_estimator_on_a_parquet_log(tx40, tmp_path):
     log = _synthetic_tx40(tx40, noise=0.01, seed=4)
     path = write_log(log, tmp_path / "big.parquet")
     est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(log, crossval=False)
-    st = StreamingIDIM(tx40.device, cutoff_hz=20.0, decimate=10, chunk_rows=1234).fit(path)
+    st = StreamingIDIM(tx40.device, cutoff_hz=20.0, decimate=10, chunk_rows=1234, velocity_threshold=0.0).fit(path)
     np.testing.assert_allclose(st.params_, est.params_, rtol=1e-7, atol=1e-9 * np.max(np.abs(est.params_)))
     assert st.result_.n_rows == est.result_.n_rows
     assert st.result_.crossval["residual_rel"] < 0.05

@@ -23,8 +23,12 @@ def register(subparsers) -> None:
     p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
                    help="decimation factor of the parallel filter (default rate / (10 x bandwidth))")
     p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=None,
-                   help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: 2 %% of "
-                        "each joint's peak speed)")
+                   help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: a fraction "
+                        "of each joint's peak speed, tendyn.ident.treatment.DEFAULT_VELOCITY_FRACTION; the "
+                        "treatment line prints it)")
+    p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
+                   help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
+                        "differentiated positions (default: the logged ones when the log has them)")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--parameters", default=None, metavar="NAMES",
                    help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
@@ -74,7 +78,7 @@ def _parameters(text, model):
 def cmd_identify(args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident import IDIM
-    from tendyn.io import atomic_write_text, read_log, save_png, to_jsonable
+    from tendyn.io import atomic_write_text, read_log, save_png
 
     dev = _device(args.device)
     if dev.kind != "serial":
@@ -100,7 +104,7 @@ def cmd_identify(args) -> int:
     est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
                velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
-               parameters=_parameters(args.parameters, model))
+               parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto")
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
     except ValueError as exc:
@@ -108,8 +112,7 @@ def cmd_identify(args) -> int:
             raise
         raise UsageError(str(exc)) from None
     res = est.result_
-    doc = to_jsonable(res.to_dict())
-    doc["logs"] = [str(p) for p in args.logs]
+    doc = _document(res, dev, args.logs)
     record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
@@ -120,29 +123,46 @@ def cmd_identify(args) -> int:
         save_png(res.plot(), out / "torques.png")
     if args.json:
         print(json.dumps(doc, indent=2))
+        _warn(res)
     else:
         print(res.table())
     print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
     return 0
 
 
+def _document(res, dev, logs) -> dict:
+    """PARAMS.json: the result, its provenance (format, device file and SHA-256) and the logs; it loads back
+    with ``tendyn.ident.identified.IdentifiedModel.load``."""
+    from tendyn.ident.identified import provenance
+    from tendyn.io import to_jsonable
+
+    return {**provenance(dev), **to_jsonable(res.to_dict()), "logs": [str(p) for p in logs]}
+
+
+def _warn(res) -> None:
+    """The implausible values on stderr when stdout holds JSON (the table holds them otherwise)."""
+    for w in res.warnings:
+        print(f"tendyn identify: warning: {w}", file=sys.stderr)
+
+
 def _identify_stream(dev, args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident.stream import StreamingIDIM
-    from tendyn.io import atomic_write_text, to_jsonable
+    from tendyn.io import atomic_write_text
 
     if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
         raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
-    for opt in ("consistent", "essential", "parameters"):
+    for opt in ("consistent", "essential", "parameters", "velocities"):
         if getattr(args, opt):
             raise UsageError(f"--{opt} is not available with --stream", opt)
     est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
-                        decimate=args.decimate).fit(args.logs[0])
+                        decimate=args.decimate, velocity_threshold=args.velocity_threshold).fit(args.logs[0])
     res = est.result_
-    doc = to_jsonable(res.to_dict())
-    doc["logs"] = [str(p) for p in args.logs]
+    doc = _document(res, dev, args.logs)
     record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     print(json.dumps(doc, indent=2) if args.json else res.table())
+    if args.json:
+        _warn(res)
     return 0

@@ -12,6 +12,8 @@ truth.
   parallel filter and decimation, sample alignment.
 * :mod:`tendyn.ident.estimate` — :class:`IDIM`: OLS / WLS / essential / physically consistent
   (:mod:`tendyn.ident.consistent`), cross-validation; :mod:`tendyn.ident.stream` — logs too large for memory.
+* :mod:`tendyn.ident.identified` — :class:`IdentifiedModel`: PARAMS.json loaded back, ``predict(log)`` (torques
+  at the log's time stamps), ``score(log)``.
 """
 
 from tendyn.ident.decomposition import LossDecomposition, decompose, default_shares, kinematic_coefficients

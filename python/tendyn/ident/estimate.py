@@ -19,14 +19,15 @@ import numpy as np
 from tendyn.results import Result, format_table, new_figure
 
 from .model import IdentModel, unit_of
-from .treatment import Block, default_treatment, stack_blocks, treat
+from .treatment import DEFAULT_VELOCITY_FRACTION, Block, default_treatment, drop_stale, stack_blocks, treat
 
-__all__ = ["IDIM", "IdentificationResult", "least_squares"]
+__all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
 _MODELS: dict = {}
 
-DEFAULT_VELOCITY_FRACTION = 0.02
-"""Default velocity threshold: samples of a joint slower than this fraction of its peak |q̇| are dropped."""
+VELOCITIES = ("auto", "logged", "differentiate")
+"""Where the joint velocities come from: the log's ``qd_motor_<i>``/``qd_joint_<j>`` when it has them
+("auto"), always the log's ("logged"), or the filtered positions differentiated ("differentiate")."""
 
 
 def cached_model(device) -> IdentModel:
@@ -54,6 +55,27 @@ def _treat_log(device, log, parts, settings):
     return IDIM._treat_here(cached_model(device), log, parts, settings)
 
 
+_MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a viscous coefficient",
+                     "FVm": "a viscous coefficient", "FS": "a Coulomb friction", "FSm": "a Coulomb friction"}
+"""Stems of the parameters that are physically ≥ 0 on their own (not regrouped: a name without the R)."""
+
+
+def implausible(names, values, stderr=None, units=None) -> list[str]:
+    """Warnings for identified values that cannot be physical: a negative rotor inertia, viscous coefficient or
+    Coulomb friction (a base parameter that is one standard parameter alone, ``IA6``, ``FVm6``), named with its
+    value, σ, and the fix (the physically consistent estimate)."""
+    out = []
+    for i, (n, v) in enumerate(zip(names, values)):
+        stem = n.rstrip("0123456789")
+        if stem in _MUST_BE_POSITIVE and v < 0:
+            sig = f" (σ {stderr[i]:.2g})" if stderr is not None else ""
+            unit = units[i] if units else unit_of(n)
+            out.append(f"{n} = {v:.4g} {unit}{sig} is negative, which {_MUST_BE_POSITIVE[stem]} cannot be: either "
+                       "the data do not determine it (excite that joint more) or the model misses a term; "
+                       "--consistent constrains it to be physical")
+    return out
+
+
 def least_squares(W, Y):
     """OLS with statistics: (x, stderr, sigma2, cov). σ̂² = ‖Y − W x‖² / (r − b)."""
     r, b = W.shape
@@ -73,7 +95,8 @@ class IdentificationResult(Result):
     _figsize = (8.0, 6.0)
 
     def __init__(self, device, method, names, expressions, values, stderr, cond, n_rows, residual_rel,
-                 per_joint_residual_rel, treatment, time, y, y_hat, rows, joint_numbers, crossval=None):
+                 per_joint_residual_rel, treatment, time, y, y_hat, rows, joint_numbers, crossval=None,
+                 units=None):
         self.device, self.method, self.names, self.expressions = device, method, list(names), list(expressions)
         self.values, self.stderr = np.asarray(values), np.asarray(stderr)
         self.cond, self.n_rows, self.residual_rel = float(cond), int(n_rows), float(residual_rel)
@@ -81,23 +104,27 @@ class IdentificationResult(Result):
         self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
         self.joint_numbers = list(joint_numbers)
         self.crossval = crossval
+        self.units = list(units) if units is not None else [unit_of(n) for n in self.names]
+        self.warnings = implausible(self.names, self.values, self.stderr, self.units)
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
         return 100.0 * self.stderr / np.maximum(np.abs(self.values), 1e-300)
 
     def to_dict(self) -> dict:
-        params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": unit_of(n),
+        params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": u,
                    "expression": e}
-                  for n, v, s, p, e in zip(self.names, self.values, self.stderr, self.rel_stderr_pct, self.expressions)]
+                  for n, v, s, p, e, u in zip(self.names, self.values, self.stderr, self.rel_stderr_pct,
+                                              self.expressions, self.units)]
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
-                "params": params, "crossval": self.crossval,
+                "params": params, "crossval": self.crossval, "warnings": list(self.warnings),
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
-        rows = [(n, f"{v:.5g}", unit_of(n), f"{p:.3g}") for n, v, p in zip(self.names, self.values, self.rel_stderr_pct)]
+        rows = [(n, f"{v:.5g}", u, f"{p:.3g}") for n, v, p, u in zip(self.names, self.values, self.rel_stderr_pct,
+                                                                    self.units)]
         text = format_table(("Parameter", "Value", "Unit", "Relative deviation %"), rows,
                             title=f"{self.device}: base parameters ({self.method.upper()}), cond(W) = {self.cond:.4g}"
                                   + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
@@ -107,10 +134,13 @@ class IdentificationResult(Result):
             f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
             f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
         if self.crossval:
+            per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
-                        f"{100 * self.crossval['residual_rel']:.2f} %")
+                        f"{100 * self.crossval['residual_rel']:.2f} %" + (" (per joint: " + ", ".join(
+                            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, per)) + ")" if per else ""))
         if self.treatment is not None:
             tail.append(self.treatment.describe())
+        tail += [f"warning: {w}" for w in self.warnings]
         return text + "\n" + "\n".join(tail)
 
     def _draw(self, ax):
@@ -128,7 +158,7 @@ class IdentificationResult(Result):
             ax.plot(t, self.y[sel], lw=0.8, label=f"measured, joint {num}", color=f"C{j}")
             ax.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated" if j == 0 else None)
         ax.set_xlabel("time [s] (decimated samples)")
-        ax.set_ylabel("joint torque [N·m]")
+        ax.set_ylabel("joint torque [N·m] (force [N] at a prismatic joint)")
         ax.set_title(f"{self.device}: measured vs estimated torque, {n} joints")
         ax.legend(loc="best", fontsize=7)
 
@@ -149,7 +179,11 @@ class IDIM:
         Butterworth order.
     velocity_threshold : float or None
         Drop a joint's rows where its |q̇| is below this [rad/s] (the sign of the Coulomb term is undefined
-        there); 0 keeps all; None (default): 2 % of each joint's peak |q̇| in the log.
+        there); 0 keeps all; None (default): ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log.
+    velocities : "auto", "logged" or "differentiate"
+        Joint velocities from the log's ``qd_motor_<i>`` (or ``qd_joint_<j>``) or from the positions
+        (:data:`VELOCITIES`); "auto" uses the logged ones when present. Stale rows (repeats of the previous
+        sample) are always dropped and the log re-timed (:func:`tendyn.ident.treatment.drop_stale`).
     essential : bool
         Keep only the essential parameters.
     essential_tol : float
@@ -168,8 +202,9 @@ class IDIM:
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None):
+                 parameters=None, velocities="auto"):
         self.device = device
+        self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
         self.decimate = decimate
@@ -192,7 +227,9 @@ class IDIM:
         """Treated (Y, W_standard, rows, times) of the logs; ``parts`` (a, b) keeps the fraction [a, b) of each."""
         model = self._model()
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
-        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold)
+        if self.velocities not in VELOCITIES:
+            raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.velocities)
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -208,7 +245,8 @@ class IDIM:
             if bar is not None:
                 bar.close()
         allblocks = [b for b, _ in out]
-        self.treatment_ = out[-1][1]
+        self.treatment_ = dataclasses.replace(out[-1][1], stale_dropped=sum(tr.stale_dropped for _, tr in out),
+                                              retimed=any(tr.retimed for _, tr in out))
         na = model.n_active
         Ys, Ws, Rs, Ts = [], [], [], []
         for blocks in allblocks:
@@ -236,13 +274,25 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
+        from tendyn.io.logs import LogError
+
+        *settings, velocities = settings
         time, q, tau = model.joint_signals(log)
+        qd = None if velocities == "differentiate" else model.joint_velocities(log)
+        if velocities == "logged" and qd is None:
+            raise LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{model.n_motors} "
+                           f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
         if parts is not None:
             n = time.size
             sl = slice(int(parts[0] * n), int(parts[1] * n))
             time, q, tau = time[sl], q[sl], tau[sl]
-        tr = default_treatment(float(log.meta["rate_hz"]), getattr(model.device, "bandwidth_hz", None), *settings)
-        return treat(model, time, q, tau, tr), tr
+            qd = None if qd is None else qd[sl]
+        rate = float(log.meta["rate_hz"])
+        time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings)
+        tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
+                                 retimed=retimed)
+        return treat(model, time, q, tau, tr, qd=qd), tr
 
     def _distributed(self, logs, parts, settings):
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
@@ -350,7 +400,7 @@ class IDIM:
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
-                                            model.active_numbers, cv)
+                                            model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
         self._cols = cols
         return self
@@ -392,7 +442,34 @@ class IDIM:
         return {"fit": desc[0], "validate": desc[1], "residual_rel": float(np.linalg.norm(res) / np.linalg.norm(Yv)),
                 "per_joint_residual_rel": per, "params": [float(v) for v in x]}
 
-    def predict(self, logs) -> np.ndarray:
-        """Estimated joint torques (joint-major stacked, treated samples) of logs with the fitted parameters."""
-        Y, W, rows, t, na = self.observations(logs)
-        return W[:, list(self._model().base.columns)][:, self._cols] @ self.params_
+    def identified_model(self):
+        """The fitted parameters as a :class:`tendyn.ident.identified.IdentifiedModel` (save, load, predict a
+        log's torques at its own time stamps, score)."""
+        from .identified import IdentifiedModel
+
+        d = self.result_.to_dict()
+        return IdentifiedModel(self._model().device, d["params"], d["method"], d["treatment"])
+
+    def predict(self, log):
+        """Joint and motor torques of a log predicted with the fitted parameters, one per sample at the log's
+        own time stamps (:class:`tendyn.ident.identified.TorquePrediction`)."""
+        return self.identified_model().predict(log)
+
+    def score(self, log) -> np.ndarray:
+        """Per joint relative error ‖τ − τ̂‖ / ‖τ‖ [-] of a log (:meth:`predict`)."""
+        return self.identified_model().score(log)
+
+    def get_params(self, deep: bool = True) -> dict:
+        """The hyper-parameters given to ``__init__`` (scikit-learn's contract)."""
+        import inspect
+
+        return {k: getattr(self, k) for k in inspect.signature(type(self).__init__).parameters if k != "self"}
+
+    def set_params(self, **params) -> "IDIM":
+        """Change hyper-parameters by name; returns self. An unknown name raises ValueError."""
+        known = self.get_params()
+        for k, v in params.items():
+            if k not in known:
+                raise ValueError(f"{type(self).__name__} has no parameter {k!r} (known: {', '.join(known)})")
+            setattr(self, k, v)
+        return self

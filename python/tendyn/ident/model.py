@@ -6,7 +6,9 @@ Standard parameters, per link j of the tree (file joint number j), in Khalil's o
 [kg·m], mass [kg]), then for an actuated joint ``IAj FVj FSj OFFSETj`` (rotor inertia seen at the joint
 [kg·m²], viscous [N·m·s/rad] and Coulomb [N·m] friction at the joint, torque offset [N·m]); a motor whose
 angle depends on several joints (a coupling: the TX40's motor 6) adds its motor-side terms named after it,
-``IAm6 FVm6 FSm6`` (motor side [kg·m²], [N·m·s/rad], [N·m]), and has no joint-side IA.
+``IAm6 FVm6 FSm6`` (motor side [kg·m²], [N·m·s/rad], [N·m]), and has no joint-side IA. At a prismatic
+joint (and its linear motor) these terms are a mass [kg], N·s/m and N (:data:`PRISMATIC_UNITS`); its log
+columns are in m, m/s and N (``meta.units`` of the log).
 
 Pinocchio orders a link's parameters ``M MX MY MZ XX XY YY XZ YZ ZZ``: :func:`khalil_from_pinocchio` and
 :func:`pinocchio_from_khalil` convert.
@@ -23,7 +25,8 @@ import numpy as np
 import scipy.linalg
 
 from tendyn.device import compile_device
-from tendyn.device.rigid_body import UNITS, standard_parameters, tree_joint_numbers, unit_of  # noqa: F401
+from tendyn.device.rigid_body import (UNITS, joint_frames, standard_parameters, tree_joint_numbers,  # noqa: F401
+                                      unit_of)
 
 __all__ = ["IdentModel", "KHALIL", "PINOCCHIO", "khalil_from_pinocchio", "pinocchio_from_khalil"]
 
@@ -31,6 +34,9 @@ KHALIL = ("XX", "XY", "XZ", "YY", "YZ", "ZZ", "MX", "MY", "MZ", "M")
 """Khalil's order of the 10 inertial parameters of a link."""
 PINOCCHIO = ("M", "MX", "MY", "MZ", "XX", "XY", "YY", "XZ", "YZ", "ZZ")
 """Pinocchio's order (``computeJointTorqueRegressor``, ``Inertia.toDynamicParameters``)."""
+PRISMATIC_UNITS = {"IA": "kg", "FV": "N·s/m", "FS": "N", "OFFSET": "N", "IAm": "kg (motor side)",
+                   "FVm": "N·s/m (motor side)", "FSm": "N (motor side)"}
+"""Units of the joint and motor terms of a prismatic joint (the link terms keep theirs)."""
 _K_FROM_P = np.array([PINOCCHIO.index(n) for n in KHALIL])
 _P_FROM_K = np.array([KHALIL.index(n) for n in PINOCCHIO])
 
@@ -99,6 +105,7 @@ class IdentModel:
         self.n_active = len(self.active_numbers)
         self.n_motors = self.G.shape[0]
         self.motor_joints = self._motor_joints()
+        self.prismatic_numbers = frozenset(num for num, f in zip(numbers, joint_frames(self.device)) if f.prismatic)
         self.raw_names, self.standard_columns, self.standard_names = self._columns()
 
     # -- columns --------------------------------------------------------------------------------------
@@ -157,6 +164,34 @@ class IdentModel:
                 n = g[np.flatnonzero(np.abs(g) > 1e-12)[0]]
                 val.update({f"IA{j}": n * n * ir, f"FV{j}": n * n * fv, f"FS{j}": abs(n) * fs})
         return np.array([val.get(n, 0.0) for n in self.standard_names])
+
+    def unit(self, name: str) -> str:
+        """The unit of a standard or base parameter of this device: :func:`unit_of`, or for the joint and motor
+        terms of a prismatic joint :data:`PRISMATIC_UNITS` (``FV1`` of a linear axis → N·s/m)."""
+        stem = name.rstrip("R").rstrip("0123456789")
+        num = name.rstrip("R")[len(stem):]
+        if num and int(num) in self.prismatic_numbers and stem in PRISMATIC_UNITS:
+            return PRISMATIC_UNITS[stem]
+        return unit_of(name)
+
+    def check_units(self, units: dict) -> None:
+        """A motor of a prismatic joint logs m, m/s, N; any other motor rad, rad/s, N·m (``meta.units``).
+
+        units : column name → unit (:attr:`Log.units`, or a Parquet file's field units)."""
+        from tendyn.io.logs import LINEAR_UNITS, LogError
+
+        for i, j in enumerate(self.motor_joints):
+            linear = j in self.prismatic_numbers
+            for name in (f"q_motor_{i + 1}", f"qd_motor_{i + 1}", f"torque_motor_{i + 1}"):
+                if name not in units:
+                    continue
+                if (units[name] in LINEAR_UNITS.values()) != linear:
+                    want = ("m, m/s, N" if linear else "rad, rad/s, N·m")
+                    raise LogError(f"unit {units[name]!r}: motor {i + 1} drives the "
+                                   f"{'prismatic' if linear else 'revolute'} joint {j} of {self.device.name}, "
+                                   f"whose columns are in {want}"
+                                   + (" (declare `unit = \"m\"` / \"N\" in the import map, or meta.units)"
+                                      if linear else ""), column=name)
 
     # -- regressor ------------------------------------------------------------------------------------
     def regressor(self, q, qd, qdd, taps=(1.0,), K: int = 1, columns=None, threads: int | None = None) -> np.ndarray:
@@ -274,6 +309,7 @@ class IdentModel:
         from tendyn.io.logs import LogError
 
         nm = self.n_motors
+        self.check_units(log.units)
         try:
             qm = log.stack("q_motor_")
         except (KeyError, ValueError) as exc:
@@ -295,3 +331,21 @@ class IdentModel:
         q = np.linalg.solve(self.G, qm.T).T + self.joint_offsets
         tau = y @ self.G
         return log.time, q, tau
+
+    def joint_velocities(self, log):
+        """Logged active joint velocities [rad/s] (n, n_a), or None when the log has none.
+
+        From the motor velocities ``qd_motor_<i>`` (q̇ = G⁻¹ q̇_motor), else from ``qd_joint_<j>`` of every
+        active joint j (file joint numbers)."""
+        from tendyn.io.logs import LogError
+
+        if log.column_names("qd_motor_"):
+            qdm = log.stack("qd_motor_")
+            if qdm.shape[1] != self.n_motors:
+                raise LogError(f"the log has {qdm.shape[1]} motor velocities, the device {self.device.name} has "
+                               f"{self.n_motors} motors", column="qd_motor_")
+            return np.linalg.solve(self.G, qdm.T).T
+        names = [f"qd_joint_{n}" for n in self.active_numbers]
+        if all(n in log for n in names):
+            return np.column_stack([log[n] for n in names])
+        return None

@@ -10,10 +10,14 @@ per-joint residuals all follow from these sums.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
+from .estimate import IDIM
 from .model import IdentModel
-from .treatment import butter_zero_phase, central_differences, default_treatment, parallel_filter_taps
+from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
+                        parallel_filter_taps)
 
 __all__ = ["NormalEquations", "accumulate", "iter_parquet_chunks", "prefetch", "solve_normal"]
 
@@ -64,7 +68,7 @@ def solve_normal(ne: NormalEquations, method: str = "ols"):
 
 
 def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overlap: int | None = None,
-               columns=None, split_at: int | None = None):
+               columns=None, split_at: int | None = None, velocity_threshold=None, peak_only: bool = False):
     """Normal equations of a log given as an iterator of (time, q, tau) chunks (joint signals, in order).
 
     ``overlap`` input samples are kept on each side of a chunk for the Butterworth filter (default: 40 time
@@ -72,6 +76,10 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
     edge transient reaches the kept samples, so chunks reproduce the in-memory filter to rounding).
     ``split_at`` (a decimated output index): return ((rows before, rows from there on), treatment) instead of
     (all rows, treatment) — the two halves of a cross-validation in the same pass.
+    ``velocity_threshold`` (n_active,) [rad/s]: a joint's rows whose decimated filtered |q̇| is below its value
+    are left out, as in memory (:meth:`tendyn.ident.IDIM.observations`); None keeps all.
+    ``peak_only``: no regressor; return (peak decimated |q̇| per joint [rad/s], treatment), the pass that
+    sets the default threshold.
     """
     tr = treatment or default_treatment(rate_hz, getattr(model.device, "bandwidth_hz", None))
     taps = parallel_filter_taps(tr.decimate)
@@ -82,6 +90,9 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
     cols = model.base.columns if columns is None else columns
     ne = NormalEquations(model.n_active, len(cols))
     ne_b = NormalEquations(model.n_active, len(cols))
+    peak = np.zeros(model.n_active)
+    thr = None if velocity_threshold is None else np.broadcast_to(np.asarray(velocity_threshold, float),
+                                                                   (model.n_active,))
     dt = 1.0 / tr.rate_hz
     buf_t = buf_q = buf_tau = None
     start = 0                   # global index of buf[0]
@@ -98,7 +109,7 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
         except StopIteration:
             done = True
         if buf_t is None:
-            return ((ne, ne_b) if split_at is not None else ne), tr
+            return (peak if peak_only else (ne, ne_b) if split_at is not None else ne), tr
         n = buf_t.size
         end_global = start + n            # exclusive
         # centre samples c = h + kK we may produce now: full FIR window and the filter's overlap on the right
@@ -110,35 +121,43 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
             qdd = central_differences(qd, dt)
             lo = next_k * K - start               # local index of the first window start
             hi = k_hi * K + 2 * h + 1 - start     # local exclusive end of the last window
-            W = model.regressor(qf[lo:hi], qd[lo:hi], qdd[lo:hi], taps, K)
             from tendyn import _core
-            ydec = _core.fir_decimate(taps, K, np.ascontiguousarray(buf_tau[lo:hi]))
-            n_out = ydec.shape[0]
-            Wb = W[:, list(cols)]
-            cut = n_out if split_at is None else int(np.clip(split_at - next_k, 0, n_out))
-            for j in range(model.n_active):
-                Wj, yj = Wb[j * n_out:(j + 1) * n_out], ydec[:, j]
-                if cut > 0:
-                    ne.add(j, Wj[:cut], yj[:cut])
-                if cut < n_out:
-                    ne_b.add(j, Wj[cut:], yj[cut:])
-            next_k = k_hi + 1
+            vdec = _core.fir_decimate(taps, K, np.ascontiguousarray(qd[lo:hi]))
+            if peak_only:
+                peak = np.maximum(peak, np.max(np.abs(vdec), axis=0))
+                next_k = k_hi + 1
+            else:
+                W = model.regressor(qf[lo:hi], qd[lo:hi], qdd[lo:hi], taps, K)
+                ydec = _core.fir_decimate(taps, K, np.ascontiguousarray(buf_tau[lo:hi]))
+                n_out = ydec.shape[0]
+                Wb = W[:, list(cols)]
+                cut = n_out if split_at is None else int(np.clip(split_at - next_k, 0, n_out))
+                for j in range(model.n_active):
+                    Wj, yj = Wb[j * n_out:(j + 1) * n_out], ydec[:, j]
+                    keep = np.ones(n_out, bool) if thr is None else np.abs(vdec[:, j]) >= thr[j]
+                    if cut > 0:
+                        ne.add(j, Wj[:cut][keep[:cut]], yj[:cut][keep[:cut]])
+                    if cut < n_out:
+                        ne_b.add(j, Wj[cut:][keep[cut:]], yj[cut:][keep[cut:]])
+                next_k = k_hi + 1
         # drop what no future output needs (keep the filter overlap before the next window)
         keep_from = max(0, min(next_k * K - start - overlap, n))
         if keep_from > 0:
             buf_t, buf_q, buf_tau = buf_t[keep_from:], buf_q[keep_from:], buf_tau[keep_from:]
             start += keep_from
-    return ((ne, ne_b) if split_at is not None else ne), tr
+    return (peak if peak_only else (ne, ne_b) if split_at is not None else ne), tr
 
 
-def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
+def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: bool = True):
     """(time, q, tau) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
-    :meth:`IdentModel.joint_signals`."""
+    :meth:`IdentModel.joint_signals`; ``torques=False`` reads no torque column (tau has no column: the
+    pass that only looks at the speeds)."""
     import pyarrow.parquet as pq
 
     nm = model.n_motors
     f = pq.ParquetFile(str(path))
-    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + [f"torque_motor_{i + 1}" for i in range(nm)]
+    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + \
+        ([f"torque_motor_{i + 1}" for i in range(nm)] if torques else [])
     Ginv = np.linalg.inv(model.G)
     # row group by row group: a reader over the whole file pre-buffers ahead and holds memory in proportion
     # to the file (measured: all of a 3 M-sample log); one group at a time holds at most one group
@@ -148,8 +167,8 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000):
         cols = [batch.column(k).to_numpy() for k in range(len(names))]
         t = cols[0]
         qm = np.column_stack(cols[1:1 + nm])
-        y = np.column_stack(cols[1 + nm:])
-        yield t, qm @ Ginv.T + model.joint_offsets, y @ model.G
+        y = np.column_stack(cols[1 + nm:]) @ model.G if torques else np.empty((t.size, 0))
+        yield t, qm @ Ginv.T + model.joint_offsets, y
 
 
 def prefetch(chunks, depth: int = 1):
@@ -203,7 +222,9 @@ class StreamingIDIM:
     ----------
     device : Device or CompiledDevice
     method : "ols" or "wls"
-    cutoff_hz, decimate, order : as for :class:`tendyn.ident.IDIM` (defaults from the rate and bandwidth)
+    cutoff_hz, decimate, order, velocity_threshold : as for :class:`tendyn.ident.IDIM` (defaults from the rate
+        and bandwidth; the default threshold, a fraction of each joint's peak speed, costs a first pass that
+        reads the positions only)
     chunk_rows : int
         Samples read per Parquet batch.
 
@@ -212,13 +233,26 @@ class StreamingIDIM:
     cross-validation fits the first half of the samples and predicts the second (two accumulations).
     """
 
-    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, chunk_rows=500_000):
+    def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, chunk_rows=500_000,
+                 velocity_threshold=None):
         self.device = device
+        self.velocity_threshold = velocity_threshold
         self.method = method
         self.cutoff_hz = cutoff_hz
         self.decimate = decimate
         self.order = order
         self.chunk_rows = chunk_rows
+
+    # the IDIM's contract: hyper-parameters, prediction and score of a log with the fitted parameters
+    get_params, set_params, predict, score = IDIM.get_params, IDIM.set_params, IDIM.predict, IDIM.score
+
+    def identified_model(self):
+        """The fitted parameters as a :class:`tendyn.ident.identified.IdentifiedModel`."""
+        from .estimate import cached_model
+        from .identified import IdentifiedModel
+
+        d = self.result_.to_dict()
+        return IdentifiedModel(cached_model(self.device).device, d["params"], d["method"], d["treatment"])
 
     def fit(self, path):
         import json
@@ -230,6 +264,9 @@ class StreamingIDIM:
         model = cached_model(self.device)
         pf = pq.ParquetFile(str(path))
         meta = json.loads(pf.schema_arrow.metadata[b"tendyn"].decode())
+        # the units of the file's columns (a prismatic joint's in m, N), checked as in memory
+        schema = pf.schema_arrow
+        model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})
         rate = float(meta["rate_hz"])
         tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
                                self.order)
@@ -237,8 +274,15 @@ class StreamingIDIM:
         from tendyn import _core
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
+        if self.velocity_threshold is None:
+            peak, _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows, torques=False)),
+                                 rate, tr, peak_only=True)
+            thr = DEFAULT_VELOCITY_FRACTION * peak
+        else:
+            thr = np.full(model.n_active, float(self.velocity_threshold))
+        tr = dataclasses.replace(tr, velocity_threshold=tuple(float(v) for v in thr))
         (ne_a, ne_b), _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows)), rate, tr,
-                                     split_at=n_out // 2)
+                                     split_at=n_out // 2, velocity_threshold=thr)
         ne = NormalEquations(*ne_a.B.shape).merge(ne_a).merge(ne_b)   # the whole log, as in memory
         x, se, cond, resid, per = solve_normal(ne, self.method)
         xa, _, _, _, _ = solve_normal(ne_a, self.method)
@@ -256,5 +300,6 @@ class StreamingIDIM:
         self.result_ = IdentificationResult(
             model.device.name, self.method + "+stream", self.names_,
             [base.expression(i, model.standard_names) for i in range(len(base.names))], x, se, cond,
-            int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv)
+            int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv,
+            units=[model.unit(n) for n in self.names_])
         return self

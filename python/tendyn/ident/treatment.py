@@ -9,6 +9,13 @@
 4. Optionally, samples where a joint's velocity is near zero are removed from that joint's rows (the Coulomb
    term sign(q̇) is ill-defined there).
 
+Real logs as they come (before step 1): a row that repeats the previous one exactly (positions and torques
+identical: the logger wrote a sample the sensors had not refreshed) is *stale*; stale rows are dropped and the
+remaining samples are re-timed onto the uniform grid of the log's rate by linear interpolation on their own time
+stamps (so the derivatives are taken on the true times, not on row indices); a log whose time stamps stray from
+the uniform grid is re-timed the same way. Logged velocities (``qd_motor_<i>``, ``qd_joint_<j>``), when used,
+replace the differentiated positions: they are filtered like the positions and differentiated once for q̈.
+
 Defaults (Gautier): position cut-off 5 × the device's dynamic bandwidth (below a tenth of the rate);
 decimation K so that the decimated rate is ≈ 10 × the bandwidth, parallel-filter cut-off 0.8 × the decimated
 Nyquist frequency.
@@ -22,9 +29,16 @@ import numpy as np
 import scipy.signal
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
-           "central_differences", "stack_blocks", "default_treatment"]
+           "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
+
+DEFAULT_VELOCITY_FRACTION = 0.02
+"""Default velocity threshold (the one place it is written): a joint's samples slower than this fraction of
+its peak |q̇| in the log are dropped from its rows."""
+
+RETIME_TOLERANCE = 0.01
+"""Time stamps further than this fraction of the sampling interval from the uniform grid are re-timed."""
 
 
 class AlignmentError(ValueError):
@@ -64,7 +78,9 @@ def parallel_filter_taps(K: int) -> np.ndarray:
 @dataclass(frozen=True)
 class Treatment:
     """The treatment settings: position cut-off [Hz], Butterworth order, decimation K, velocity threshold
-    [rad/s] below which a joint's rows are dropped (0: none), and where the defaults came from."""
+    [rad/s] below which a joint's rows are dropped (0: none), and where the defaults came from; what was done
+    to the samples: ``velocities`` ("differentiate" or "logged"), ``stale_dropped`` (stale rows removed),
+    ``retimed`` (samples interpolated onto the uniform grid)."""
 
     cutoff_hz: float
     order: int
@@ -72,6 +88,11 @@ class Treatment:
     velocity_threshold: float | tuple | None
     rate_hz: float
     bandwidth_hz: float
+    velocities: str = "differentiate"
+    stale_dropped: int = 0
+    retimed: bool = False
+    why: tuple = ()
+    """Where each setting came from, one phrase each (given, or which of Gautier's defaults and from what)."""
 
     @property
     def parallel_cutoff_hz(self) -> float:
@@ -80,36 +101,89 @@ class Treatment:
     def _vt_text(self) -> str:
         v = self.velocity_threshold
         if v is None:
-            return "2 % of each joint's peak speed"
+            return f"{100 * DEFAULT_VELOCITY_FRACTION:g} % of each joint's peak speed"
         if isinstance(v, tuple):
-            return "(" + ", ".join(f"{x:.3g}" for x in v) + ") rad/s per joint"
+            return "(" + ", ".join(f"{x:.3g}" for x in v) + ") rad/s per joint (m/s at a prismatic joint)"
         return f"{v:g} rad/s"
+
+    def _samples_text(self) -> str:
+        vel = ("logged velocities (filtered like the positions), accelerations by central differences"
+               if self.velocities == "logged" else "velocities and accelerations by central differences")
+        stale = f"; {self.stale_dropped} stale samples dropped (repeats of the previous row)" \
+            if self.stale_dropped else "; no stale samples"
+        return vel + stale + ("; re-timed onto the uniform grid" if self.retimed else "")
 
     def describe(self) -> str:
         return (f"treatment: Butterworth order {self.order} zero-phase on positions, -3 dB at {self.cutoff_hz:g} Hz; "
-                f"central differences; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
+                f"{self._samples_text()}; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
                 f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
                 f"({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); velocity threshold "
                 f"{self._vt_text()} (log rate {self.rate_hz:g} Hz, device bandwidth "
-                f"{self.bandwidth_hz:g} Hz)")
+                f"{self.bandwidth_hz:g} Hz)" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
 
     def to_dict(self) -> dict:
         v = self.velocity_threshold
         return {"cutoff_hz": self.cutoff_hz, "order": self.order, "decimate": self.decimate,
                 "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
-                "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz}
+                "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz,
+                "velocities": self.velocities, "stale_dropped": self.stale_dropped, "retimed": self.retimed,
+                "why": list(self.why)}
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
                       velocity_threshold: float | None = 0.0) -> Treatment:
-    """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win)."""
+    """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win); each
+    setting's origin goes into :attr:`Treatment.why`."""
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    why = [] if bandwidth_hz else [f"the device file gives no bandwidth_hz, {bw:g} Hz assumed"]
     if cutoff_hz is None:
         cutoff_hz = min(5.0 * bw, rate_hz / 10.0)
+        why.append(f"cut-off 5 x the bandwidth ({5.0 * bw:g} Hz), above the motion and below the noise"
+                   if 5.0 * bw <= rate_hz / 10.0 else
+                   f"cut-off a tenth of the rate ({rate_hz / 10.0:g} Hz; 5 x the bandwidth would be above it)")
+    else:
+        why.append("cut-off given")
     if decimate is None:
         decimate = max(1, int(rate_hz // (10.0 * bw)))
+        why.append(f"decimation to about 10 x the bandwidth ({rate_hz / decimate:g} Hz)")
+    else:
+        why.append("decimation given")
+    if velocity_threshold is None:
+        why.append(f"velocity threshold {100 * DEFAULT_VELOCITY_FRACTION:g} % of each joint's peak speed "
+                   "(the sign of the Coulomb term is undefined near rest)")
+    else:
+        why.append("velocity threshold given")
     vt = None if velocity_threshold is None else float(velocity_threshold)
-    return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw)
+    return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw, why=tuple(why))
+
+
+def drop_stale(time, rate_hz: float, q, tau, qd=None):
+    """Drop the stale rows of a log's joint signals and re-time the rest onto the uniform grid.
+
+    A row is stale when its positions q and torques τ all equal the previous row's (bit for bit). The kept
+    samples are interpolated linearly, on their own time stamps [s], onto t₀ + k / rate (same span); a log
+    without stale rows whose stamps are within :data:`RETIME_TOLERANCE` of that grid is returned unchanged.
+
+    Returns (time, q, tau, qd, n_stale, retimed).
+    """
+    time = np.asarray(time, float)
+    q, tau = np.asarray(q, float), np.asarray(tau, float)
+    stale = np.zeros(time.size, bool)
+    if time.size > 1:
+        stale[1:] = np.all(q[1:] == q[:-1], axis=1) & np.all(tau[1:] == tau[:-1], axis=1)
+    n_stale = int(stale.sum())
+    dt = 1.0 / rate_hz
+    grid = time[0] + dt * np.arange(int(np.round((time[-1] - time[0]) * rate_hz)) + 1)
+    on_grid = grid.size == time.size and np.max(np.abs(time - grid)) <= RETIME_TOLERANCE * dt
+    if n_stale == 0 and on_grid:
+        return time, q, tau, qd, 0, False
+    keep = ~stale
+    tk = time[keep]
+
+    def interp(x):
+        return None if x is None else np.column_stack([np.interp(grid, tk, x[keep, j]) for j in range(x.shape[1])])
+
+    return grid, interp(q), interp(tau), interp(qd), n_stale, True
 
 
 @dataclass
@@ -145,14 +219,19 @@ def stack_blocks(blocks: list[Block], tol: float | None = None) -> tuple[np.ndar
     return Y, W, rows
 
 
-def treat(model, time, q, tau, treatment: Treatment, columns=None):
+def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
     """Filter, differentiate, build W in the core with the parallel filter and decimation, decimate τ the
-    same way, and return the joint blocks (near-zero-velocity samples not yet removed)."""
+    same way, and return the joint blocks (near-zero-velocity samples not yet removed).
+
+    ``qd``: logged joint velocities [rad/s] (filtered like q, differentiated for q̈) instead of dq/dt."""
     from tendyn import _core
 
     dt = 1.0 / treatment.rate_hz
     qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
-    qd = central_differences(qf, dt)
+    if qd is None:
+        qd = central_differences(qf, dt)
+    else:
+        qd = butter_zero_phase(qd, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
     qdd = central_differences(qd, dt)
     taps = parallel_filter_taps(treatment.decimate)
     K = treatment.decimate

@@ -23,6 +23,11 @@ An import map is a small TOML file (``import.toml`` of ``tendyn data path tx40``
     name = "voltage"             # required for a generic signal: the name commands use (--input voltage)
     unit = "V"                   # required for a generic signal: the unit after scale and offset
 
+    [[signals]]                  # a prismatic joint or a linear motor: m, m/s, N instead of rad, rad/s, N·m
+    column = "x"
+    signal = "q_motor_1"
+    unit = "m"                   # optional for a registry signal: its registry unit or LINEAR_UNITS' counterpart
+
 Every problem raises one :class:`~tendyn.io.logs.LogError` naming the map, the entry and the column,
 e.g. ``tx40_import.toml: signals[7].column: no column 'Joint_7' in pos_read_data.csv (columns: Joint_1, …)``.
 """
@@ -36,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.logs import LogError, Log, column_spec, is_generic, make_log
+from tendyn.io.logs import LINEAR_UNITS, LogError, Log, column_spec, is_generic, make_log
 
 __all__ = ["import_logs", "read_import_map"]
 
@@ -125,10 +130,17 @@ def read_import_map(path) -> dict:
             names[s["name"]] = i
             entry["meta"] = {"name": s["name"], "unit": s["unit"]}
         else:
-            for key in ("name", "unit"):
+            reg = column_spec(sig).unit
+            for key in ("name",) if reg in LINEAR_UNITS else ("name", "unit"):
                 if key in s:
                     raise _err(p, f"{where}.{key}", f"only for generic signals (input_<k>, output_<k>); {sig} has "
-                                                    f"the registry's name and unit [{column_spec(sig).unit}]")
+                                                    f"the registry's name and unit [{reg}]")
+            allowed = (reg, LINEAR_UNITS[reg]) if reg in LINEAR_UNITS else (reg,)
+            if "unit" in s and s["unit"] not in allowed:
+                raise _err(p, f"{where}.unit", f"{sig} is in {' or '.join(allowed)} (a linear joint or motor: "
+                                               f"m, m/s, N); got {s['unit']!r}")
+            if s.get("unit", reg) != reg:
+                entry["unit"] = s["unit"]
         out.append(entry)
     if "time" not in seen and "rate_hz" not in log:
         raise _err(p, "log.rate_hz", "required: no signal is mapped to `time`, so the rate sets the time grid")
@@ -200,5 +212,7 @@ def import_logs(raw_files, map_path) -> Log:
         rate = float(1.0 / np.median(np.diff(columns["time"])))
     options = {"import_map": mp.name, "raw_files": sorted(files)}
     signals = {s["signal"]: s["meta"] for s in spec["signals"] if "meta" in s}
+    units = {s["signal"]: s["unit"] for s in spec["signals"] if "unit" in s}
     return make_log(columns, device=spec["log"]["device"], rate_hz=rate, seed=None,
-                    experiment=spec["log"]["experiment"], options=options, signals=signals or None)
+                    experiment=spec["log"]["experiment"], options=options, signals=signals or None,
+                    units=units or None)

@@ -65,6 +65,7 @@ __all__ = [
     "column_spec",
     "column_unit",
     "is_generic",
+    "LINEAR_UNITS",
     "make_log",
     "read_log",
     "read_run",
@@ -213,6 +214,12 @@ UNIT_ALIASES: dict[str, tuple[str, ...]] = {"N·m": ("N.m", "N*m", "Nm", "N m", 
 """ASCII spellings accepted in a CSV header for a registry unit (the files we write use the registry unit)."""
 
 
+LINEAR_UNITS: dict[str, str] = {"rad": "m", "rad/s": "m/s", "N·m": "N"}
+"""The unit a position, velocity or torque column holds instead of the registry's when it belongs to a
+prismatic joint or a linear motor (metres, m/s, newtons); a log declares such columns in ``meta.units``
+(``{"q_motor_1": "m", "torque_motor_1": "N"}``)."""
+
+
 def column_spec(name: str) -> ColumnSpec | None:
     """The registry entry a column name matches, or None."""
     if not isinstance(name, str):
@@ -256,11 +263,11 @@ def is_generic(name: str) -> bool:
 
 
 def column_unit(name: str, meta: dict) -> str:
-    """The unit of column ``name`` in a log with ``meta``: the registry's, or for a generic column the one
-    declared in ``meta["signals"]``."""
+    """The unit of column ``name`` in a log with ``meta``: the registry's, for a generic column the one
+    declared in ``meta["signals"]``, for a linear column (prismatic joint, linear motor) ``meta["units"]``'s."""
     if is_generic(name):
         return meta["signals"][name]["unit"]
-    return column_spec(name).unit
+    return meta.get("units", {}).get(name) or column_spec(name).unit
 
 
 def _unit_matches(found: str, expected: str) -> bool:
@@ -285,6 +292,8 @@ META_KEYS: dict[str, str] = {
 OPTIONAL_META_KEYS: dict[str, str] = {
     "run_id": "str, the id a log shares with its truth file (32 hex digits, set by write_run; absent in "
               "measured logs and in files written before run ids)",
+    "units": "dict, column -> unit for the columns of a prismatic joint or a linear motor, which hold m, m/s, N "
+             "instead of the registry's rad, rad/s, N·m (LINEAR_UNITS)",
     "signals": "dict, one entry per generic column input_<k>/output_<k>: {\"name\": str, \"unit\": str} "
                "(required when the log has generic columns)",
 }
@@ -353,6 +362,21 @@ def _check_meta(meta, source) -> None:
             raise bad("run_id", f"got {run_id!r} of type {type(run_id).__name__}")
     if "signals" in meta:
         _check_signals(meta["signals"], bad)
+    if "units" in meta:
+        _check_units(meta["units"], bad)
+
+
+def _check_units(units, bad) -> None:
+    """``meta.units``: column → the linear counterpart (:data:`LINEAR_UNITS`) of its registry unit."""
+    if not isinstance(units, dict):
+        raise bad("units", f"got {units!r} of type {type(units).__name__}")
+    for col, unit in units.items():
+        spec = column_spec(col)
+        if spec is None or spec.unit not in LINEAR_UNITS:
+            raise bad("units", f"{col!r}: only a column in rad, rad/s or N·m can be declared linear")
+        if unit != LINEAR_UNITS[spec.unit]:
+            raise bad("units", f"{col}: got {unit!r}, expected {LINEAR_UNITS[spec.unit]!r} (a linear "
+                      f"{spec.unit} column) or no entry")
 
 
 def _check_signals(signals, bad) -> None:
@@ -451,6 +475,10 @@ def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
         if entry["name"] in columns and entry["name"] != name:
             raise LogError(f"{name}.name {entry['name']!r} is the name of another column (a signal is called by "
                            "either name)", file=source, column="meta.signals")
+    for name in meta.get("units", {}):
+        if name not in columns:
+            raise LogError(f"meta.units declares {name}, which is not a column of the log", file=source,
+                           column="meta.units")
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -590,7 +618,7 @@ def _created_by() -> str:
 
 
 def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, experiment: str,
-             options: dict | None = None, signals: dict | None = None) -> Log:
+             options: dict | None = None, signals: dict | None = None, units: dict | None = None) -> Log:
     """Build and validate a log.
 
     Parameters
@@ -611,6 +639,9 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
     signals : dict, optional
         Name and unit of each generic column, ``{"input_1": {"name": "voltage", "unit": "V"}}`` (``meta.signals``;
         required when ``columns`` has ``input_<k>`` / ``output_<k>``).
+    units : dict, optional
+        Columns of a prismatic joint or linear motor and their unit, ``{"q_motor_1": "m", "torque_motor_1": "N"}``
+        (``meta.units``; :data:`LINEAR_UNITS`).
 
     Returns
     -------
@@ -652,6 +683,8 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
             "experiment": experiment, "options": options, "created_by": _created_by()}
     if signals:
         meta["signals"] = {str(k): dict(v) if isinstance(v, dict) else v for k, v in signals.items()}
+    if units:
+        meta["units"] = dict(units)
     return Log(conv, meta).validate(source)
 
 
@@ -738,9 +771,11 @@ def read_log(path) -> Log:
 
 
 def _file_unit(name: str, meta, source) -> str:
-    """The unit a file must give column ``name``: the registry's, or the one ``meta.signals`` declares."""
+    """The unit a file must give column ``name``: the registry's, or the one ``meta.signals`` or
+    ``meta.units`` declares."""
     if not is_generic(name):
-        return column_spec(name).unit
+        units = meta.get("units") if isinstance(meta, dict) else None
+        return (units.get(name) if isinstance(units, dict) else None) or column_spec(name).unit
     entry = meta.get("signals", {}).get(name) if isinstance(meta, dict) and isinstance(meta.get("signals"), dict) \
         else None
     if not isinstance(entry, dict) or not isinstance(entry.get("unit"), str):

@@ -1,0 +1,53 @@
+"""`tendyn validate DEVICE PARAMS.json LOG... [--json] [--report DIR]`: an identified model on other logs."""
+
+from __future__ import annotations
+
+import json
+
+from tendyn.commands.args import existing_file
+from tendyn.errors import UsageError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("validate", help="predict the torques of logs with identified parameters, per-joint "
+                                               "relative error (tendyn identify --out)")
+    p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
+    p.add_argument("params", type=existing_file, metavar="PARAMS.json", help="parameters of `tendyn identify --out`")
+    p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
+    p.add_argument("--report", help="folder for the table and one figure per log (one panel per joint)")
+    p.add_argument("--json", action="store_true", help="print the errors as one JSON document on stdout")
+    p.set_defaults(func=cmd_validate)
+
+
+def cmd_validate(args) -> int:
+    from tendyn.io.params import ParamsError
+    from tendyn.cli import _check_out_folder, _load
+    from tendyn.ident.identified import IdentifiedModel
+    from tendyn.io import atomic_write_text, read_log, save_png
+    from tendyn.io.logs import LogError
+
+    dev = _load(args.device)
+    if dev.kind != "serial":
+        raise UsageError(f"{dev.name} is a {dev.kind}: validation needs a rigid serial device", "device")
+    out = _check_out_folder(args.report) if args.report else None
+    try:
+        model = IdentifiedModel.load(args.params, device=dev)
+    except ParamsError as exc:
+        raise UsageError(str(exc)) from None
+    results = []
+    for path in args.logs:
+        log = read_log(path)
+        try:
+            results.append(model.predict(log))
+        except LogError as exc:
+            raise LogError(exc.problem, file=path.name, column=exc.column) from None
+    doc = {"device": dev.name, "params": str(args.params),
+           "logs": [{"log": str(p), **r.to_dict()} for p, r in zip(args.logs, results)]}
+    text = "\n\n".join(f"{p.name}:\n{r.table()}" for p, r in zip(args.logs, results))
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out / "table.txt", text + "\n")
+        for p, r in zip(args.logs, results):
+            save_png(r.plot(), out / f"{p.stem}.png")
+    print(json.dumps(doc, indent=2) if args.json else text)
+    return 0
