@@ -8,7 +8,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import pytest
 
 README = Path(__file__).resolve().parents[2] / "README.md"
 BLOCK = re.compile(r"(<!-- readme-test: skip[^>]*-->\s*)?```(sh|python)\n(.*?)```", re.S)
