@@ -61,3 +61,14 @@ def out_path(suffixes):
         return p
     convert.__name__ = "path"
     return convert
+
+
+def not_an_input(out: Path, inputs, option: str = "out") -> Path:
+    """Refuse an output path that is one of the command's input files (it would overwrite, e.g., a lab's raw CSV)."""
+    from tendyn.errors import UsageError
+
+    out = Path(out)
+    for p in inputs:
+        if out.exists() and Path(p).exists() and out.samefile(p) or out.resolve() == Path(p).resolve():
+            raise UsageError(f"{out} is also an input file: it would be overwritten; write elsewhere", option)
+    return out

@@ -293,6 +293,32 @@ OPTIONAL_META_KEYS: dict[str, str] = {
 _ALL_META_KEYS = (*META_KEYS, *OPTIONAL_META_KEYS)
 
 
+def parse_number(cell: str) -> float:
+    """A CSV cell as a float. Python's float() also reads ``1_000`` (as 1000), which no lab file means: refused."""
+    if "_" in cell:
+        raise ValueError(f"{cell!r}: '_' in a number")
+    return float(cell)
+
+
+# How far a declared rate may be from a time column, as a factor on its steps: an import map's rate must match the
+# column (1 %); a log's nominal rate may sit anywhere among irregular steps, but not off them by a factor of 2
+# (`rate_hz = 5000` over a 1 kHz time column is refused on import and on read).
+IMPORT_RATE_SLACK = 1.01
+LOG_RATE_SLACK = 2.0
+
+
+def time_column_rate(time: np.ndarray) -> float:
+    """The sampling rate of a time column [Hz]: 1 / median step (robust to a few jittered samples)."""
+    return float(1.0 / np.median(np.diff(time)))
+
+
+def rate_contradicts_time(rate: float, time: np.ndarray, slack: float) -> bool:
+    """Whether a declared (nominal) rate [Hz] contradicts a time column of two or more samples: its period 1/rate
+    must lie between the shortest step / ``slack`` and the longest step × ``slack``."""
+    steps = np.diff(time)
+    return not (steps.min() / slack <= 1.0 / rate <= steps.max() * slack)
+
+
 def _is_int(x) -> bool:
     return isinstance(x, int) and not isinstance(x, bool)
 
@@ -439,6 +465,9 @@ def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
                            f"{float(time[row - 1])!r} s at row {row - 1}", file=source, column="time", row=row,
                            line=line(row))
     _check_meta(meta, source)
+    if n > 1 and rate_contradicts_time(meta["rate_hz"], time, LOG_RATE_SLACK):
+        raise LogError(f"{meta['rate_hz']:g} Hz, but the time column is sampled at {time_column_rate(time):g} Hz",
+                       file=source, column="meta.rate_hz")
     declared = meta.get("signals", {})
     for name in names:
         if is_generic(name) and name not in declared:
@@ -876,12 +905,15 @@ def _read_csv(path: Path) -> Log:
     body = lines[k + 1:]
     first = k + 2  # line number of row 0
     rows: list[list[float]] = []
+    parsed = True
     try:
+        if any("_" in line for line in body):
+            raise ValueError("'_' in a number")           # float() would read 1_000 as 1000
         for line in body:
             rows.append([float(x) for x in line.split(",")])
     except ValueError:
-        pass
-    if len(rows) == len(body):
+        parsed = False                                    # the slow path below names the cell
+    if parsed:
         for r, row in enumerate(rows):
             if len(row) != ncol:
                 raise LogError(f"{len(row)} cells, the header has {ncol}", file=source, row=r, line=first + r)
@@ -893,7 +925,7 @@ def _read_csv(path: Path) -> Log:
                 raise LogError(f"{len(cells)} cells, the header has {ncol}", file=source, row=r, line=first + r)
             for name, cell in zip(names, cells):
                 try:
-                    float(cell)
+                    parse_number(cell)
                 except ValueError:
                     raise LogError(f"cannot read {cell.strip()!r} as a number", file=source, column=name,
                                    row=r, line=first + r) from None

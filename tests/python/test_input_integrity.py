@@ -1,0 +1,115 @@
+"""Nothing silently wrong (issue 22): bad or corrupt input files are refused with one line naming the file and
+what is wrong, never read as other data. Each case here was once read without a word (exit 0)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tendyn.cli import main
+from tendyn.io import LogError, make_log, read_log, write_log
+from tendyn.io.importer import import_logs
+
+MAP = ('schema = 1\n[log]\ndevice = "x"\nexperiment = "e"\n{log}'
+       '[[signals]]\n{file}column = "{col}"\nsignal = "{sig}"\n')
+
+
+def _map(tmp_path, log="rate_hz = 100.0\n", col="a", sig="q_motor_1", file=""):
+    mp = tmp_path / "map.toml"
+    mp.write_text(MAP.format(log=log, col=col, sig=sig, file=file))
+    return mp
+
+
+def test_two_raw_files_with_the_same_name_are_refused_not_merged(tmp_path):
+    """`log import a/raw.csv b/raw.csv` kept only b's data (the map keys files by base name)."""
+    for d, v in (("a", "1"), ("b", "2")):
+        (tmp_path / d).mkdir()
+        (tmp_path / d / "raw.csv").write_text(f"a\n{v}\n{v}\n")
+    mp = _map(tmp_path, file='file = "raw.csv"\n')
+    with pytest.raises(LogError, match=r"two RAW files are named raw.csv"):
+        import_logs([tmp_path / "a" / "raw.csv", tmp_path / "b" / "raw.csv"], mp)
+
+
+def test_a_rate_that_contradicts_the_time_column_is_refused_naming_both(tmp_path):
+    """rate_hz = 5000 over a 1 kHz time column wrote a 5 kHz log."""
+    raw = tmp_path / "raw.csv"
+    raw.write_text("t,a\n" + "".join(f"{k / 1000},{k}\n" for k in range(20)))
+    mp = tmp_path / "map.toml"
+    sig = '[[signals]]\ncolumn = "t"\nsignal = "time"\n[[signals]]\ncolumn = "a"\nsignal = "q_motor_1"\n'
+    mp.write_text('schema = 1\n[log]\ndevice = "x"\nexperiment = "e"\nrate_hz = 5000.0\n' + sig)
+    with pytest.raises(LogError, match=r"log.rate_hz: 5000 Hz, but the signal mapped to time is sampled at 1000 Hz"):
+        import_logs([raw], mp)
+    mp.write_text('schema = 1\n[log]\ndevice = "x"\nexperiment = "e"\nrate_hz = 1000.0\n' + sig)
+    assert import_logs([raw], mp).meta["rate_hz"] == 1000.0
+
+
+def test_a_log_whose_rate_contradicts_its_time_column_is_refused_on_read(tmp_path):
+    good = make_log({"time": np.arange(50) / 1000.0, "q_motor_1": np.zeros(50)}, device="x", rate_hz=1000.0,
+                    seed=None, experiment="e")
+    path = write_log(good, tmp_path / "g.csv")
+    path.write_text(path.read_text().replace('"rate_hz": 1000.0', '"rate_hz": 5000.0'))
+    with pytest.raises(LogError, match=r"meta.rate_hz: 5000 Hz, but the time column is sampled at 1000 Hz"):
+        read_log(path)
+
+
+@pytest.mark.parametrize("cell", ["1_000", "1_0.5"])
+def test_an_underscore_in_a_number_is_refused(tmp_path, cell):
+    """float('1_000') is 1000 in Python; no lab file means that."""
+    raw = tmp_path / "raw.csv"
+    raw.write_text(f"a\n1\n{cell}\n")
+    with pytest.raises(LogError, match=r"not a number"):
+        import_logs([raw], _map(tmp_path))
+    log = make_log({"time": np.arange(3) / 100.0, "q_motor_1": np.zeros(3)}, device="x", rate_hz=100.0, seed=None,
+                   experiment="e")
+    path = write_log(log, tmp_path / "l.csv")
+    text = path.read_text().splitlines()
+    text[-1] = text[-1].split(",")[0] + "," + cell
+    path.write_text("\n".join(text) + "\n")
+    with pytest.raises(LogError, match=r"row 2 \(line 5\): cannot read '" + cell + "'"):
+        read_log(path)
+
+
+def test_a_comment_row_among_the_data_is_refused_not_dropped(tmp_path):
+    """Without a time column a dropped row shifted every later sample by one period."""
+    raw = tmp_path / "raw.csv"
+    raw.write_text("# exported by the lab\na\n1\n#2\n3\n")
+    with pytest.raises(LogError, match=r"raw.csv: line 4: a comment row among the data rows"):
+        import_logs([raw], _map(tmp_path))
+    raw.write_text("# exported by the lab\na\n1\n2\n3\n")     # leading comments stay allowed
+    assert list(import_logs([raw], _map(tmp_path))["q_motor_1"]) == [1.0, 2.0, 3.0]
+
+
+@pytest.mark.parametrize("content, words", [
+    ("a\n1\n\xe9\n".encode("latin-1"), r"not UTF-8 text \(byte 0xe9"),
+    (b"a\n1\n2\x003\n", "a NUL byte at line 3"),
+])
+def test_a_binary_or_latin1_raw_file_is_one_line(tmp_path, content, words):
+    raw = tmp_path / "raw.csv"
+    raw.write_bytes(content)
+    with pytest.raises(LogError, match=words):
+        import_logs([raw], _map(tmp_path))
+
+
+@pytest.mark.parametrize("delimiter", ["", ";;", '"'])
+def test_a_delimiter_that_is_not_one_character_is_refused(tmp_path, delimiter):
+    raw = tmp_path / "raw.csv"
+    raw.write_text("a\n1\n2\n")
+    with pytest.raises(LogError, match=r"log.delimiter: must be one character"):
+        import_logs([raw], _map(tmp_path, log=f'rate_hz = 100.0\ndelimiter = "{delimiter}"\n'.replace('"""', "'\"'")))
+
+
+def test_a_one_row_raw_file_with_a_time_column_is_refused_clearly(tmp_path):
+    raw = tmp_path / "raw.csv"
+    raw.write_text("t\n0.5\n")
+    with pytest.raises(LogError, match=r"one data row"):
+        import_logs([raw], _map(tmp_path, log="", col="t", sig="time"))
+
+
+def test_log_import_never_overwrites_a_raw_file(tmp_path, capsys):
+    raw = tmp_path / "raw.csv"
+    raw.write_text("a\n1\n2\n")
+    before = raw.read_bytes()
+    code = main(["log", "import", str(raw), "--map", str(_map(tmp_path)), "--out", str(raw)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--out" in err[0] and "raw.csv" in err[0], err
+    assert raw.read_bytes() == before
