@@ -791,7 +791,8 @@ def _parquet_bytes(log: Log) -> bytes:
                                  schema=schema)
     buf = io.BytesIO()
     # no dictionary encoding (float signals rarely repeat; trying it costs 10x the write time)
-    pq.write_table(table, buf, use_dictionary=False, compression="zstd")
+    # page checksums (CRC32 per data page), verified on read: corrupted bytes are refused, never read as data
+    pq.write_table(table, buf, use_dictionary=False, compression="zstd", write_page_checksum=True)
     return buf.getvalue()
 
 
@@ -802,7 +803,7 @@ def _read_parquet(path: Path) -> Log:
 
     source = str(path)
     try:
-        table = pq.read_table(path)
+        table = pq.read_table(path, page_checksum_verification=True)
     except (pa.ArrowException, OSError) as exc:
         raise LogError(f"not a readable Parquet file: {exc}", file=source) from None
     raw = (table.schema.metadata or {}).get(PARQUET_META_KEY)

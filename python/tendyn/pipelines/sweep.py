@@ -219,7 +219,7 @@ def _parquet_bytes(result: SweepResult) -> bytes:
     import pyarrow.parquet as pq
 
     buf = io.BytesIO()
-    pq.write_table(pa.Table.from_pylist(result.rows), buf)
+    pq.write_table(pa.Table.from_pylist(result.rows), buf, write_page_checksum=True)  # readers can verify it
     return buf.getvalue()
 
 
