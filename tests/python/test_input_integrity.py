@@ -132,3 +132,51 @@ def test_a_corrupted_parquet_log_is_refused_never_read_as_data(tmp_path):
         bad.write_bytes(bytes(data))
         with pytest.raises(LogError, match=r"bad.parquet: not a readable Parquet file"):
             read_log(bad)
+
+
+def _params_doc(name="cea_branch", **changes):
+    from tendyn.analysis.operational import true_params
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+
+    dev = load_device(bundled(name))
+    return dict({"device": dev.name, "params": true_params(dev)}, **changes)
+
+
+def _maps(tmp_path, capsys, doc, *extra):
+    import json
+
+    path = tmp_path / "params.json"
+    path.write_text(json.dumps(doc))
+    code = main(["maps", "cea_branch", str(path), "--points", "3", "--json", *extra])
+    cap = capsys.readouterr()
+    return code, cap.err.strip().splitlines(), cap.out
+
+
+def test_a_params_file_missing_a_base_parameter_is_refused_not_zeroed(tmp_path, capsys):
+    """A params.json without ZZ1R gave 2.67 kg instead of 0.74 kg (ZZ1R taken as 0)."""
+    doc = _params_doc()
+    doc["params"] = [p for p in doc["params"] if p["name"] != "ZZ1R"]
+    code, err, out = _maps(tmp_path, capsys, doc)
+    assert code == 2 and len(err) == 1 and "params.json: params: missing base parameter(s) ZZ1R" in err[0], err
+    doc["omitted"] = ["ZZ1R"]                       # left out on purpose (identify --parameters / --essential)
+    assert _maps(tmp_path, capsys, doc)[0] == 0
+
+
+def test_a_params_file_of_another_device_is_refused_unless_forced(tmp_path, capsys):
+    code, err, _ = _maps(tmp_path, capsys, _params_doc(device="L-EXOS"))
+    assert code == 2 and len(err) == 1 and "device" in err[0] and "'L-EXOS'" in err[0] and "--force" in err[0], err
+    assert _maps(tmp_path, capsys, _params_doc(device="L-EXOS"), "--force")[0] == 0
+
+
+def test_identify_refuses_a_log_of_another_device_unless_forced(tmp_path, capsys):
+    n = 200
+    log = make_log({"time": np.arange(n) / 1000.0, **{f"q_motor_{k}": np.zeros(n) for k in range(1, 5)}},
+                   device="CEA branch", rate_hz=1000.0, seed=None, experiment="exciting")
+    path = write_log(log, tmp_path / "other.parquet")
+    code = main(["identify", "lexos", str(path), "--quiet"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "other.parquet" in err[0] and "'CEA branch'" in err[0], err
+    code = main(["identify", "lexos", str(path), "--quiet", "--force"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and "device" not in err[-1]        # past the device check: the log lacks torques

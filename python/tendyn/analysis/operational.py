@@ -76,8 +76,8 @@ def _finite(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def read_params(source) -> list[dict]:
-    """The base parameters of an identification, validated.
+def read_params(source, device=None, force: bool = False) -> list[dict]:
+    """The base parameters of an identification, validated (against ``device`` when given).
 
     Parameters
     ----------
@@ -86,6 +86,11 @@ def read_params(source) -> list[dict]:
         list itself, or an object with ``to_dict()`` giving that document (:class:`tendyn.ident.IdentificationResult`). Each entry needs ``name`` (str), ``value`` (finite) and ``expression`` (str, the
         regrouping, its first term the kept standard column); ``stderr`` (finite ≥ 0, default 0) is used for
         the uncertainty of the maps; ``unit`` and ``rel_stderr_pct`` are informative.
+
+    device : Device, optional
+        The device the parameters are used on: a document naming another ``device`` is refused (unless
+        ``force``), and so is one missing a base parameter of the device that its ``omitted`` list (written by
+        ``tendyn identify --essential`` or ``--parameters``) does not name: a missing parameter is never taken as 0.
 
     Raises
     ------
@@ -102,9 +107,17 @@ def read_params(source) -> list[dict]:
             raise ParamsError(f"cannot read the file: {exc.strerror or exc}", file=file) from None
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ParamsError(f"not a JSON document: {exc}", file=file) from None
+    omitted = None
     if isinstance(doc, Mapping):
         if "params" not in doc:
             raise ParamsError("missing (expected the document of `tendyn identify --json`)", "params", file)
+        named = doc.get("device")
+        if device is not None and named is not None and not force and not device.is_named(named):
+            raise ParamsError(f"the parameters are of {named!r}, not {device.name!r} (--force to use them anyway)",
+                              "device", file)
+        omitted = doc.get("omitted", [])
+        if not isinstance(omitted, list) or not all(isinstance(n, str) for n in omitted):
+            raise ParamsError(f"must be a list of parameter names (got {omitted!r})", "omitted", file)
         doc = doc["params"]
     if not isinstance(doc, list) or not doc:
         raise ParamsError("must be a non-empty list of parameters", "params", file)
@@ -131,6 +144,19 @@ def read_params(source) -> list[dict]:
                               f"{where}.expression", file)
         out.append({"name": name, "value": float(p["value"]), "stderr": float(se), "unit": p.get("unit", ""),
                     "expression": expr.strip()})
+    if device is not None:
+        from tendyn.ident.estimate import cached_model
+
+        model = cached_model(device)
+        for i, p in enumerate(out):                 # a parameter of another device first, then the missing ones
+            lead = p["expression"].split()[0].lstrip("+")
+            if lead not in model.standard_names:
+                raise ParamsError(f"{lead!r} is not a standard parameter of {device.name} "
+                                  f"(known: {', '.join(model.standard_names[:6])}, …)", f"params[{i}].expression", file)
+        missing = [n for n in model.base.names if n not in seen and n not in (omitted or ())]
+        if missing:
+            raise ParamsError(f"missing base parameter(s) {', '.join(missing)} of {device.name} (never taken as 0; "
+                              "an identification that leaves some out lists them in `omitted`)", "params", file)
     return out
 
 
@@ -222,9 +248,11 @@ class OperationalModel:
         Base parameters (:func:`read_params`); None: the twin's true ones (:func:`true_params`).
     stiffness_motor : sequence of float, optional
         Capstan stiffness K_T per drive [N·m/rad], motor side (identified, C31); default the device's.
+    force : bool
+        Use parameters whose document names another device.
     """
 
-    def __init__(self, device, params=None, stiffness_motor=None):
+    def __init__(self, device, params=None, stiffness_motor=None, force: bool = False):
         from tendyn.device.closed_loop import drive_parameters
         from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
 
@@ -233,7 +261,7 @@ class OperationalModel:
         if dev.kind != "serial" or not dev.drives:
             raise ValueError(f"{dev.name}: the operational maps need capstan drives ([[drives]]: N, K_T, K_E)")
         self.device = dev
-        self.params = true_params(self.compiled) if params is None else read_params(params)
+        self.params = true_params(self.compiled) if params is None else read_params(params, dev, force)
         numbers = tree_joint_numbers(dev)
         self.active_numbers = [numbers[k] for k in self.compiled.active_joints]
         names = standard_parameters(dev)[0] + drive_parameters(dev)[0]   # the columns of active_regressor

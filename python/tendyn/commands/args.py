@@ -72,3 +72,12 @@ def not_an_input(out: Path, inputs, option: str = "out") -> Path:
         if out.exists() and Path(p).exists() and out.samefile(p) or out.resolve() == Path(p).resolve():
             raise UsageError(f"{out} is also an input file: it would be overwritten; write elsewhere", option)
     return out
+
+
+def refuse_other_device(source, named, dev, force: bool = False) -> None:
+    """Refuse a file about another device (``named`` is the device it names) unless ``--force``."""
+    from tendyn.errors import UsageError
+
+    if not force and not dev.is_named(named):
+        raise UsageError(f"{source}: is about the device {named!r}, not {dev.name!r}; give the file of this device "
+                         "(or --force to use it anyway)")

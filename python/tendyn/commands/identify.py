@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number
+from tendyn.commands.args import existing_file, number, refuse_other_device
 from tendyn.errors import UsageError
 
 
@@ -32,6 +32,7 @@ def register(subparsers) -> None:
                    help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")
     p.add_argument("--stream", action="store_true",
                    help="identify a Parquet log too large for memory chunk by chunk (normal equations, no W held)")
+    p.add_argument("--force", action="store_true", help="use logs whose meta names another device")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
@@ -87,6 +88,7 @@ def cmd_identify(args) -> int:
     logs = [read_log(p) for p in args.logs]     # read here: a bad log is exit 2 before any work
     model = cached_model(dev)
     for path, log in zip(args.logs, logs):      # the signals identification needs, named with their file
+        refuse_other_device(path.name, log.meta["device"], dev, args.force)
         try:
             model.joint_signals(log)
         except LogError as exc:

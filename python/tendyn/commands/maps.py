@@ -32,6 +32,7 @@ def register(subparsers) -> None:
     p.add_argument("--report", default=None, metavar="DIR",
                    help="write the figures (fig8.png, fig9.png; handle_maps.png), maps.json and maps.txt into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    p.add_argument("--force", action="store_true", help="use a PARAMS.json whose document names another device")
     p.set_defaults(func=run)
 
 
@@ -62,7 +63,7 @@ def run(args) -> int:
                          f"{len(args.stiffness)})", "stiffness")
     out = _check_out_folder(args.report) if args.report else None
     try:
-        model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness)
+        model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness, force=args.force)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(args.params), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
@@ -101,7 +102,7 @@ def _run_handle(args, dev) -> int:
         kw.update(coulomb_motor=doc["coulomb_motor"], viscous_motor=doc["viscous_motor"])
         sources["friction"] = f"identified: {args.friction} ({doc['format']})"
     if args.params is not None:
-        kw["mass_matrix"] = _identified_mass_matrix(dev, args.params)
+        kw["mass_matrix"] = _identified_mass_matrix(dev, args.params, args.force)
         sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
     try:
         maps = handle_maps(dev, points=args.points, sources=sources, **kw)
@@ -113,13 +114,13 @@ def _run_handle(args, dev) -> int:
     return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")
 
 
-def _identified_mass_matrix(dev, path):
+def _identified_mass_matrix(dev, path, force=False):
     """q ↦ A(q) [kg·m²] from the base parameters of PARAMS.json, through the identification model's regressor."""
     from tendyn.analysis.operational import ParamsError, read_params
     from tendyn.ident import IdentModel
 
     try:
-        params = read_params(str(path))
+        params = read_params(str(path), dev, force)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(path), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None

@@ -182,7 +182,7 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
     n = device.n_transmissions
     groups: dict[int, list] = {}
     for name, log in zip(names, logs):
-        if log.meta.get("device") not in (device.name, str(getattr(device, "path", ""))):
+        if not device.is_named(log.meta.get("device")):
             raise UsageError(f"{name}: the log is about {log.meta.get('device')!r}, not {device.name!r}")
         t = log_transmission(log)
         if not 1 <= t <= n:

@@ -81,6 +81,7 @@ class IdentificationResult(Result):
         self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
         self.joint_numbers = list(joint_numbers)
         self.crossval = crossval
+        self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
@@ -93,7 +94,7 @@ class IdentificationResult(Result):
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
-                "params": params, "crossval": self.crossval,
+                "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -352,6 +353,7 @@ class IDIM:
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
                                             model.active_numbers, cv)
         self.result_.cond_scaled = self.cond_scaled_
+        self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self._cols = cols
         return self
 
