@@ -135,12 +135,17 @@ def test_a_corrupted_parquet_log_is_refused_never_read_as_data(tmp_path):
 
 
 def _params_doc(name="cea_branch", **changes):
-    from tendyn.analysis.operational import true_params
+    """The document `tendyn identify --json` would give with the device file's own values (its prior)."""
     from tendyn.device import load_device
     from tendyn.devices import bundled
+    from tendyn.ident import IdentModel
 
     dev = load_device(bundled(name))
-    return dict({"device": dev.name, "params": true_params(dev)}, **changes)
+    model = IdentModel(dev)
+    values = model.base.combination @ model.prior()
+    params = [{"name": n, "value": float(v), "stderr": 0.0, "expression": model.base.expression(i, model.standard_names)}
+              for i, (n, v) in enumerate(zip(model.base.names, values))]
+    return dict({"device": dev.name, "params": params}, **changes)
 
 
 def _maps(tmp_path, capsys, doc, *extra):
@@ -159,7 +164,10 @@ def test_a_params_file_missing_a_base_parameter_is_refused_not_zeroed(tmp_path, 
     doc["params"] = [p for p in doc["params"] if p["name"] != "ZZ1R"]
     code, err, out = _maps(tmp_path, capsys, doc)
     assert code == 2 and len(err) == 1 and "params.json: params: missing base parameter(s) ZZ1R" in err[0], err
-    doc["omitted"] = ["ZZ1R"]                       # left out on purpose (identify --parameters / --essential)
+    doc = _params_doc()
+    doc["params"] = [p for p in doc["params"] if p["name"] != "FV1"]
+    assert _maps(tmp_path, capsys, doc)[0] == 2
+    doc["omitted"] = ["FV1"]                        # left out on purpose (identify --parameters / --essential)
     assert _maps(tmp_path, capsys, doc)[0] == 0
 
 
@@ -180,3 +188,20 @@ def test_identify_refuses_a_log_of_another_device_unless_forced(tmp_path, capsys
     code = main(["identify", "lexos", str(path), "--quiet", "--force"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and "device" not in err[-1]        # past the device check: the log lacks torques
+
+
+@pytest.mark.parametrize("name", ["cea_branch", "lexos"])
+@pytest.mark.parametrize("factor", [0.0, -1.0])
+def test_zero_or_negative_inertias_are_refused(tmp_path, capsys, name, factor):
+    """All-zero inertias gave 0 kg maps and negative ones 24.5 kg (|eigenvalues|): A(q) must be positive definite."""
+    import json
+
+    doc = _params_doc(name)
+    for p in doc["params"]:
+        if not p["name"].startswith(("FV", "FS", "OFFSET")):
+            p["value"] *= factor
+    path = tmp_path / "params.json"
+    path.write_text(json.dumps(doc))
+    code = main(["maps", name, str(path), "--points", "3", "--json"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "not positive definite" in err[0] and "params.json" in err[0], err

@@ -8,6 +8,8 @@ device file or PARAMS.json, friction from the device file or FRICTION.json (:mod
 
 from __future__ import annotations
 
+import numpy as np
+
 from tendyn.commands.args import existing_file, number, numbers
 from tendyn.errors import UsageError
 
@@ -64,6 +66,7 @@ def run(args) -> int:
     out = _check_out_folder(args.report) if args.report else None
     try:
         model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness, force=args.force)
+        refuse_impossible_inertia(model.mass_matrix, model.handle, args.params)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(args.params), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
@@ -124,9 +127,27 @@ def _identified_mass_matrix(dev, path, force=False):
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(path), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
+    from tendyn.analysis.handle_point import HandlePoint
+    from tendyn.device import compile_device
+
     model = IdentModel(dev)
     try:
         x = model.parameter_vector(params)
     except ValueError as exc:
         raise UsageError(f"{path}: {exc}") from None
+    refuse_impossible_inertia(lambda q: model.mass_matrix(q, x), HandlePoint(compile_device(dev)), path)
     return lambda q: model.mass_matrix(q, x)
+
+
+def refuse_impossible_inertia(mass_matrix, handle, path) -> None:
+    """Refuse identified parameters whose joint mass matrix A(q) [kg·m²] is not positive definite at the middle of
+    the joint limits: the kinetic energy ½ q̇ᵀ A q̇ of a real device is positive, so all-zero or negative inertias
+    are impossible (the maps would report 0 kg, or |eigenvalues| of a negative matrix as kilograms)."""
+    lo, hi = handle.active_limits()
+    q = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+    A = np.asarray(mass_matrix(q), float)
+    smallest = float(np.linalg.eigvalsh(0.5 * (A + A.T)).min()) if np.all(np.isfinite(A)) else float("nan")
+    if not smallest > 0.0:
+        raise UsageError(f"{path}: the parameters give a joint mass matrix that is not positive definite at "
+                         f"q = {np.round(q, 3).tolist()} rad (smallest eigenvalue {smallest:.3g} kg·m²): "
+                         "physically impossible inertias (zero or negative)")
