@@ -421,3 +421,18 @@ def test_cli_main_runs_the_commands_one_line_errors(comparison, tmp_path, capsys
     assert "--transmission: must be 1…4" in capsys.readouterr().err
     assert main(["decompose", "lexos", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["max_relative_mismatch"] < 1e-12
+
+
+def test_negative_friction_is_refused_by_decompose_not_split_into_negative_branches(friction_doc, tmp_path, capsys):
+    """A FRICTION.json with a negative Coulomb value was decomposed into τ0 = −6.25 N (issue 22): decompose (and
+    maps) read it with physical=True: exit 2, one line naming the field."""
+    from tendyn.cli import main
+
+    doc = json.loads(json.dumps(friction_doc))
+    doc["coulomb_motor"][1] = doc["fits"][1]["coulomb_motor"] = -0.05
+    bad = tmp_path / "negative.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["decompose", "lexos", str(bad), "--json"]) == 2
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and "negative.json" in err[0] and "coulomb_motor[2]: must be >= 0" in err[0] and not cap.out

@@ -95,13 +95,9 @@ def _run_handle(args, dev) -> int:
         if not dev.transmissions:
             raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
         try:
-            doc = read_friction(args.friction, device=dev)
+            doc = read_friction(args.friction, device=dev, physical=True)
         except FrictionFileError as exc:
             raise UsageError(str(exc)) from None
-        for key in ("coulomb_motor", "viscous_motor"):
-            bad = [k + 1 for k, v in enumerate(doc[key]) if v < 0]
-            if bad:
-                raise UsageError(f"{args.friction}: {key}[{bad[0]}]: must be >= 0 (got {doc[key][bad[0] - 1]!r})")
         kw.update(coulomb_motor=doc["coulomb_motor"], viscous_motor=doc["viscous_motor"])
         sources["friction"] = f"identified: {args.friction} ({doc['format']})"
     if args.params is not None:

@@ -280,7 +280,7 @@ def run_decompose(args) -> int:
     if dev.n_transmissions == 0:
         raise UsageError(f"{dev.name} has no tendon transmissions", "device")
     try:
-        doc = read_friction(args.friction, device=dev)
+        doc = read_friction(args.friction, device=dev, physical=True)
         p = pp = None
         if args.shares is not None:
             p, pp = read_shares(args.shares, dev)
