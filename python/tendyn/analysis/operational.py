@@ -42,6 +42,7 @@ import numpy as np
 
 from tendyn.analysis.handle_point import HandlePoint
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.io.files import read_json
 from tendyn.results import Result, format_table, new_figure
 
 __all__ = ["OperationalModel", "OperationalMaps", "MapFigure", "ParamsError", "operational_maps", "read_params",
@@ -102,7 +103,7 @@ def read_params(source, device=None, force: bool = False) -> list[dict]:
     if isinstance(source, (str, Path)):
         file = str(source)
         try:
-            doc = json.loads(Path(source).read_text(encoding="utf-8"))
+            doc = read_json(source)
         except OSError as exc:
             raise ParamsError(f"cannot read the file: {exc.strerror or exc}", file=file) from None
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:

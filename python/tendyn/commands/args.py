@@ -58,6 +58,10 @@ def out_path(suffixes):
         parent = p.parent if str(p.parent) else Path(".")
         if not parent.is_dir():
             raise argparse.ArgumentTypeError(f"folder {parent} does not exist")
+        from tendyn.io.files import creatable
+
+        if creatable(p)[1]:                     # /proc, a read-only mount, no permission
+            raise argparse.ArgumentTypeError(f"cannot write into the folder {parent}")
         return p
     convert.__name__ = "path"
     return convert

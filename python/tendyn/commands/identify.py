@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number, refuse_other_device
+from tendyn.commands.args import existing_file, number, out_path, refuse_other_device
 from tendyn.errors import UsageError
 
 
@@ -14,7 +14,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("identify", help="identify the base dynamic parameters from logs (IDIM least squares)")
     p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
     p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
-    p.add_argument("--out", help="parameters file (.json)")
+    p.add_argument("--out", type=out_path((".json",)), help="parameters file (.json)")
     p.add_argument("--method", choices=("ols", "wls"), default="ols", help="ordinary or weighted least squares")
     p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
     p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
@@ -78,8 +78,10 @@ def cmd_identify(args) -> int:
     dev = _device(args.device)
     if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
-    if args.out is not None and Path(args.out).suffix.lower() != ".json":
-        raise UsageError(f"must end in .json (got {args.out})", "out")
+    if args.report is not None:                 # checked before the fit, like --out (type=out_path)
+        from tendyn.cli import _check_out_folder
+
+        _check_out_folder(args.report, "report")
     if args.stream:
         return _identify_stream(dev, args)
     from tendyn.ident.estimate import cached_model
@@ -102,6 +104,8 @@ def cmd_identify(args) -> int:
                parameters=_parameters(args.parameters, model))
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
+    except ConnectionError as exc:
+        raise UsageError(str(exc), "scheduler") from None
     except ValueError as exc:
         if type(exc).__name__ in ("LogError",):
             raise

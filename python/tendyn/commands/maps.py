@@ -63,7 +63,7 @@ def run(args) -> int:
     if args.stiffness is not None and len(args.stiffness) != len(dev.drives):
         raise UsageError(f"needs one value per drive of {dev.name}: {len(dev.drives)} values (got "
                          f"{len(args.stiffness)})", "stiffness")
-    out = _check_out_folder(args.report) if args.report else None
+    out = _check_out_folder(args.report, "report") if args.report else None
     try:
         model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness, force=args.force)
         refuse_impossible_inertia(model.mass_matrix, model.handle, args.params)
@@ -87,7 +87,7 @@ def _run_handle(args, dev) -> int:
         if getattr(args, opt) is not None:
             raise UsageError(f"applies to capstan drives only; {dev.name} has "
                              f"{'cable transmissions' if dev.transmissions else 'geared actuators'}", opt)
-    out = _check_out_folder(args.report) if args.report else None
+    out = _check_out_folder(args.report, "report") if args.report else None
     kw, sources = {}, {}
     if args.friction is not None:
         from tendyn.ident.friction_file import FrictionFileError, read_friction

@@ -256,7 +256,9 @@ class IDIM:
                                processes=True, dashboard_address=None)
             client = Client(own)
         else:
-            client = Client(self.scheduler)
+            from tendyn.parallel import connect_scheduler
+
+            client = connect_scheduler(self.scheduler)     # ConnectionError naming the address
         try:
             futures = [client.submit(_treat_log, dev, log, parts, settings, pure=False) for log in logs]
             index = {f.key: i for i, f in enumerate(futures)}

@@ -13,6 +13,8 @@ import json
 import math
 from pathlib import Path
 
+from tendyn.io.files import read_json
+
 FORMAT = "tendyn.friction/1"
 
 
@@ -65,11 +67,9 @@ def read_friction(path, device=None, physical: bool = False) -> dict:
     exactly its transmissions; ``physical``: no negative friction (:func:`validate_friction`)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        doc = read_json(path, parse_constant=lambda c: float(c))
     except OSError as e:
         raise FrictionFileError(f"cannot read: {e.strerror or e}", file=path) from None
-    try:
-        doc = json.loads(text, parse_constant=lambda c: float(c))
     except json.JSONDecodeError as e:
         raise FrictionFileError(f"not JSON: {e.msg} (line {e.lineno})", file=path) from None
     validate_friction(doc, device=device, source=path, physical=physical)

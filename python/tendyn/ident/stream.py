@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from tendyn.io.files import parse_json
+
 from .model import IdentModel
 from .treatment import butter_zero_phase, central_differences, default_treatment, parallel_filter_taps
 
@@ -229,7 +231,7 @@ class StreamingIDIM:
 
         model = cached_model(self.device)
         pf = pq.ParquetFile(str(path))
-        meta = json.loads(pf.schema_arrow.metadata[b"tendyn"].decode())
+        meta = parse_json(pf.schema_arrow.metadata[b"tendyn"].decode())
         rate = float(meta["rate_hz"])
         tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
                                self.order)

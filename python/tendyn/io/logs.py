@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.files import atomic_write_bytes, creatable, to_jsonable
+from tendyn.io.files import atomic_write_bytes, creatable, parse_json, to_jsonable
 
 __all__ = [
     "COLUMNS",
@@ -367,7 +367,7 @@ def _check_meta(meta, source) -> None:
     if not isinstance(options, dict):
         raise bad("options", f"got {options!r} of type {type(options).__name__}")
     try:
-        back = json.loads(_json_text(options))
+        back = parse_json(_json_text(options))
     except (TypeError, ValueError) as exc:
         raise bad("options", f"not JSON-serialisable: {exc}") from None
     if back != options:
@@ -674,7 +674,7 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
         raise LogError(f"got {options!r} of type {type(options).__name__} (expected {META_KEYS['options']})",
                        file=source, column="meta.options")
     try:
-        options = json.loads(_json_text(to_jsonable(options)))
+        options = parse_json(_json_text(to_jsonable(options)))
     except (TypeError, ValueError) as exc:
         raise LogError(f"not JSON-serialisable: {exc}", file=source, column="meta.options") from None
     meta = {"schema": SCHEMA_VERSION, "device": device, "rate_hz": rate_hz, "seed": seed,
@@ -811,7 +811,7 @@ def _read_parquet(path: Path) -> Log:
         raise LogError("not a tendyn log: no 'tendyn' meta in the Parquet schema metadata", file=source,
                        column="meta")
     try:
-        meta = json.loads(raw.decode("utf-8"))
+        meta = parse_json(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
     names = list(table.column_names)
@@ -874,7 +874,7 @@ def _read_csv(path: Path) -> Log:
             if meta is not None:
                 raise LogError("a second '# tendyn-log' meta line", file=source, line=k + 1)
             try:
-                meta = json.loads(m.group(1) or "")
+                meta = parse_json(m.group(1) or "")
             except ValueError as exc:
                 raise LogError(f"the meta after '# tendyn-log' is not valid JSON: {exc}", file=source,
                                column="meta", line=k + 1) from None
@@ -1031,7 +1031,7 @@ def _load_truth(log_path) -> tuple[Path, dict]:
         raise FileNotFoundError(f"{p}: no ground truth beside the log {Path(log_path).name} "
                                 "(only simulated logs have one)")
     try:
-        truth = json.loads(p.read_bytes().decode("utf-8"))
+        truth = parse_json(p.read_bytes().decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise LogError(f"not valid JSON: {exc}", file=str(p)) from None
     if not isinstance(truth, dict):
@@ -1079,7 +1079,7 @@ def _read_meta(path: Path) -> dict:
     if raw is None:
         raise LogError("not a tendyn log: no meta record", file=source, column="meta")
     try:
-        meta = json.loads(raw.decode("utf-8"))
+        meta = parse_json(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
     if not isinstance(meta, dict):

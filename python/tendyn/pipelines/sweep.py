@@ -41,6 +41,11 @@ METRIC_LABELS = {"peak_shift_hz": "open-loop peak shift [Hz]", "open_loop_spread
                  "robust_performance": "|| |W1 S| + |W2 T| ||_inf [-]"}
 
 
+MAX_DESIGNS = 10_000
+"""Most designs a sweep evaluates (each is several twin runs: 10 000 is hours on a laptop); checked before the
+grid is built, so `N = 10**9` is one line, not a MemoryError after minutes."""
+
+
 def parse_param(text: str) -> tuple[str, np.ndarray]:
     """``NAME=LO:HI:N`` → (name, grid); raises ValueError with the reason."""
     if "=" not in text:
@@ -55,6 +60,8 @@ def parse_param(text: str) -> tuple[str, np.ndarray]:
         raise ValueError(f"LO and HI must be numbers and N an integer (got {spec!r})") from None
     if not (math.isfinite(lo) and math.isfinite(hi)) or n < 1 or (n > 1 and hi <= lo):
         raise ValueError(f"need finite LO < HI and N ≥ 1 (got {spec!r})")
+    if n > MAX_DESIGNS:
+        raise ValueError(f"N = {n}: at most {MAX_DESIGNS} designs per sweep (MAX_DESIGNS)")
     if n == 1:
         return name.strip(), np.array([lo])
     grid = np.geomspace(lo, hi, n) if lo > 0 and hi / lo > 10 else np.linspace(lo, hi, n)
@@ -187,10 +194,9 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
     cluster = None
     if own:
         if scheduler:
-            try:
-                client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError, ValueError) as exc:
-                raise ConnectionError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+            from tendyn.parallel import connect_scheduler
+
+            client = connect_scheduler(scheduler)
         else:
             cluster = local_cluster(n_workers)
             client = Client(cluster)
