@@ -318,3 +318,15 @@ def test_a_value_error_that_mentions_divergence_is_not_taken_for_a_diverged_run(
     code = main(["simulate", "cea_branch", "blocked-link", "--joint", "1", "--out", str(tmp_path / "x.parquet"),
                  "--quiet"])
     assert code == 3
+
+
+def test_toml_nested_too_deep_is_a_bad_file(tmp_path, capsys):
+    """A device file or an import map `a = [[[[…` 100 000 deep: one line, exit 2 (was a RecursionError, exit 3)."""
+    deep = tmp_path / "deep.toml"
+    deep.write_text("a = " + "[" * 100000 + "]" * 100000)
+    (tmp_path / "raw.csv").write_text("a\n1\n2\n")
+    for argv in (["routing", "show", str(deep)],
+                 ["log", "import", str(tmp_path / "raw.csv"), "--map", str(deep), "--out", str(tmp_path / "l.csv")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "deep.toml" in err[0] and "nested too deeply" in err[0], err

@@ -60,6 +60,8 @@ def read_import_map(path) -> dict:
         raw = tomllib.loads(p.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise _err(p, "", f"TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise _err(p, "", "TOML nested too deeply") from None
     for key in raw:
         if key not in ("schema", "log", "signals"):
             raise _err(p, key, "unknown key (expected schema, [log], [[signals]])")
