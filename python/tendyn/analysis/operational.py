@@ -77,7 +77,7 @@ def _finite(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def read_params(source, device=None, force: bool = False) -> list[dict]:
+def read_params(source, device=None, force: bool = False, *, standard_names=None, base_names=None) -> list[dict]:
     """The base parameters of an identification, validated (against ``device`` when given).
 
     Parameters
@@ -90,8 +90,12 @@ def read_params(source, device=None, force: bool = False) -> list[dict]:
 
     device : Device, optional
         The device the parameters are used on: a document naming another ``device`` is refused (unless
-        ``force``), and so is one missing a base parameter of the device that its ``omitted`` list (written by
-        ``tendyn identify --essential`` or ``--parameters``) does not name: a missing parameter is never taken as 0.
+        ``force``).
+    standard_names, base_names : sequence of str, optional
+        The device's standard parameters (each expression must start with one) and base parameters (each must be
+        given, or named in the document's ``omitted`` list written by ``tendyn identify --essential`` or
+        ``--parameters``): a missing parameter is never taken as 0. The caller's model gives them (the
+        identification model's for a cable device, :func:`tendyn.device.closed_loop.base_parameters` here).
 
     Raises
     ------
@@ -145,18 +149,17 @@ def read_params(source, device=None, force: bool = False) -> list[dict]:
                               f"{where}.expression", file)
         out.append({"name": name, "value": float(p["value"]), "stderr": float(se), "unit": p.get("unit", ""),
                     "expression": expr.strip()})
-    if device is not None:
-        from tendyn.ident.estimate import cached_model
-
-        model = cached_model(device)
-        for i, p in enumerate(out):                 # a parameter of another device first, then the missing ones
+    who = device.name if device is not None else "the device"
+    if standard_names is not None:                  # a parameter of another device first, then the missing ones
+        for i, p in enumerate(out):
             lead = p["expression"].split()[0].lstrip("+")
-            if lead not in model.standard_names:
-                raise ParamsError(f"{lead!r} is not a standard parameter of {device.name} "
-                                  f"(known: {', '.join(model.standard_names[:6])}, …)", f"params[{i}].expression", file)
-        missing = [n for n in model.base.names if n not in seen and n not in (omitted or ())]
+            if lead not in standard_names:
+                raise ParamsError(f"{lead!r} is not a standard parameter of {who} "
+                                  f"(known: {', '.join(list(standard_names)[:6])}, …)", f"params[{i}].expression", file)
+    if base_names is not None:
+        missing = [n for n in base_names if n not in seen and n not in (omitted or ())]
         if missing:
-            raise ParamsError(f"missing base parameter(s) {', '.join(missing)} of {device.name} (never taken as 0; "
+            raise ParamsError(f"missing base parameter(s) {', '.join(missing)} of {who} (never taken as 0; "
                               "an identification that leaves some out lists them in `omitted`)", "params", file)
     return out
 
@@ -254,7 +257,7 @@ class OperationalModel:
     """
 
     def __init__(self, device, params=None, stiffness_motor=None, force: bool = False):
-        from tendyn.device.closed_loop import drive_parameters
+        from tendyn.device.closed_loop import base_parameters, drive_parameters
         from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
 
         self.compiled = compile_device(device)
@@ -262,10 +265,11 @@ class OperationalModel:
         if dev.kind != "serial" or not dev.drives:
             raise ValueError(f"{dev.name}: the operational maps need capstan drives ([[drives]]: N, K_T, K_E)")
         self.device = dev
-        self.params = true_params(self.compiled) if params is None else read_params(params, dev, force)
         numbers = tree_joint_numbers(dev)
         self.active_numbers = [numbers[k] for k in self.compiled.active_joints]
         names = standard_parameters(dev)[0] + drive_parameters(dev)[0]   # the columns of active_regressor
+        self.params = true_params(self.compiled) if params is None else read_params(
+            params, dev, force, standard_names=names, base_names=base_parameters(self.compiled).names)
         self.standard_names = tuple(names)
         self._drive_rows = [self.active_numbers.index(d.joint) for d in dev.drives]
         self._pm = self.compiled.pinocchio_model
@@ -275,10 +279,7 @@ class OperationalModel:
         self.columns = []
         for i, p in enumerate(self.params):
             lead = p["expression"].split()[0].lstrip("+")
-            if lead not in idx:
-                raise ParamsError(f"{p['expression'].split()[0]!r} is not a standard parameter of {dev.name} "
-                                  f"(known: {', '.join(names[:6])}, …)", f"params[{i}].expression")
-            k = idx[lead]
+            k = idx[lead]                           # a standard parameter: read_params checked it
             if k in self.columns:
                 raise ParamsError(f"two parameters use the column {lead}", f"params[{i}].expression")
             self.columns.append(k)

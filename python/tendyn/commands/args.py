@@ -73,7 +73,8 @@ def not_an_input(out: Path, inputs, option: str = "out") -> Path:
 
     out = Path(out)
     for p in inputs:
-        if out.exists() and Path(p).exists() and out.samefile(p) or out.resolve() == Path(p).resolve():
+        same = out.resolve() == Path(p).resolve() or (out.exists() and Path(p).exists() and out.samefile(p))
+        if same:                                # the same path, or another name of the same file (a link)
             raise UsageError(f"{out} is also an input file: it would be overwritten; write elsewhere", option)
     return out
 

@@ -115,18 +115,17 @@ def _run_handle(args, dev) -> int:
 
 def _identified_mass_matrix(dev, path, force=False):
     """q ↦ A(q) [kg·m²] from the base parameters of PARAMS.json, through the identification model's regressor."""
+    from tendyn.analysis.handle_point import HandlePoint
     from tendyn.analysis.operational import ParamsError, read_params
+    from tendyn.device import compile_device
     from tendyn.ident import IdentModel
 
+    model = IdentModel(dev)
     try:
-        params = read_params(str(path), dev, force)
+        params = read_params(str(path), dev, force, standard_names=model.standard_names, base_names=model.base.names)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(path), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
-    from tendyn.analysis.handle_point import HandlePoint
-    from tendyn.device import compile_device
-
-    model = IdentModel(dev)
     try:
         x = model.parameter_vector(params)
     except ValueError as exc:

@@ -256,7 +256,7 @@ class IDIM:
                                processes=True, dashboard_address=None)
             client = Client(own)
         else:
-            from tendyn.parallel import connect_scheduler
+            from tendyn.ident.cluster import connect_scheduler
 
             client = connect_scheduler(self.scheduler)     # ConnectionError naming the address
         try:

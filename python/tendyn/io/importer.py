@@ -36,8 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.logs import (IMPORT_RATE_SLACK, Log, LogError, column_spec, is_generic, make_log, parse_number, rate_contradicts_time,
-                            time_column_rate)
+from tendyn.io.logs import (IMPORT_RATE_SLACK, Log, LogError, column_spec, is_generic, make_log, parse_number,
+                            rate_contradicts_time, time_column_rate)
 
 __all__ = ["import_logs", "read_import_map"]
 

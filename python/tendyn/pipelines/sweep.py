@@ -194,7 +194,7 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
     cluster = None
     if own:
         if scheduler:
-            from tendyn.parallel import connect_scheduler
+            from tendyn.ident.cluster import connect_scheduler
 
             client = connect_scheduler(scheduler)
         else:

@@ -1,4 +1,4 @@
-"""Dask clients for the commands that spread work over a cluster (``identify``, ``sweep``)."""
+"""Dask clients for the commands that spread work over a cluster (``identify``, ``sweep``): one way to connect."""
 
 from __future__ import annotations
 
