@@ -25,7 +25,9 @@ typedef enum tendyn_status {
   TENDYN_SIZE_MISMATCH = -2,
   TENDYN_INVALID_MODEL = -3,
   TENDYN_DIVERGED = -4,        /* a simulation state became NaN or Inf */
-  TENDYN_NULL_ARGUMENT = -100  /* a required pointer is NULL (C ABI only) */
+  TENDYN_NULL_ARGUMENT = -100, /* a required pointer is NULL (C ABI only) */
+  TENDYN_INTERNAL_ERROR = -101 /* an exception inside the library (out of memory, a bug), caught at the C
+                                  boundary: no exception ever crosses it; tendyn_last_error() says which (C only) */
 } tendyn_status;
 
 typedef struct tendyn_transmission tendyn_transmission;
@@ -42,6 +44,9 @@ typedef struct tendyn_transmission tendyn_transmission;
  * Returns TENDYN_INVALID_MODEL for a missing, unreadable or invalid file. Allocates (setup time). */
 TENDYN_API tendyn_status tendyn_transmission_load(const char* path, tendyn_transmission** out, char* message,
                                                   unsigned long message_size);
+
+/* Every function returning a status catches every exception inside: none crosses the C boundary (a C caller's
+ * process would abort). Sizes read from a file are bounded (n <= 64) before anything is allocated. */
 
 /* Why the last tendyn_transmission_create on this thread failed ("" if it did not): the field and index,
  * e.g. "driven_radius[1] = 0: must be > 0 (a zero driven radius makes the routing singular)". */
@@ -82,7 +87,8 @@ TENDYN_API tendyn_status tendyn_joint_torque_forward(tendyn_transmission* t, con
  * include/tendyn/compensator_file.hpp). After loading no call allocates, none throws. */
 typedef struct tendyn_compensator tendyn_compensator;
 
-/* Load a compensator model file. expected_device (may be NULL) must equal the file's `device` field.
+/* Load a compensator model file. expected_device must equal the file's `device` field; NULL accepts any device,
+ * "" is refused (an empty name is a caller's mistake, not a wish to skip the check).
  * On failure *out is NULL, the status is TENDYN_INVALID_MODEL and message (if not NULL) names the file,
  * the line and the field, e.g. "lexos.comp: line 31: mass: 3 values, expected 4 (n)". Allocates. */
 TENDYN_API tendyn_status tendyn_compensator_load(const char* path, const char* expected_device,

@@ -310,8 +310,7 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
       continue;
     }
     if (idx == 1) {
-      if (!expect(1, "one number") ) return false;
-      if (!(values[0] >= 1.0 && integer(values[0]))) return fail(lineno, "n: must be an integer >= 1");
+      if (const std::string bad = check_model_size(values); !bad.empty()) return fail(lineno, "n: " + bad);
       n = static_cast<int>(values[0]);
       m.chain = ChainModel(n);
       continue;
@@ -343,7 +342,11 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
         break;
       case 6:
         if (!expect(n, "n")) return false;
-        for (int j = 0; j < n; ++j) m.chain.prismatic(j) = static_cast<int>(values[j]);
+        for (int j = 0; j < n; ++j) {  // exactly 0 or 1: a cast would read 1.5 as 1 (and 1e300 is undefined)
+          if (values[j] != 0.0 && values[j] != 1.0)
+            return fail(lineno, "prismatic[" + std::to_string(j) + "]: must be 0 or 1");
+          m.chain.prismatic(j) = static_cast<int>(values[j]);
+        }
         break;
       case 7:
         if (!expect(n, "n")) return false;

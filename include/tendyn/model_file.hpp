@@ -19,7 +19,9 @@
 // come first. motor_radius, K, driven_radius and reducer_ratio are required; a missing loss or bearing
 // field keeps its default (lossless, no bearings). Unknown fields, repeated fields, a wrong number of
 // values, a value that is not a number and a model that fails validation are errors whose message names
-// the file, the line and the field (`lexos.model: line 9: beta[2,1] = 1.5: must be < 1`). Values are
+// the file, the line and the field (`lexos.model: line 9: beta[2,1] = 1.5: must be < 1`). `n` is at most
+// model_file_max_n (checked before anything is allocated, so a corrupt size cannot exhaust memory) and a NUL
+// byte anywhere is refused (it would cut a number short: `5\0 0` must not read as 5). Values are
 // written in the shortest form that reads back to the same double (15 or 17 significant digits), so a
 // saved model reads back bit for bit.
 //
@@ -28,6 +30,7 @@
 // transmission of a compensator file loads with tendyn_transmission_load too.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -42,6 +45,9 @@ namespace tendyn {
 
 inline constexpr const char* model_file_header = "tendyn-transmission-model";
 inline constexpr int model_file_version = 1;
+/// Largest `n` a model file may declare (transmissions, and joints of a compensator's chain): far above any
+/// device of the kind (L-EXOS has 4), small enough that a corrupt size cannot make the loader allocate gigabytes.
+inline constexpr int model_file_max_n = 64;
 
 /// Text of the model file of `m` (format above).
 inline std::string transmission_model_text(const TransmissionModel& m) {
@@ -119,6 +125,23 @@ inline bool read_model_file(const std::string& path, const char* what, std::stri
   return true;
 }
 
+/// The 1-based line of the first NUL byte of `text`, 0 if there is none. A NUL is never part of a model file:
+/// strtod would stop at it and read `5\0 0` as 5.
+inline int line_of_nul(const std::string& text) {
+  const auto at = text.find('\0');
+  if (at == std::string::npos) return 0;
+  return 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(at), '\n'));
+}
+
+/// Check a size field (`n`) read as one number: an integer in 1 … model_file_max_n. Returns "" or what is wrong.
+inline std::string check_model_size(const std::vector<double>& values) {
+  if (values.size() != 1 || !(values[0] >= 1.0) || values[0] != std::floor(values[0]))
+    return "must be one integer >= 1";
+  if (values[0] > model_file_max_n)
+    return "must be <= " + std::to_string(model_file_max_n) + " (model_file_max_n; got " + format_double(values[0]) + ")";
+  return std::string();
+}
+
 /// Parse model-file text into `m` (validated, matrices computed). `name` prefixes the messages.
 inline bool parse_transmission_model(const std::string& text, const std::string& name, TransmissionModel* m,
                                      std::string* error) {
@@ -126,6 +149,7 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
     if (error) *error = name + (line > 0 ? ": line " + std::to_string(line) : std::string()) + ": " + what;
     return false;
   };
+  if (const int nul = line_of_nul(text)) return fail(nul, "a NUL byte (not a text model file)");
   std::istringstream in(text);
   std::string line;
   int lineno = 0, n = -1;
@@ -154,8 +178,8 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
     std::vector<double> values;
     if (const std::string bad = read_numbers(ls, &values); !bad.empty()) return fail(lineno, key + ": " + bad);
     if (n < 0) {
-      if (key != "n" || values.size() != 1 || !(values[0] >= 1.0) || values[0] != static_cast<int>(values[0]))
-        return fail(lineno, "the line after the header must be 'n <number of transmissions >= 1>'");
+      if (key != "n") return fail(lineno, "the line after the header must be 'n <number of transmissions >= 1>'");
+      if (const std::string bad = check_model_size(values); !bad.empty()) return fail(lineno, "n: " + bad);
       n = static_cast<int>(values[0]);
       model = TransmissionModel(n);
       continue;

@@ -272,18 +272,19 @@ def _write_run(log, truth, path: Path):
 
 # ---- demo -----------------------------------------------------------------------------------------
 
-def _check_out_folder(text: str) -> Path:
-    """An output folder that exists as a folder or can be created (nothing is created here)."""
+def _check_out_folder(text: str, option: str = "out") -> Path:
+    """An output folder (of ``--out`` or ``--report``) that exists as a folder or can be created (nothing is
+    created here)."""
     out = Path(text)
     if out.exists() and not out.is_dir():
-        raise UsageError(f"{out} exists and is not a folder", "out")
+        raise UsageError(f"{out} exists and is not a folder", option)
     from tendyn.io.files import creatable
 
     parent, problem = creatable(out / "_")      # the folder itself may be the nearest existing one
     if problem == "not a folder":
-        raise UsageError(f"cannot create {out}: {parent} is not a folder", "out")
+        raise UsageError(f"cannot create {out}: {parent} is not a folder", option)
     if problem:
-        raise UsageError(f"cannot write into {parent} (permission denied)", "out")
+        raise UsageError(f"cannot write into {parent} (permission denied)", option)
     return out
 
 
@@ -400,15 +401,18 @@ def main(argv: list[str] | None = None) -> int:
     argv = [a for a in argv if a != "--debug"]
     command = next((a for a in argv if not a.startswith("-")), "tendyn")
     input_errors: tuple[type[Exception], ...] = (UsageError,)
+    check_errors: tuple[type[Exception], ...] = (CheckFailed,)
     try:
         if argv[:1] == ["config"]:
             parser = _config_parser()
         else:
+            from tendyn._core import SimulationDiverged
             from tendyn.device import DeviceError
             from tendyn.io.logs import LogError
             from tendyn.sim import catalogue
 
             input_errors = (UsageError, DeviceError, LogError)
+            check_errors = (CheckFailed, SimulationDiverged)   # a run that diverged in any command (demo, …): exit 1
             argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
@@ -418,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
     except input_errors as exc:
         print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
         return 2
-    except CheckFailed as exc:
+    except check_errors as exc:
         print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

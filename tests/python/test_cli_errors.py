@@ -120,13 +120,58 @@ BAD = [
     (SIM + ["lexos", "blocked-link", "--out", "{dir}/afile/x.csv"], ["afile"]),
     (["demo", "lexos", "--out", "{dir}/afile"], ["--out", "not a folder"]),
     (["demo", "no_such_twin", "--out", "{dir}/d"], ["no bundled device"]),
+    # --- issue 22: cases that were internal errors (exit 3); {in} holds good and bad input files
+    (["identify", "lexos", "{in}/lexos.parquet", "--out", "{in}/afolder.json", "--quiet"], ["--out", "is a folder"]),
+    (["identify", "lexos", "{in}/lexos.parquet", "--out", "/proc/p.json", "--quiet"], ["--out", "/proc"]),
+    (["identify", "lexos", "{in}/lexos.parquet", "--report", "{dir}/afile", "--quiet"], ["--report", "not a folder"]),
+    (["identify", "lexos", "{in}/lexos.parquet", "{in}/lexos.parquet", "--scheduler", "tcp://127.0.0.1:9",
+      "--quiet"], ["--scheduler", "cannot reach", "127.0.0.1:9"]),
+    (["identify", "lexos", "{in}/deep.csv", "--quiet"], ["deep.csv", "meta", "nested deeper"]),
+    (["identify-friction", "mcgill_bench", "{in}/lexos.parquet", "--out", "{dir}/f.json"],
+     ["device", "no cable transmissions"]),
+    (["decompose", "mcgill_bench", "{in}/deep.json"], ["device", "no cable transmissions"]),
+    (["plan", "constant-velocity", "mcgill_bench", "--transmission", "1", "--out", "{dir}/r.csv"],
+     ["device", "no cable transmissions"]),
+    (["decompose", "lexos", "{in}/deep.json"], ["deep.json", "nested deeper"]),
+    (["maps", "lexos", "--friction", "{in}/deep.json"], ["deep.json", "nested deeper"]),
+    (["maps", "cea_branch", "{in}/deepobj.json"], ["deepobj.json", "nested deeper"]),
+    (["maps", "lexos", "--report", "{dir}/afile"], ["--report", "not a folder"]),
+    (["pipeline", "s0", "--report", "{dir}/afile", "--quick"], ["--report", "not a folder"]),
+    (SIM + ["tx40", "exciting", "--out", "{out}"], ["device", "tx40", "geared actuators"]),
+    (SIM + ["lexos", "blocked-link", "--out", "/proc/x.csv"], ["/proc"]),
+    (["demo", "lexos", "--out", "/proc/demo"], ["--out", "/proc"]),
+    (["export", "transmission", "lexos", "--out", "/proc/x.model"], ["--out", "/proc"]),
+    (["sweep", "mcgill_bench", "--param", "k1=1:2:1000000000", "--out", "{dir}/s.parquet"], ["--param", "10000"]),
+    (["sweep", "mcgill_bench", "--workers", "100000", "--param", "k1=1:2:2", "--out", "{dir}/s.parquet"],
+     ["--workers"]),
+    (["log", "import", "{in}/latin1.csv", "--map", "{in}/map.toml", "--out", "{out}"], ["latin1.csv", "not UTF-8"]),
+    (["log", "import", "{in}/raw.csv", "--map", "{in}/map_delimiter.toml", "--out", "{out}"], ["log.delimiter"]),
 ]
 
 
-def _fill(argv, tmp_path):
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    """Input files of the table: a short simulated L-EXOS log, JSON and CSV files that are bad in one way."""
+    folder = tmp_path_factory.mktemp("inputs")
+    assert main(SIM + ["lexos", "exciting", "--duration", "1", "--out", str(folder / "lexos.parquet"), "--quiet"]) == 0
+    deep = "[" * 100000 + "]" * 100000
+    (folder / "deep.json").write_text(deep)
+    (folder / "deepobj.json").write_text('{"params": ' + deep + "}")
+    (folder / "deep.csv").write_text('# tendyn-log {"x": ' + deep + "}\ntime [s]\n0\n")
+    (folder / "afolder.json").mkdir()
+    (folder / "latin1.csv").write_bytes("a\n1\n\xe9\n".encode("latin-1"))
+    (folder / "raw.csv").write_text("a\n1\n2\n")
+    head = 'schema = 1\n[log]\ndevice = "x"\nexperiment = "e"\nrate_hz = 100.0\n'
+    sig = '[[signals]]\ncolumn = "a"\nsignal = "q_motor_1"\n'
+    (folder / "map.toml").write_text(head + sig)
+    (folder / "map_delimiter.toml").write_text(head + 'delimiter = ";;"\n' + sig)
+    return folder
+
+
+def _fill(argv, tmp_path, inputs=None):
     (tmp_path / "afile").write_text("not a folder")
     out = str(tmp_path / "run.parquet")
-    return [a.replace("{out}", out).replace("{dir}", str(tmp_path)) for a in argv]
+    return [a.replace("{out}", out).replace("{dir}", str(tmp_path)).replace("{in}", str(inputs)) for a in argv]
 
 
 def test_the_table_is_large():
@@ -135,8 +180,8 @@ def test_the_table_is_large():
 
 
 @pytest.mark.parametrize("argv, words", BAD, ids=[" ".join(a[1:4]) + f"#{i}" for i, (a, _) in enumerate(BAD)])
-def test_bad_input_is_one_line_exit_2_nothing_written(argv, words, tmp_path, capsys):
-    code = main(_fill(argv, tmp_path))
+def test_bad_input_is_one_line_exit_2_nothing_written(argv, words, tmp_path, capsys, inputs):
+    code = main(_fill(argv, tmp_path, inputs))
     cap = capsys.readouterr()
     lines = cap.err.strip().splitlines()
     assert code == 2, cap.err
@@ -273,3 +318,15 @@ def test_a_value_error_that_mentions_divergence_is_not_taken_for_a_diverged_run(
     code = main(["simulate", "cea_branch", "blocked-link", "--joint", "1", "--out", str(tmp_path / "x.parquet"),
                  "--quiet"])
     assert code == 3
+
+
+def test_toml_nested_too_deep_is_a_bad_file(tmp_path, capsys):
+    """A device file or an import map `a = [[[[…` 100 000 deep: one line, exit 2 (was a RecursionError, exit 3)."""
+    deep = tmp_path / "deep.toml"
+    deep.write_text("a = " + "[" * 100000 + "]" * 100000)
+    (tmp_path / "raw.csv").write_text("a\n1\n2\n")
+    for argv in (["routing", "show", str(deep)],
+                 ["log", "import", str(tmp_path / "raw.csv"), "--map", str(deep), "--out", str(tmp_path / "l.csv")]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "deep.toml" in err[0] and "nested too deeply" in err[0], err

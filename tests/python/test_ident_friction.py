@@ -438,3 +438,18 @@ def test_identify_friction_record_adds_the_fit_to_the_calibration_history(compar
     assert len(rows) == 8
     assert rows["C_m0[2]"]["value"] == doc["coulomb_motor"][1]
     assert rows["nu[4]"]["sigma"] == doc["fits"][3]["viscous_motor_std"]
+
+
+def test_negative_friction_is_refused_by_decompose_not_split_into_negative_branches(friction_doc, tmp_path, capsys):
+    """A FRICTION.json with a negative Coulomb value was decomposed into τ0 = −6.25 N (issue 22): decompose (and
+    maps) read it with physical=True: exit 2, one line naming the field."""
+    from tendyn.cli import main
+
+    doc = json.loads(json.dumps(friction_doc))
+    doc["coulomb_motor"][1] = doc["fits"][1]["coulomb_motor"] = -0.05
+    bad = tmp_path / "negative.json"
+    bad.write_text(json.dumps(doc))
+    assert main(["decompose", "lexos", str(bad), "--json"]) == 2
+    cap = capsys.readouterr()
+    err = cap.err.strip().splitlines()
+    assert len(err) == 1 and "negative.json" in err[0] and "coulomb_motor[2]: must be >= 0" in err[0] and not cap.out

@@ -139,7 +139,7 @@ def test_csv_by_hand_is_read(tmp_path):
 
 
 def test_parquet_integer_columns_are_read(tmp_path):
-    meta = dict(small_log().meta)
+    meta = dict(small_log().meta, rate_hz=1.0)      # integer seconds: 1 Hz (the rate must match the time column)
     table = pa.table({"time": pa.array([0, 1, 2], pa.int64()), "q_motor_1": pa.array([0.0, 1.0, 2.0], pa.float32())})
     table = table.replace_schema_metadata({b"tendyn": json.dumps(meta).encode()})
     p = tmp_path / "ints.parquet"
@@ -209,12 +209,12 @@ def test_log_accessors(rng):
 
 def test_make_log_converts():
     log = make_log({"q_motor_1": [1, 2, 3], "time": np.array([0, 1, 2], dtype=np.int32)}, device="d",
-                   rate_hz=np.float32(100), seed=np.int64(7), experiment="e",
+                   rate_hz=np.float32(1), seed=np.int64(7), experiment="e",
                    options={"gains": (1, 2), "k": np.float64(0.5), "arr": np.arange(2)})
     assert list(log.columns) == ["time", "q_motor_1"]
     assert all(a.dtype == np.float64 for a in log.columns.values())
     assert log.meta["seed"] == 7 and type(log.meta["seed"]) is int
-    assert log.meta["rate_hz"] == 100.0 and type(log.meta["rate_hz"]) is float
+    assert log.meta["rate_hz"] == 1.0 and type(log.meta["rate_hz"]) is float
     assert log.meta["options"] == {"gains": [1, 2], "k": 0.5, "arr": [0, 1]}
     src = np.zeros(3)
     log2 = make_log({"time": np.arange(3.0), "q_motor_1": src}, device="d", rate_hz=1.0, seed=None, experiment="e")

@@ -444,3 +444,17 @@ def test_sweep_cli_unreachable_scheduler_is_a_usage_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "--scheduler" in err and "Traceback" not in err
     assert not (tmp_path / "t.parquet").exists()
+
+
+def test_C15_backdriven_inertia_is_the_two_mass_plants_own_low_frequency_limit(params):
+    """C15's back-driven inertia r² I_M (not r I_M) against the plant itself (issue 22): with a free load (k_z → 0)
+    and a stiff tendon, G = F_m/F_τ → I_c / (r² I_M + I_c) above the damping pole r² B / (r² I_M + I_c), so the
+    motor-side mass the load feels is I_c (1/|G(jω)| − 1), read from the plant's frequency response."""
+    rt = sp1.ratio_tradeoff(params)
+    for k in (0, len(rt.r) // 2, len(rt.r) - 1):
+        r = float(rt.r[k])
+        p = params.replace(r=r, k_z=1e-3, k1=1e10, k2=1e10)
+        m = r**2 * p.I_M + p.I_c
+        w = 100.0 * r**2 * p.B / m                             # far above the damping pole, far below k_e's
+        G = abs(ls.freqresp(sp1.TendonDrivePlant(p).tf(), omega=[w])[0])
+        assert rt.backdriven_mass_kg[k] == pytest.approx(p.I_c * (1.0 / G - 1.0), rel=1e-3)

@@ -76,3 +76,20 @@ def test_urdf_with_continuous_joint_is_refused(tmp_path):
     with pytest.raises(DeviceError, match="one-DOF"):
         joint_frames(load_device(tmp_path / "lexos_urdf.toml"))
     assert dev is not None
+
+
+@pytest.mark.parametrize("old, new, words", [
+    ('<mass value="', '<mass value="nan" old="', "<mass>: must be a finite number >= 0"),
+    ('<mass value="', '<mass value="-1" old="', "<mass>: must be a finite number >= 0"),
+    ('ixx="', 'ixx="inf" old="', "<inertia>: ixx … iyz must be finite"),
+    ('ixx="', 'ixx="-5" old="', "not a physical inertia"),
+    ('<origin xyz="', '<origin xyz="nan 0 0" old="', "<inertial><origin>: xyz and rpy must be finite"),
+])
+def test_urdf_with_an_impossible_inertial_is_refused_at_load(tmp_path, old, new, words):
+    """A URDF `<mass value="nan">` loaded (Pinocchio keeps it): refused naming the file, the link and the field."""
+    urdf_device(tmp_path, load_device(bundled("lexos")))
+    text = (tmp_path / "lexos.urdf").read_text().replace(old, new, 1)
+    (tmp_path / "lexos.urdf").write_text(text)
+    with pytest.raises(DeviceError, match="lexos.urdf: link 'shoulder_abduction_link'") as info:
+        load_device(tmp_path / "lexos_urdf.toml")
+    assert words in str(info.value)

@@ -153,10 +153,12 @@ class OperationalModel:
         Base parameters (:func:`read_params`); None: the twin's true ones (:func:`true_params`).
     stiffness_motor : sequence of float, optional
         Capstan stiffness K_T per drive [N·m/rad], motor side (identified, C31); default the device's.
+    force : bool
+        Use parameters whose document names another device.
     """
 
-    def __init__(self, device, params=None, stiffness_motor=None):
-        from tendyn.device.closed_loop import drive_parameters
+    def __init__(self, device, params=None, stiffness_motor=None, force: bool = False):
+        from tendyn.device.closed_loop import base_parameters, drive_parameters
         from tendyn.device.rigid_body import standard_parameters, tree_joint_numbers
 
         self.compiled = compile_device(device)
@@ -164,10 +166,11 @@ class OperationalModel:
         if dev.kind != "serial" or not dev.drives:
             raise ValueError(f"{dev.name}: the operational maps need capstan drives ([[drives]]: N, K_T, K_E)")
         self.device = dev
-        self.params = true_params(self.compiled) if params is None else read_params(params)
         numbers = tree_joint_numbers(dev)
         self.active_numbers = [numbers[k] for k in self.compiled.active_joints]
         names = standard_parameters(dev)[0] + drive_parameters(dev)[0]   # the columns of active_regressor
+        self.params = true_params(self.compiled) if params is None else read_params(
+            params, dev, force, standard_names=names, base_names=base_parameters(self.compiled).names)
         self.standard_names = tuple(names)
         self._drive_rows = [self.active_numbers.index(d.joint) for d in dev.drives]
         self._pm = self.compiled.pinocchio_model
@@ -177,10 +180,7 @@ class OperationalModel:
         self.columns = []
         for i, p in enumerate(self.params):
             lead = p["expression"].split()[0].lstrip("+")
-            if lead not in idx:
-                raise ParamsError(f"{p['expression'].split()[0]!r} is not a standard parameter of {dev.name} "
-                                  f"(known: {', '.join(names[:6])}, …)", f"params[{i}].expression")
-            k = idx[lead]
+            k = idx[lead]                           # a standard parameter: read_params checked it
             if k in self.columns:
                 raise ParamsError(f"two parameters use the column {lead}", f"params[{i}].expression")
             self.columns.append(k)

@@ -58,6 +58,31 @@ def out_path(suffixes):
         parent = p.parent if str(p.parent) else Path(".")
         if not parent.is_dir():
             raise argparse.ArgumentTypeError(f"folder {parent} does not exist")
+        from tendyn.io.files import creatable
+
+        if creatable(p)[1]:                     # /proc, a read-only mount, no permission
+            raise argparse.ArgumentTypeError(f"cannot write into the folder {parent}")
         return p
     convert.__name__ = "path"
     return convert
+
+
+def not_an_input(out: Path, inputs, option: str = "out") -> Path:
+    """Refuse an output path that is one of the command's input files (it would overwrite, e.g., a lab's raw CSV)."""
+    from tendyn.errors import UsageError
+
+    out = Path(out)
+    for p in inputs:
+        same = out.resolve() == Path(p).resolve() or (out.exists() and Path(p).exists() and out.samefile(p))
+        if same:                                # the same path, or another name of the same file (a link)
+            raise UsageError(f"{out} is also an input file: it would be overwritten; write elsewhere", option)
+    return out
+
+
+def refuse_other_device(source, named, dev, force: bool = False) -> None:
+    """Refuse a file about another device (``named`` is the device it names) unless ``--force``."""
+    from tendyn.errors import UsageError
+
+    if not force and not dev.is_named(named):
+        raise UsageError(f"{source}: is about the device {named!r}, not {dev.name!r}; give the file of this device "
+                         "(or --force to use it anyway)")

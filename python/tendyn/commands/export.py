@@ -59,13 +59,11 @@ def add_arguments(subparsers) -> argparse.ArgumentParser:
 
 
 def run_export(args) -> int:
-    from tendyn.commands.s0 import _load_device, _print_json
+    from tendyn.commands.s0 import _print_json, cable_device
     from tendyn.control import Compensator
     from tendyn.ident.loss_model import LossModelError, identified_losses
 
-    dev = _load_device(args.device)
-    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
-        raise UsageError(f"{dev.name} has no cable transmissions to export", "device")
+    dev = cable_device(args.device, "to export")
     if args.kind == "compensator" and args.friction is None:
         raise UsageError("a compensator is exported from identified friction (tendyn identify-friction); "
                          "without it, Compensator.from_device(device).export(path) uses the device file's "

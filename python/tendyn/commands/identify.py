@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number
+from tendyn.commands.args import existing_file, number, out_path, refuse_other_device
 from tendyn.commands.history import add_record_arguments, check_record, record_result
 from tendyn.errors import UsageError
 
@@ -15,7 +15,7 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("identify", help="identify the base dynamic parameters from logs (IDIM least squares)")
     p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
     p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
-    p.add_argument("--out", help="parameters file (.json)")
+    p.add_argument("--out", type=out_path((".json",)), help="parameters file (.json)")
     p.add_argument("--method", choices=("ols", "wls"), default="ols", help="ordinary or weighted least squares")
     p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
     p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
@@ -37,6 +37,7 @@ def register(subparsers) -> None:
                    help="Dask scheduler for a campaign of several logs (default: a local cluster; 'none': in process)")
     p.add_argument("--stream", action="store_true",
                    help="identify a Parquet log too large for memory chunk by chunk (normal equations, no W held)")
+    p.add_argument("--force", action="store_true", help="use logs whose meta names another device")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
@@ -86,6 +87,10 @@ def cmd_identify(args) -> int:
     if args.out is not None and Path(args.out).suffix.lower() != ".json":
         raise UsageError(f"must end in .json (got {args.out})", "out")
     check_record(args)
+    if args.report is not None:                 # checked before the fit, like --out (type=out_path)
+        from tendyn.cli import _check_out_folder
+
+        _check_out_folder(args.report, "report")
     if args.stream:
         return _identify_stream(dev, args)
     from tendyn.ident.estimate import cached_model
@@ -94,6 +99,7 @@ def cmd_identify(args) -> int:
     logs = [read_log(p) for p in args.logs]     # read here: a bad log is exit 2 before any work
     model = cached_model(dev)
     for path, log in zip(args.logs, logs):      # the signals identification needs, named with their file
+        refuse_other_device(path.name, log.meta["device"], dev, args.force)
         try:
             model.joint_signals(log)
         except LogError as exc:
@@ -107,6 +113,8 @@ def cmd_identify(args) -> int:
                parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto")
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
+    except ConnectionError as exc:
+        raise UsageError(str(exc), "scheduler") from None
     except ValueError as exc:
         if type(exc).__name__ in ("LogError",):
             raise

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
-from tendyn.commands.args import existing_file
+from tendyn.commands.args import existing_file, not_an_input
 
 
 def register(subparsers) -> None:
@@ -23,7 +23,7 @@ def cmd_log_import(args) -> int:
     from tendyn.io import check_log_path, write_log
     from tendyn.io.importer import import_logs
 
-    out = check_log_path(args.out)
+    out = not_an_input(check_log_path(args.out), [*args.raw, args.map])
     log = import_logs(args.raw, args.map)
     write_log(log, out)
     summary = {"out": str(out), "n_samples": log.n_samples, "rate_hz": log.meta["rate_hz"],

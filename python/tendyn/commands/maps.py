@@ -8,6 +8,8 @@ device file or PARAMS.json, friction from the device file or FRICTION.json (:mod
 
 from __future__ import annotations
 
+import numpy as np
+
 from tendyn.commands.args import existing_file, number, numbers
 from tendyn.errors import UsageError
 
@@ -32,6 +34,7 @@ def register(subparsers) -> None:
     p.add_argument("--report", default=None, metavar="DIR",
                    help="write the figures (fig8.png, fig9.png; handle_maps.png), maps.json and maps.txt into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    p.add_argument("--force", action="store_true", help="use a PARAMS.json whose document names another device")
     p.set_defaults(func=run)
 
 
@@ -60,9 +63,10 @@ def run(args) -> int:
     if args.stiffness is not None and len(args.stiffness) != len(dev.drives):
         raise UsageError(f"needs one value per drive of {dev.name}: {len(dev.drives)} values (got "
                          f"{len(args.stiffness)})", "stiffness")
-    out = _check_out_folder(args.report) if args.report else None
+    out = _check_out_folder(args.report, "report") if args.report else None
     try:
-        model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness)
+        model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness, force=args.force)
+        refuse_impossible_inertia(model.mass_matrix, model.handle, args.params)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(args.params), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
@@ -83,7 +87,7 @@ def _run_handle(args, dev) -> int:
         if getattr(args, opt) is not None:
             raise UsageError(f"applies to capstan drives only; {dev.name} has "
                              f"{'cable transmissions' if dev.transmissions else 'geared actuators'}", opt)
-    out = _check_out_folder(args.report) if args.report else None
+    out = _check_out_folder(args.report, "report") if args.report else None
     kw, sources = {}, {}
     if args.friction is not None:
         from tendyn.ident.friction_file import FrictionFileError, read_friction
@@ -91,17 +95,13 @@ def _run_handle(args, dev) -> int:
         if not dev.transmissions:
             raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
         try:
-            doc = read_friction(args.friction, device=dev)
+            doc = read_friction(args.friction, device=dev, physical=True)
         except FrictionFileError as exc:
             raise UsageError(str(exc)) from None
-        for key in ("coulomb_motor", "viscous_motor"):
-            bad = [k + 1 for k, v in enumerate(doc[key]) if v < 0]
-            if bad:
-                raise UsageError(f"{args.friction}: {key}[{bad[0]}]: must be >= 0 (got {doc[key][bad[0] - 1]!r})")
         kw.update(coulomb_motor=doc["coulomb_motor"], viscous_motor=doc["viscous_motor"])
         sources["friction"] = f"identified: {args.friction} ({doc['format']})"
     if args.params is not None:
-        kw["mass_matrix"] = _identified_mass_matrix(dev, args.params)
+        kw["mass_matrix"] = _identified_mass_matrix(dev, args.params, args.force)
         sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
     try:
         maps = handle_maps(dev, points=args.points, sources=sources, **kw)
@@ -113,19 +113,36 @@ def _run_handle(args, dev) -> int:
     return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")
 
 
-def _identified_mass_matrix(dev, path):
+def _identified_mass_matrix(dev, path, force=False):
     """q ↦ A(q) [kg·m²] from the base parameters of PARAMS.json, through the identification model's regressor."""
+    from tendyn.analysis.handle_point import HandlePoint
     from tendyn.analysis.operational import ParamsError, read_params
+    from tendyn.device import compile_device
     from tendyn.ident import IdentModel
 
+    model = IdentModel(dev)
     try:
-        params = read_params(str(path))
+        params = read_params(str(path), dev, force, standard_names=model.standard_names, base_names=model.base.names)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(path), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
-    model = IdentModel(dev)
     try:
         x = model.parameter_vector(params)
     except ValueError as exc:
         raise UsageError(f"{path}: {exc}") from None
+    refuse_impossible_inertia(lambda q: model.mass_matrix(q, x), HandlePoint(compile_device(dev)), path)
     return lambda q: model.mass_matrix(q, x)
+
+
+def refuse_impossible_inertia(mass_matrix, handle, path) -> None:
+    """Refuse identified parameters whose joint mass matrix A(q) [kg·m²] is not positive definite at the middle of
+    the joint limits: the kinetic energy ½ q̇ᵀ A q̇ of a real device is positive, so all-zero or negative inertias
+    are impossible (the maps would report 0 kg, or |eigenvalues| of a negative matrix as kilograms)."""
+    lo, hi = handle.active_limits()
+    q = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+    A = np.asarray(mass_matrix(q), float)
+    smallest = float(np.linalg.eigvalsh(0.5 * (A + A.T)).min()) if np.all(np.isfinite(A)) else float("nan")
+    if not smallest > 0.0:
+        raise UsageError(f"{path}: the parameters give a joint mass matrix that is not positive definite at "
+                         f"q = {np.round(q, 3).tolist()} rad (smallest eigenvalue {smallest:.3g} kg·m²): "
+                         "physically impossible inertias (zero or negative)")

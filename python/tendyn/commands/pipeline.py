@@ -39,6 +39,10 @@ def _dispatch(args) -> int:
         raise UsageError(f"unknown pipeline {args.name!r} (known: {', '.join(sorted(PIPELINES)) or 'none'})", "name")
     if args.device is None:
         args.device = p.default_device
+    if args.report is not None:                 # before the work: a file or an unwritable place is exit 2
+        from tendyn.cli import _check_out_folder
+
+        _check_out_folder(args.report, "report")
     return p.run(args)
 
 

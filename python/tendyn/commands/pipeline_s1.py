@@ -19,7 +19,7 @@ def run(args) -> int:
     dev = _load(args.device)
     if dev.kind != "tendon_bench_2n":
         raise UsageError(f"{dev.name} is a {dev.kind} device; pipeline s1 needs a tendon bench", "device")
-    out = _check_out_folder(args.report) if args.report else None
+    out = _check_out_folder(args.report, "report") if args.report else None
     report = run_s1(dev, quick=args.quick, progress=say)
     return publish(args, dict(report.summary), report.table(), {"s1_frf": report, **report.figures}, out, "s1.json")
 

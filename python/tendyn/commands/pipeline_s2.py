@@ -14,7 +14,7 @@ def run(args) -> int:
     dev = _load(args.device)
     if dev.kind != "serial" or not dev.drives:
         raise UsageError(f"{dev.name} has no capstan [[drives]]; pipeline s2 needs a device like cea_branch", "device")
-    out = _check_out_folder(args.report) if args.report else None
+    out = _check_out_folder(args.report, "report") if args.report else None
     report = run_s2(dev, quick=args.quick, progress=say)
     return publish(args, dict(report.summary), report.table(), report.figures, out, "s2.json", "s2.txt")
 

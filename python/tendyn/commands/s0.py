@@ -40,6 +40,15 @@ def _load_device(text: str):
     return load_device(bundled(text))
 
 
+def cable_device(text: str, what: str):
+    """:func:`_load_device`, refusing a device without cable transmissions (a tendon bench, capstan drives,
+    geared actuators) with one line: ``what`` says what needs them."""
+    dev = _load_device(text)
+    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
+        raise UsageError(f"{dev.name} has no cable transmissions {what}", "device")
+    return dev
+
+
 def _print_json(doc) -> None:
     from tendyn.io import to_jsonable
 
@@ -121,9 +130,7 @@ def run_plan(args) -> int:
     for name in ("device", "transmission"):
         if getattr(args, name) is None:
             raise UsageError("required for `plan constant-velocity`", name)
-    dev = _load_device(args.device)
-    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
-        raise UsageError(f"{dev.name} has no tendon transmissions to plan a constant-velocity test for", "device")
+    dev = cable_device(args.device, "to plan a constant-velocity test for")
     test = plan_test(dev, args.transmission, args.strategy, args.speeds, args.travel, args.accel, args.q0,
                      args.loads)
     log = plan_constant_velocity(dev, test, args.rate)
@@ -184,7 +191,7 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
     n = device.n_transmissions
     groups: dict[int, list] = {}
     for name, log in zip(names, logs):
-        if log.meta.get("device") not in (device.name, str(getattr(device, "path", ""))):
+        if not device.is_named(log.meta.get("device")):
             raise UsageError(f"{name}: the log is about {log.meta.get('device')!r}, not {device.name!r}")
         t = log_transmission(log)
         if not 1 <= t <= n:
@@ -224,9 +231,7 @@ def run_identify_friction(args) -> int:
 
     from tendyn.commands.history import check_record, record_result
 
-    dev = _load_device(args.device)
-    if dev.n_transmissions == 0:
-        raise UsageError(f"{dev.name} has no tendon transmissions", "device")
+    dev = cable_device(args.device, "to identify friction of")
     check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
@@ -282,11 +287,9 @@ def run_decompose(args) -> int:
     from tendyn.ident.decomposition import SharesError, decompose, read_shares
     from tendyn.ident.friction_file import FrictionFileError, read_friction
 
-    dev = _load_device(args.device)
-    if dev.n_transmissions == 0:
-        raise UsageError(f"{dev.name} has no tendon transmissions", "device")
+    dev = cable_device(args.device, "to decompose friction into")
     try:
-        doc = read_friction(args.friction, device=dev)
+        doc = read_friction(args.friction, device=dev, physical=True)
         p = pp = None
         if args.shares is not None:
             p, pp = read_shares(args.shares, dev)

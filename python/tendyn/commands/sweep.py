@@ -3,10 +3,15 @@
 
 from __future__ import annotations
 
+import math
+import os
 from pathlib import Path
 
-from tendyn.commands.args import numbers
+from tendyn.commands.args import number, numbers
 from tendyn.errors import UsageError
+
+MAX_WORKERS = 4 * (os.cpu_count() or 1)
+"""Most workers of a local cluster: more processes than this only wait for the CPUs (100 000 took minutes to set up)."""
 
 
 def register(subparsers) -> None:
@@ -23,7 +28,8 @@ def register(subparsers) -> None:
     p.add_argument("--metric", choices=METRICS, default=None,
                    help="metric drawn over the grid [default: peak_shift_hz, closed_loop_spread_db with --loop closed]")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler [default: a local cluster]")
-    p.add_argument("--workers", type=int, default=2, help="workers of the local cluster [default: 2]")
+    p.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
+                   help=f"workers of the local cluster, 1 … {MAX_WORKERS} (4 per CPU) [default: 2]")
     p.add_argument("--out", required=True, help="table (.parquet); the figure goes beside it (.png)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
@@ -32,7 +38,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from tendyn.cli import _load, _print_json
-    from tendyn.pipelines.sweep import parse_param, run_sweep, write_outputs
+    from tendyn.pipelines.sweep import MAX_DESIGNS, parse_param, run_sweep, write_outputs
     from tendyn.sim.tendon_bench import bench_model
 
     dev = _load(args.device)
@@ -55,13 +61,14 @@ def run(args) -> int:
             except ValueError as exc:
                 raise UsageError(f"{name}={value:g}: {exc}", "param") from None
         params[name] = grid
+    designs = math.prod(len(g) for g in params.values())
+    if designs > MAX_DESIGNS:
+        raise UsageError(f"{designs} designs: at most {MAX_DESIGNS} per sweep (MAX_DESIGNS)", "param")
     out = Path(args.out)
     if out.suffix.lower() != ".parquet":
         raise UsageError(f"{out}: the table must be a .parquet file", "out")
     if not out.parent.exists() or not out.parent.is_dir():
         raise UsageError(f"{out.parent}: folder not found", "out")
-    if args.workers < 1:
-        raise UsageError(f"must be >= 1 (got {args.workers})", "workers")
     metric = args.metric or ("closed_loop_spread_db" if args.loop == "closed" else "peak_shift_hz")
     if metric == "closed_loop_spread_db" and args.loop != "closed":
         raise UsageError("closed_loop_spread_db needs --loop closed", "metric")

@@ -42,5 +42,7 @@ def read_toml(p: Path) -> dict:
         raise DeviceError(f"TOML syntax error: {exc}", file=p.name) from None
     except UnicodeDecodeError as exc:
         raise DeviceError(f"not valid UTF-8 text: {exc}", file=p.name) from None
+    except RecursionError:          # `a = [[[[…` thousands deep
+        raise DeviceError("TOML nested too deeply", file=p.name) from None
     except OSError as exc:
         raise DeviceError(f"cannot read file: {exc.strerror or exc}", file=str(p)) from None

@@ -6,6 +6,7 @@ Only the standard library is used.
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import ClassVar
 
 __all__ = ["EXPERIMENTS", "Device"]
@@ -45,6 +46,13 @@ class Device:
         state = dict(self.__dict__)
         state.pop("_compiled", None)
         return state
+
+    def is_named(self, named) -> bool:
+        """Whether ``named`` (a log's ``meta.device``, a PARAMS.json's or FRICTION.json's ``device``) names this
+        device: its name, its file path or the file's stem (``lexos`` for the bundled ``lexos.toml``)."""
+        path = getattr(self, "path", None)
+        known = {self.name} | ({str(path), Path(path).stem} if path else set())
+        return isinstance(named, str) and named in known
 
     def supports(self, experiment: str) -> bool:
         """Whether ``experiment`` (a CLI experiment name such as ``"stepped-sine"``) runs on this device."""

@@ -543,6 +543,8 @@ class _Parser:
             children.setdefault(par.get("link"), []).append(jt)
             child_links.add(chi.get("link"))
         links = [ln.get("name") for ln in root.findall("link")]
+        for ln in root.findall("link"):
+            self.urdf_inertial(ln, urdf)
         roots = [ln for ln in links if ln not in child_links]
         if len(roots) != 1:
             raise self.err(field, f"{urdf.name}: expected one root link, found {len(roots)} ({', '.join(roots)})")
@@ -575,6 +577,40 @@ class _Parser:
         if not out:
             raise self.err(field, f"{urdf.name}: no movable joint")
         return tuple(out)
+
+    def urdf_inertial(self, link: ET.Element, urdf: Path) -> None:
+        """Refuse a link's <inertial> that is not physical: a mass, origin or inertia entry that is not a finite
+        number, a negative mass, an inertia that is not positive semidefinite or breaks the triangle inequality
+        (Pinocchio would load `<mass value="nan">` as it is)."""
+        inertial = link.find("inertial")
+        if inertial is None:
+            return
+        where = f"kinematics.urdf: {urdf.name}: link {link.get('name')!r}"
+
+        def numbers(elem, keys):
+            try:
+                vals = [float(v) for v in keys(elem)]
+            except ValueError:
+                vals = [math.nan]
+            return vals
+
+        mass = inertial.find("mass")
+        if mass is not None:
+            m = numbers(mass, lambda e: [e.get("value", "0")])[0]
+            if not (math.isfinite(m) and m >= 0.0):
+                raise self.err(f"{where} <mass>", f"must be a finite number >= 0 [kg] (got {mass.get('value')!r})")
+        origin = inertial.find("origin")
+        if origin is not None:
+            vals = numbers(origin, lambda e: (e.get("xyz", "0 0 0") + " " + e.get("rpy", "0 0 0")).split())
+            if not all(math.isfinite(v) for v in vals):
+                raise self.err(f"{where} <inertial><origin>", "xyz and rpy must be finite numbers")
+        tensor = inertial.find("inertia")
+        if tensor is not None:
+            keys = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
+            vals = numbers(tensor, lambda e: [e.get(k, "0") for k in keys])
+            if len(vals) != 6 or not all(math.isfinite(v) for v in vals):
+                raise self.err(f"{where} <inertia>", "ixx … iyz must be finite numbers [kg m^2]")
+            self.inertia(tuple(vals), f"{where} <inertia>")
 
     def transmissions(self, raw: Any, kin: Kinematics) -> tuple[TransmissionSpec, ...]:
         if not raw:

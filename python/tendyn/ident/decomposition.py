@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from tendyn.ident.friction import branch_speeds, isolated_move_joint_speeds
+from tendyn.io.files import read_json
 from tendyn.results import Result
 
 SHARES_FORMAT = "tendyn.shares/1"
@@ -195,7 +196,7 @@ def read_shares(path, device) -> tuple[np.ndarray, np.ndarray]:
     device must be there."""
     path = Path(path)
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
+        doc = read_json(path)
     except OSError as e:
         raise SharesError(f"cannot read: {e.strerror or e}", file=path) from None
     except json.JSONDecodeError as e:

@@ -106,6 +106,7 @@ class IdentificationResult(Result):
         self.crossval = crossval
         self.units = list(units) if units is not None else [unit_of(n) for n in self.names]
         self.warnings = implausible(self.names, self.values, self.stderr, self.units)
+        self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
@@ -119,7 +120,8 @@ class IdentificationResult(Result):
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
-                "params": params, "crossval": self.crossval, "warnings": list(self.warnings),
+                "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
+                "warnings": list(self.warnings),
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -305,7 +307,9 @@ class IDIM:
                                processes=True, dashboard_address=None)
             client = Client(own)
         else:
-            client = Client(self.scheduler)
+            from tendyn.ident.cluster import connect_scheduler
+
+            client = connect_scheduler(self.scheduler)     # ConnectionError naming the address
         try:
             futures = [client.submit(_treat_log, dev, log, parts, settings, pure=False) for log in logs]
             index = {f.key: i for i, f in enumerate(futures)}
@@ -402,6 +406,7 @@ class IDIM:
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
                                             model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
+        self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self._cols = cols
         return self
 

@@ -13,6 +13,8 @@ import json
 import math
 from pathlib import Path
 
+from tendyn.io.files import read_json
+
 FORMAT = "tendyn.friction/1"
 
 
@@ -60,19 +62,17 @@ def write_friction(doc: dict, path) -> Path:
     return path
 
 
-def read_friction(path, device=None) -> dict:
+def read_friction(path, device=None, physical: bool = False) -> dict:
     """Read and validate a FRICTION.json; with ``device`` also check it is about that device and has
-    exactly its transmissions."""
+    exactly its transmissions; ``physical``: no negative friction (:func:`validate_friction`)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        doc = read_json(path, parse_constant=lambda c: float(c))
     except OSError as e:
         raise FrictionFileError(f"cannot read: {e.strerror or e}", file=path) from None
-    try:
-        doc = json.loads(text, parse_constant=lambda c: float(c))
     except json.JSONDecodeError as e:
         raise FrictionFileError(f"not JSON: {e.msg} (line {e.lineno})", file=path) from None
-    validate_friction(doc, device=device, source=path)
+    validate_friction(doc, device=device, source=path, physical=physical)
     return doc
 
 
@@ -80,8 +80,10 @@ def _finite(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
-def validate_friction(doc, device=None, source=None) -> dict:
-    """Check a friction document; raise :class:`FrictionFileError` naming the first bad field."""
+def validate_friction(doc, device=None, source=None, physical: bool = False) -> dict:
+    """Check a friction document; raise :class:`FrictionFileError` naming the first bad field. ``physical``: also
+    refuse a negative ``coulomb_motor`` or ``viscous_motor`` (a fit may come out negative; a model that uses it
+    must not: a negative τ0 or ν would push the motion)."""
     def bad(field, problem):
         raise FrictionFileError(problem, file=source, field=field)
 
@@ -112,6 +114,8 @@ def validate_friction(doc, device=None, source=None) -> dict:
         for k, x in enumerate(arr):
             if not _finite(x):
                 bad(f"{key}[{k + 1}]", f"must be a finite number (got {x!r})")
+            if physical and x < 0:
+                bad(f"{key}[{k + 1}]", f"must be >= 0 (got {x!r}): negative friction is not physical")
     load = doc.get("load_coefficient")   # optional: files of tendyn < 0.2 and fits without a load term
     if load is not None:
         if not isinstance(load, list) or len(load) != n:

@@ -35,6 +35,7 @@ from typing import Mapping
 import numpy as np
 
 from tendyn.results import Result, format_table
+from tendyn.io.files import read_json
 
 __all__ = ["LOSS_TERMS", "IdentifiedLosses", "LossModelError", "identified_losses"]
 
@@ -123,7 +124,7 @@ def _read(friction) -> tuple[Mapping, str]:
     if isinstance(friction, (str, Path)):
         path = Path(friction)
         try:
-            return json.loads(path.read_text(encoding="utf-8")), path.name
+            return read_json(path), path.name
         except OSError as exc:
             raise LossModelError(f"cannot read: {exc.strerror or exc}", source=path) from None
         except (json.JSONDecodeError, UnicodeDecodeError, RecursionError) as exc:

@@ -15,6 +15,8 @@ import dataclasses
 import numpy as np
 
 from .estimate import IDIM
+from tendyn.io.files import parse_json
+
 from .model import IdentModel
 from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
                         parallel_filter_taps)
@@ -255,15 +257,13 @@ class StreamingIDIM:
         return IdentifiedModel(cached_model(self.device).device, d["params"], d["method"], d["treatment"])
 
     def fit(self, path):
-        import json
-
         import pyarrow.parquet as pq
 
         from .estimate import IdentificationResult, cached_model
 
         model = cached_model(self.device)
         pf = pq.ParquetFile(str(path))
-        meta = json.loads(pf.schema_arrow.metadata[b"tendyn"].decode())
+        meta = parse_json(pf.schema_arrow.metadata[b"tendyn"].decode())
         # the units of the file's columns (a prismatic joint's in m, N), checked as in memory
         schema = pf.schema_arrow
         model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})

@@ -15,10 +15,13 @@ from __future__ import annotations
 
 import contextlib
 import io
+import json
 import os
 import re
 import secrets
 import shutil
+import sys
+import tempfile
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -222,6 +225,11 @@ def creatable(path) -> tuple[Path, str | None]:
         return parent, "not a folder"
     if not os.access(parent, os.W_OK | os.X_OK):
         return parent, "permission denied"
+    try:    # os.access says yes to root everywhere: /proc and read-only mounts refuse only an actual create
+        with tempfile.TemporaryFile(dir=parent):   # unnamed (O_TMPFILE) where the system has it: nothing shows
+            pass
+    except OSError:
+        return parent, "permission denied"
     return parent, None
 
 
@@ -339,6 +347,28 @@ def all_or_none(folder) -> Iterator[Path]:
 # ----------------------------------------------------------------------------------------------------------
 # JSON
 # ----------------------------------------------------------------------------------------------------------
+
+def parse_json(text: str, **kw):
+    """``json.loads`` for a document a user gives: one nested deeper than the interpreter's recursion limit
+    (~1000 levels; `[[[[…` 100 000 deep) raises :class:`json.JSONDecodeError` like any bad JSON, never a
+    RecursionError, so every reader reports it as a bad file."""
+    try:
+        return json.loads(text, **kw)
+    except RecursionError:
+        raise json.JSONDecodeError(f"nested deeper than {sys.getrecursionlimit()} levels", "", 0) from None
+
+
+def read_json(path, **kw):
+    """Read and parse a JSON file: raises OSError, or :class:`json.JSONDecodeError` for a file that is not UTF-8
+    text, not JSON or nested too deep (:func:`parse_json`)."""
+    data = Path(path).read_bytes()
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise json.JSONDecodeError(f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start})", "",
+                                   0) from None
+    return parse_json(text, **kw)
+
 
 def to_jsonable(value):
     """numpy arrays and scalars → lists and floats, recursively."""

@@ -41,7 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.logs import LINEAR_UNITS, LogError, Log, column_spec, is_generic, make_log
+from tendyn.io.logs import (IMPORT_RATE_SLACK, LINEAR_UNITS, Log, LogError, column_spec, is_generic, make_log,
+                            parse_number, rate_contradicts_time, time_column_rate)
 
 __all__ = ["import_logs", "read_import_map"]
 
@@ -64,6 +65,8 @@ def read_import_map(path) -> dict:
         raw = tomllib.loads(p.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise _err(p, "", f"TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise _err(p, "", "TOML nested too deeply") from None
     for key in raw:
         if key not in ("schema", "log", "signals"):
             raise _err(p, key, "unknown key (expected schema, [log], [[signals]])")
@@ -84,6 +87,9 @@ def read_import_map(path) -> dict:
     if "rate_hz" in log and not (math.isfinite(log["rate_hz"]) and log["rate_hz"] > 0):
         raise _err(p, "log.rate_hz", f"must be finite and > 0 (got {log['rate_hz']!r})")
     log.setdefault("delimiter", ",")
+    if len(log["delimiter"]) != 1 or log["delimiter"] in '"\r\n':
+        raise _err(p, "log.delimiter", f"must be one character other than a quote or a line break "
+                                       f"(got {log['delimiter']!r})")
     log.setdefault("header", True)
     sigs = raw.get("signals")
     if not isinstance(sigs, list) or not sigs:
@@ -148,11 +154,30 @@ def read_import_map(path) -> dict:
 
 
 def _read_csv(path: Path, delimiter: str, header: bool):
+    """Header names and data rows of a RAW file. Comment rows (`#`) may only come before the first row: one
+    among the data would be dropped and, without a time column, shift every later sample by one period."""
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        text = path.read_bytes().decode("utf-8-sig")
     except OSError as exc:
         raise LogError(f"cannot read: {exc.strerror or exc}", file=str(path)) from None
-    rows = [r for r in csv.reader(text.splitlines(), delimiter=delimiter) if r and not r[0].startswith("#")]
+    except UnicodeDecodeError as exc:
+        raise LogError(f"not UTF-8 text (byte 0x{exc.object[exc.start]:02x} at offset {exc.start}): save the "
+                       "CSV as UTF-8", file=str(path)) from None
+    if "\0" in text:
+        raise LogError(f"a NUL byte at line {text[:text.index(chr(0))].count(chr(10)) + 1}: not a text CSV file",
+                       file=str(path))
+    lines = text.splitlines()
+    k = 0
+    while k < len(lines) and (not lines[k].strip() or lines[k].lstrip().startswith("#")):
+        k += 1                                  # leading comments and blank lines
+    rows = []
+    for lineno, row in enumerate(csv.reader(lines[k:], delimiter=delimiter), start=k + 1):
+        if not row:
+            continue
+        if row[0].lstrip().startswith("#"):
+            raise LogError(f"line {lineno}: a comment row among the data rows (comments may only come before "
+                           "the first row: dropping it would shift the samples after it)", file=str(path))
+        rows.append(row)
     names = [c.strip() for c in rows[0]] if header and rows else []
     return names, rows[1:] if header else rows
 
@@ -161,7 +186,12 @@ def import_logs(raw_files, map_path) -> Log:
     """One log from the RAW CSV files and the import map (see the module docstring)."""
     spec = read_import_map(map_path)
     mp = Path(map_path)
-    files = {Path(f).name: Path(f) for f in raw_files}
+    files = {}
+    for f in map(Path, raw_files):
+        if f.name in files:
+            raise _err(mp, "", f"two RAW files are named {f.name} ({files[f.name]} and {f}): the map names files "
+                               "by name, so one would replace the other; rename one")
+        files[f.name] = f
     if not files:
         raise LogError("no RAW file given", file=mp.name)
     cache: dict[str, tuple] = {}
@@ -194,7 +224,7 @@ def import_logs(raw_files, map_path) -> Log:
         vals = np.empty(len(rows))
         for r, row in enumerate(rows):
             try:
-                vals[r] = float(row[k])
+                vals[r] = parse_number(row[k])
             except (ValueError, IndexError):
                 cell = row[k] if k < len(row) else "<missing>"
                 raise LogError(f"value {cell!r} is not a number (mapped to {s['signal']} by {mp.name} {where})",
@@ -206,10 +236,19 @@ def import_logs(raw_files, map_path) -> Log:
                                        "must be sampled on one grid")
         columns[s["signal"]] = s["scale"] * vals + s["offset"]
     rate = spec["log"].get("rate_hz")
+    if not n_rows:
+        raise _err(mp, "", f"no data rows in {', '.join(files)}")
     if "time" not in columns:
         columns["time"] = np.arange(n_rows) / rate
-    elif rate is None:
-        rate = float(1.0 / np.median(np.diff(columns["time"])))
+    elif n_rows < 2:
+        raise _err(mp, "", "one data row: a log needs at least two samples (time and a rate)")
+    else:
+        from_time = time_column_rate(columns["time"])
+        if rate is None:
+            rate = from_time
+        elif rate_contradicts_time(rate, columns["time"], IMPORT_RATE_SLACK):
+            raise _err(mp, "log.rate_hz", f"{rate:g} Hz, but the signal mapped to time is sampled at "
+                                          f"{from_time:g} Hz: remove log.rate_hz or fix the time column's scale")
     options = {"import_map": mp.name, "raw_files": sorted(files)}
     signals = {s["signal"]: s["meta"] for s in spec["signals"] if "meta" in s}
     units = {s["signal"]: s["unit"] for s in spec["signals"] if "unit" in s}

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.files import atomic_write_bytes, creatable, to_jsonable
+from tendyn.io.files import atomic_write_bytes, creatable, parse_json, to_jsonable
 
 __all__ = [
     "COLUMNS",
@@ -302,6 +302,32 @@ OPTIONAL_META_KEYS: dict[str, str] = {
 _ALL_META_KEYS = (*META_KEYS, *OPTIONAL_META_KEYS)
 
 
+def parse_number(cell: str) -> float:
+    """A CSV cell as a float. Python's float() also reads ``1_000`` (as 1000), which no lab file means: refused."""
+    if "_" in cell:
+        raise ValueError(f"{cell!r}: '_' in a number")
+    return float(cell)
+
+
+# How far a declared rate may be from a time column, as a factor on its steps: an import map's rate must match the
+# column (1 %); a log's nominal rate may sit anywhere among irregular steps, but not off them by a factor of 2
+# (`rate_hz = 5000` over a 1 kHz time column is refused on import and on read).
+IMPORT_RATE_SLACK = 1.01
+LOG_RATE_SLACK = 2.0
+
+
+def time_column_rate(time: np.ndarray) -> float:
+    """The sampling rate of a time column [Hz]: 1 / median step (robust to a few jittered samples)."""
+    return float(1.0 / np.median(np.diff(time)))
+
+
+def rate_contradicts_time(rate: float, time: np.ndarray, slack: float) -> bool:
+    """Whether a declared (nominal) rate [Hz] contradicts a time column of two or more samples: its period 1/rate
+    must lie between the shortest step / ``slack`` and the longest step × ``slack``."""
+    steps = np.diff(time)
+    return not (steps.min() / slack <= 1.0 / rate <= steps.max() * slack)
+
+
 def _is_int(x) -> bool:
     return isinstance(x, int) and not isinstance(x, bool)
 
@@ -350,7 +376,7 @@ def _check_meta(meta, source) -> None:
     if not isinstance(options, dict):
         raise bad("options", f"got {options!r} of type {type(options).__name__}")
     try:
-        back = json.loads(_json_text(options))
+        back = parse_json(_json_text(options))
     except (TypeError, ValueError) as exc:
         raise bad("options", f"not JSON-serialisable: {exc}") from None
     if back != options:
@@ -463,6 +489,9 @@ def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
                            f"{float(time[row - 1])!r} s at row {row - 1}", file=source, column="time", row=row,
                            line=line(row))
     _check_meta(meta, source)
+    if n > 1 and rate_contradicts_time(meta["rate_hz"], time, LOG_RATE_SLACK):
+        raise LogError(f"{meta['rate_hz']:g} Hz, but the time column is sampled at {time_column_rate(time):g} Hz",
+                       file=source, column="meta.rate_hz")
     declared = meta.get("signals", {})
     for name in names:
         if is_generic(name) and name not in declared:
@@ -676,7 +705,7 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
         raise LogError(f"got {options!r} of type {type(options).__name__} (expected {META_KEYS['options']})",
                        file=source, column="meta.options")
     try:
-        options = json.loads(_json_text(to_jsonable(options)))
+        options = parse_json(_json_text(to_jsonable(options)))
     except (TypeError, ValueError) as exc:
         raise LogError(f"not JSON-serialisable: {exc}", file=source, column="meta.options") from None
     meta = {"schema": SCHEMA_VERSION, "device": device, "rate_hz": rate_hz, "seed": seed,
@@ -797,7 +826,8 @@ def _parquet_bytes(log: Log) -> bytes:
                                  schema=schema)
     buf = io.BytesIO()
     # no dictionary encoding (float signals rarely repeat; trying it costs 10x the write time)
-    pq.write_table(table, buf, use_dictionary=False, compression="zstd")
+    # page checksums (CRC32 per data page), verified on read: corrupted bytes are refused, never read as data
+    pq.write_table(table, buf, use_dictionary=False, compression="zstd", write_page_checksum=True)
     return buf.getvalue()
 
 
@@ -808,7 +838,7 @@ def _read_parquet(path: Path) -> Log:
 
     source = str(path)
     try:
-        table = pq.read_table(path)
+        table = pq.read_table(path, page_checksum_verification=True)
     except (pa.ArrowException, OSError) as exc:
         raise LogError(f"not a readable Parquet file: {exc}", file=source) from None
     raw = (table.schema.metadata or {}).get(PARQUET_META_KEY)
@@ -816,7 +846,7 @@ def _read_parquet(path: Path) -> Log:
         raise LogError("not a tendyn log: no 'tendyn' meta in the Parquet schema metadata", file=source,
                        column="meta")
     try:
-        meta = json.loads(raw.decode("utf-8"))
+        meta = parse_json(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
     names = list(table.column_names)
@@ -879,7 +909,7 @@ def _read_csv(path: Path) -> Log:
             if meta is not None:
                 raise LogError("a second '# tendyn-log' meta line", file=source, line=k + 1)
             try:
-                meta = json.loads(m.group(1) or "")
+                meta = parse_json(m.group(1) or "")
             except ValueError as exc:
                 raise LogError(f"the meta after '# tendyn-log' is not valid JSON: {exc}", file=source,
                                column="meta", line=k + 1) from None
@@ -911,12 +941,15 @@ def _read_csv(path: Path) -> Log:
     body = lines[k + 1:]
     first = k + 2  # line number of row 0
     rows: list[list[float]] = []
+    parsed = True
     try:
+        if any("_" in line for line in body):
+            raise ValueError("'_' in a number")           # float() would read 1_000 as 1000
         for line in body:
             rows.append([float(x) for x in line.split(",")])
     except ValueError:
-        pass
-    if len(rows) == len(body):
+        parsed = False                                    # the slow path below names the cell
+    if parsed:
         for r, row in enumerate(rows):
             if len(row) != ncol:
                 raise LogError(f"{len(row)} cells, the header has {ncol}", file=source, row=r, line=first + r)
@@ -928,7 +961,7 @@ def _read_csv(path: Path) -> Log:
                 raise LogError(f"{len(cells)} cells, the header has {ncol}", file=source, row=r, line=first + r)
             for name, cell in zip(names, cells):
                 try:
-                    float(cell)
+                    parse_number(cell)
                 except ValueError:
                     raise LogError(f"cannot read {cell.strip()!r} as a number", file=source, column=name,
                                    row=r, line=first + r) from None
@@ -1033,7 +1066,7 @@ def _load_truth(log_path) -> tuple[Path, dict]:
         raise FileNotFoundError(f"{p}: no ground truth beside the log {Path(log_path).name} "
                                 "(only simulated logs have one)")
     try:
-        truth = json.loads(p.read_bytes().decode("utf-8"))
+        truth = parse_json(p.read_bytes().decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise LogError(f"not valid JSON: {exc}", file=str(p)) from None
     if not isinstance(truth, dict):
@@ -1081,7 +1114,7 @@ def _read_meta(path: Path) -> dict:
     if raw is None:
         raise LogError("not a tendyn log: no meta record", file=source, column="meta")
     try:
-        meta = json.loads(raw.decode("utf-8"))
+        meta = parse_json(raw.decode("utf-8"))
     except (UnicodeDecodeError, ValueError) as exc:
         raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
     if not isinstance(meta, dict):

@@ -11,6 +11,8 @@ import math
 from pathlib import Path
 from typing import Mapping
 
+from tendyn.io.files import read_json
+
 __all__ = ["ParamsError", "read_params"]
 
 
@@ -28,8 +30,8 @@ def _finite(v) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
-def read_params(source) -> list[dict]:
-    """The base parameters of an identification, validated.
+def read_params(source, device=None, force: bool = False, *, standard_names=None, base_names=None) -> list[dict]:
+    """The base parameters of an identification, validated (against ``device`` when given).
 
     Parameters
     ----------
@@ -38,6 +40,15 @@ def read_params(source) -> list[dict]:
         list itself, or an object with ``to_dict()`` giving that document (:class:`tendyn.ident.IdentificationResult`). Each entry needs ``name`` (str), ``value`` (finite) and ``expression`` (str, the
         regrouping, its first term the kept standard column); ``stderr`` (finite ≥ 0, default 0) is used for
         the uncertainty of the maps; ``unit`` and ``rel_stderr_pct`` are informative.
+
+    device : Device, optional
+        The device the parameters are used on: a document naming another ``device`` is refused (unless
+        ``force``).
+    standard_names, base_names : sequence of str, optional
+        The device's standard parameters (each expression must start with one) and base parameters (each must be
+        given, or named in the document's ``omitted`` list written by ``tendyn identify --essential`` or
+        ``--parameters``): a missing parameter is never taken as 0. The caller's model gives them (the
+        identification model's for a cable device, :func:`tendyn.device.closed_loop.base_parameters` here).
 
     Raises
     ------
@@ -49,14 +60,22 @@ def read_params(source) -> list[dict]:
     if isinstance(source, (str, Path)):
         file = str(source)
         try:
-            doc = json.loads(Path(source).read_text(encoding="utf-8"))
+            doc = read_json(source)
         except OSError as exc:
             raise ParamsError(f"cannot read the file: {exc.strerror or exc}", file=file) from None
         except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ParamsError(f"not a JSON document: {exc}", file=file) from None
+    omitted = None
     if isinstance(doc, Mapping):
         if "params" not in doc:
             raise ParamsError("missing (expected the document of `tendyn identify --json`)", "params", file)
+        named = doc.get("device")
+        if device is not None and named is not None and not force and not device.is_named(named):
+            raise ParamsError(f"the parameters are of {named!r}, not {device.name!r} (--force to use them anyway)",
+                              "device", file)
+        omitted = doc.get("omitted", [])
+        if not isinstance(omitted, list) or not all(isinstance(n, str) for n in omitted):
+            raise ParamsError(f"must be a list of parameter names (got {omitted!r})", "omitted", file)
         doc = doc["params"]
     if not isinstance(doc, list) or not doc:
         raise ParamsError("must be a non-empty list of parameters", "params", file)
@@ -83,4 +102,16 @@ def read_params(source) -> list[dict]:
                               f"{where}.expression", file)
         out.append({"name": name, "value": float(p["value"]), "stderr": float(se), "unit": p.get("unit", ""),
                     "expression": expr.strip()})
+    who = device.name if device is not None else "the device"
+    if standard_names is not None:                  # a parameter of another device first, then the missing ones
+        for i, p in enumerate(out):
+            lead = p["expression"].split()[0].lstrip("+")
+            if lead not in standard_names:
+                raise ParamsError(f"{lead!r} is not a standard parameter of {who} "
+                                  f"(known: {', '.join(list(standard_names)[:6])}, …)", f"params[{i}].expression", file)
+    if base_names is not None:
+        missing = [n for n in base_names if n not in seen and n not in (omitted or ())]
+        if missing:
+            raise ParamsError(f"missing base parameter(s) {', '.join(missing)} of {who} (never taken as 0; "
+                              "an identification that leaves some out lists them in `omitted`)", "params", file)
     return out

@@ -324,10 +324,12 @@ def run_s2(device: Any, *, quick: bool = False, seed: int = 0, optimise: bool = 
     from .s2_compensation import compensation_from_identified
 
     say("operational maps from the identified Table 4 parameters and capstan stiffness")
-    maps = operational_maps(compiled, params, stiffness_motor=stiffness_motor, quick=quick, progress=say)
+    # the reduced model's document: its `omitted` parameters are zero on purpose (read_params refuses others missing)
+    reduced = {"device": red.result_.device, "params": params, "omitted": red.result_.omitted}
+    maps = operational_maps(compiled, reduced, stiffness_motor=stiffness_motor, quick=quick, progress=say)
     summary["maps"] = maps.to_dict()
     figures.update({f"maps_{name}": fig for name, fig in maps.figures.items()})
-    comp = compensation_from_identified(compiled, params, quick=quick, progress=say)
+    comp = compensation_from_identified(compiled, reduced, quick=quick, progress=say)
     summary["compensation"] = comp.summary
     figures["compensation"] = comp
 

@@ -42,6 +42,11 @@ METRIC_LABELS = {"peak_shift_hz": "open-loop peak shift [Hz]", "open_loop_spread
                  "robust_performance": "|| |W1 S| + |W2 T| ||_inf [-]"}
 
 
+MAX_DESIGNS = 10_000
+"""Most designs a sweep evaluates (each is several twin runs: 10 000 is hours on a laptop); checked before the
+grid is built, so `N = 10**9` is one line, not a MemoryError after minutes."""
+
+
 def parse_param(text: str) -> tuple[str, np.ndarray]:
     """``NAME=LO:HI:N`` → (name, grid); raises ValueError with the reason."""
     if "=" not in text:
@@ -56,6 +61,8 @@ def parse_param(text: str) -> tuple[str, np.ndarray]:
         raise ValueError(f"LO and HI must be numbers and N an integer (got {spec!r})") from None
     if not (math.isfinite(lo) and math.isfinite(hi)) or n < 1 or (n > 1 and hi <= lo):
         raise ValueError(f"need finite LO < HI and N ≥ 1 (got {spec!r})")
+    if n > MAX_DESIGNS:
+        raise ValueError(f"N = {n}: at most {MAX_DESIGNS} designs per sweep (MAX_DESIGNS)")
     if n == 1:
         return name.strip(), np.array([lo])
     grid = np.geomspace(lo, hi, n) if lo > 0 and hi / lo > 10 else np.linspace(lo, hi, n)
@@ -173,10 +180,9 @@ def dask_client(scheduler: str | None = None, n_workers: int = 2, client=None):
         return
     cluster = None
     if scheduler:
-        try:
-            client = Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise ConnectionError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+        from tendyn.ident.cluster import connect_scheduler
+
+        client = connect_scheduler(scheduler)
     else:
         cluster = local_cluster(n_workers)
         client = Client(cluster)
@@ -238,7 +244,7 @@ def _parquet_bytes(result: SweepResult) -> bytes:
     import pyarrow.parquet as pq
 
     buf = io.BytesIO()
-    pq.write_table(pa.Table.from_pylist(result.rows), buf)
+    pq.write_table(pa.Table.from_pylist(result.rows), buf, write_page_checksum=True)  # readers can verify it
     return buf.getvalue()
 
 

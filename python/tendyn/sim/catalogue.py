@@ -256,6 +256,9 @@ def resolve(device, experiment: str, given: dict[str, Any]) -> dict[str, Any]:
         Naming the option (``--joint: must be 1…4 (got 0)``).
     """
     kind = device.kind
+    if kind != _BENCH and not (getattr(device, "transmissions", ()) or getattr(device, "drives", ())):
+        raise UsageError(f"{device.name} has neither cable transmissions nor capstan drives (geared actuators only): "
+                         "the simulator has no twin of it", "device")
     exp = EXPERIMENTS.get((kind, experiment))
     if exp is None:
         names = ", ".join(experiments_of(device))
