@@ -245,7 +245,9 @@ def test_sigint_is_interrupted_exit_130_previous_outputs_kept(tmp_path):
     assert first.returncode == 0
     before = out.read_bytes()
     proc = subprocess.Popen([sys.executable, "-m", "tendyn.cli", "simulate", "lexos", "exciting", "--duration",
-                             "600", "--out", str(out)], stderr=subprocess.PIPE, text=True)
+                             "600", "--out", str(out)], stderr=subprocess.PIPE, text=True,
+                            # a runner started in the background inherits SIGINT ignored: give the child the default
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.time() + 300                                # a loaded machine starts slowly
     while time.time() < deadline and proc.poll() is None and not _started(proc):
         time.sleep(0.2)
