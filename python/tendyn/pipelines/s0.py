@@ -18,15 +18,7 @@ from tendyn.device import compile_device
 
 from .s0_compensation import DEFAULT_UNDERESTIMATION, compensation_summary, fig7_experiment
 
-__all__ = ["IDENTIFIED_UNDERESTIMATION", "identification_parts", "run_s0"]
-
-IDENTIFIED_UNDERESTIMATION = DEFAULT_UNDERESTIMATION
-"""Under-estimation factor k (C46) of Fig. 7 when the compensator uses the identified losses: the same as with the
-twin's own losses, since the identification now carries the load-dependent term (c_L, reducer and β losses that
-grow with the load). Without it, τ̂0 absorbed the load of the test and k had to drop to 0.7 to stay passive (62 %
-reduction); with it, k = 0.9 gives 72 % and stays passive (L-EXOS twin, seed 7). ``tendyn export compensator``
-keeps the safer 0.7 by default for a lab's own device (:data:`tendyn.control.compensator.IDENTIFIED_UNDERESTIMATION`)."""
-
+__all__ = ["identification_parts", "run_s0"]
 
 def identification_parts(device) -> dict:
     """The identification parts of the S0 document: ``transmissions``, ``decomposition`` and ``friction``.
@@ -89,10 +81,11 @@ def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> 
     print(f"[pipeline s0] identification on the {compiled.name} twin …", file=sys.stderr)
     ident = identification_parts(compiled)
     print("[pipeline s0] Fig. 7: free motion with gravity only / with friction compensation …", file=sys.stderr)
-    friction = ident.get("friction")
-    fig7 = fig7_experiment(compiled, friction=friction,
-                           underestimation=IDENTIFIED_UNDERESTIMATION if friction is not None else
-                           DEFAULT_UNDERESTIMATION, over=() if quick else (1.2, 1.5), walls=not quick)
+    # k as with the twin's own losses: the identification carries the load term (c_L), so τ̂0 no longer absorbs
+    # the test's load; k = 0.9 gives 72 % and stays passive on L-EXOS (seed 7), where the load-free law needed 0.7.
+    # `tendyn export compensator` keeps the safer 0.7 for a lab's device (control.IDENTIFIED_UNDERESTIMATION).
+    fig7 = fig7_experiment(compiled, friction=ident["friction"], underestimation=DEFAULT_UNDERESTIMATION,
+                           over=() if quick else (1.2, 1.5), walls=not quick)
     doc = {"device": compiled.name,
            "transmissions": ident["transmissions"],
            "decomposition": ident["decomposition"],

@@ -15,6 +15,7 @@ over-compensating k > 1.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,6 +58,9 @@ def _unit(x) -> np.ndarray:
     return x / np.linalg.norm(x)
 
 
+_HAND_TASKS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # per compiled device: a grid search each
+
+
 def hand_task(device) -> HandTask:
     """The hand task of any serial cable device (:class:`HandTask`).
 
@@ -66,6 +70,12 @@ def hand_task(device) -> HandTask:
     (a planar device moves in its plane whatever gravity does). Wall: a floor (normal −ĝ) where the handle moves
     vertically, else normal to the direction the handle moves most easily."""
     compiled = _device(device)
+    if compiled not in _HAND_TASKS:   # every hand and wall run of a figure asks again
+        _HAND_TASKS[compiled] = _hand_task(compiled)
+    return _HAND_TASKS[compiled]
+
+
+def _hand_task(compiled) -> HandTask:
     dev = compiled.device
     handle = _Handle(compiled)
     lo = np.array([j.lower for j in dev.kinematics.joints], float)
