@@ -16,7 +16,7 @@ nb::object read_only_view(const Mat& a, nb::handle owner) {
   const std::size_t shape[2] = {static_cast<std::size_t>(a.rows()), static_cast<std::size_t>(a.cols())};
   const int64_t strides[2] = {1, static_cast<int64_t>(a.rows())};  // Eigen is column-major
   const std::size_t ndim = Mat::ColsAtCompileTime == 1 ? 1 : 2;
-  return nb::cast(nb::ndarray<nb::numpy, const double>(a.data(), ndim, shape, owner, strides));
+  return nb::cast(nb::ndarray<nb::numpy, const typename Mat::Scalar>(a.data(), ndim, shape, owner, strides));
 }
 }  // namespace
 
@@ -91,7 +91,13 @@ void expose_routing(nb::module_& m) {
   TENDYN_BIND_MATRIX(motor_from_joint_position)
   TENDYN_BIND_MATRIX(motor_from_joint_torque)
   TENDYN_BIND_MATRIX(joint_from_motor_torque)
+  TENDYN_BIND_MATRIX(last_joint)
+  TENDYN_BIND_MATRIX(block_begin)
+  TENDYN_BIND_MATRIX(block_end)
 #undef TENDYN_BIND_MATRIX
+  cls.def_ro("serial", &M::serial, "K lower-triangular with a positive diagonal (S0's recursion applies)")
+      .def_ro("dependent_transmission", &M::dependent_transmission,
+              "first transmission (0-based) whose row of K depends on the earlier ones (singular K), or -1");
   cls
       .def("validate", &M::validate)
       .def_static(
@@ -138,6 +144,7 @@ void expose_routing(nb::module_& m) {
       .def_ro("Sdot", &D::Sdot)
       .def_ro("tension", &D::tension)
       .def_ro("tension_motor", &D::tension_motor)
+      .def_ro("block_iterations", &D::block_iterations)
       .def_ro("torque_motor", &D::torque_motor)
       .def_ro("torque_joint", &D::torque_joint)
       .def_ro("stuck", &D::stuck)

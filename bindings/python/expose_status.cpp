@@ -6,6 +6,7 @@ void expose_status(nb::module_& m) {
   nb::enum_<Status>(m, "Status", "Result code of a real-time call (negative = error).")
       .value("Ok", Status::Ok)
       .value("SelfLocked", Status::SelfLocked)
+      .value("NotConverged", Status::NotConverged)
       .value("NonFiniteInput", Status::NonFiniteInput)
       .value("SizeMismatch", Status::SizeMismatch)
       .value("InvalidModel", Status::InvalidModel)

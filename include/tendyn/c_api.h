@@ -21,6 +21,7 @@ extern "C" {
 typedef enum tendyn_status {
   TENDYN_OK = 0,
   TENDYN_SELF_LOCKED = 1,      /* computed; a self-locking reducer holds a back-driving load */
+  TENDYN_NOT_CONVERGED = 2,    /* computed; the iteration of a coupled (differential) block hit its cap */
   TENDYN_NON_FINITE_INPUT = -1,
   TENDYN_SIZE_MISMATCH = -2,
   TENDYN_INVALID_MODEL = -3,

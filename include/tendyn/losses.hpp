@@ -172,7 +172,8 @@ inline void take_statics_constants(const TransmissionModel& m, TransmissionData&
   }
   c.bearings = false;
   for (int b = 0; b < m.n; ++b)
-    for (int i = b; i < m.n; ++i) {
+    for (int i = 0; i < m.n; ++i) {
+      if (i < b && m.last_joint(i) < b) continue;  // no branch b on cable i (serial: i ≥ b)
       c.inv_one_plus_beta(i, b) = 1.0 / (1.0 + m.beta(i, b));
       c.inv_one_minus_beta(i, b) = 1.0 / (1.0 - m.beta(i, b));
       c.bearings = c.bearings || m.bearing_count(i, b) > 0.0;
@@ -274,6 +275,133 @@ inline Status feedforward_recursion(const TransmissionModel& m, TransmissionData
   return locked_any ? Status::SelfLocked : Status::Ok;
 }
 
+/// One branch climbed toward the motor with the slope of the law: y = branch_tension_upstream_q(x, …) and
+/// *slope = dy/dx (in the frame of the motion y' = s y, z = s x, so dy/dx = dy'/dz: 1/(1 + b), 1/(1 − b) or
+/// 1 + b sgn(z) on the piece that gives the largest value).
+inline double branch_upstream_slope(double x, double sdot, double kappa, double b, double q_plus,
+                                    double q_minus, double* slope) {
+  const double sign = sign_bit(sdot), z = flip(x, sign), c = z + kappa;
+  double y = c * q_plus, sl = q_plus;
+  if (c * q_minus > y) { y = c * q_minus; sl = q_minus; }
+  const double y3 = c + b * std::abs(z);
+  if (y3 > y) { y = y3; sl = z >= 0.0 ? 1.0 + b : 1.0 - b; }
+  *slope = sl;
+  return flip(y, sign);
+}
+
+/// Tensions of cable i from its end (the last joint it wraps, tension t) to the motor, with the slopes
+/// ∂tension[i, b]/∂t (S0 eq. 6 along every branch; a branch at rest passes the tension unchanged).
+/// Writes d.tension(i, ·), d.slope(i, ·), d.stuck(i, ·), d.tension_motor(i); returns ∂t_motor/∂t.
+inline double climb_cable(const TransmissionModel& m, TransmissionData& d, int i, double t) {
+  const int last = m.last_joint(i);
+  double sl = 1.0;
+  d.tension(i, last) = t;
+  d.slope(i, last) = 1.0;
+  for (int b = last; b >= 0; --b) {
+    const double sdot = d.Sdot(i, b);
+    if (sdot == 0.0) {
+      d.stuck(i, b) = 1;
+    } else {
+      d.stuck(i, b) = 0;
+      const BranchFriction f = d.statics.bearings ? branch_friction(m, i, b, sdot) : BranchFriction{m.tau0(i, b), m.beta(i, b)};
+      double g = 1.0;
+      t = branch_upstream_slope(t, sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
+                                1.0 / (1.0 - f.b), &g);
+      sl *= g;
+    }
+    if (b > 0) { d.tension(i, b - 1) = t; d.slope(i, b - 1) = sl; }
+  }
+  d.tension_motor(i) = t;
+  return sl;
+}
+
+/// Torque cable i applies to joint j at its tension there, and its derivative by t_i: K_ij tension[i, j];
+/// at its driven pulley (j = i) through the reducer, S0 eqs. 9–10: × η_d when the pulley drives the joint
+/// (power K_ii t q̇_i > 0), × η_d/(2η_d − 1) when the joint back-drives it, × 1 at rest.
+inline double cable_joint_torque(const TransmissionModel& m, const TransmissionData& d, int i, int j, double* dtorque) {
+  const double k = m.K(i, j), t = d.tension(i, j);
+  double e = 1.0;
+  if (j == i) {
+    const double eta = m.reducer_efficiency(i), power = k * t * d.qd(i);
+    e = power > 0.0 ? eta : power < 0.0 ? eta / (2.0 * eta - 1.0) : 1.0;
+  }
+  *dtorque = k * e * d.slope(i, j);
+  return k * e * t;
+}
+
+/// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one: a block's
+/// joint equations τ_j = Σ_i K_ij tension[i, j] hold the unknown end tensions t_i of its cables (the later
+/// blocks' cables are known by then); each tension is a monotone piecewise-linear function of t_i (the branch
+/// laws), so a Newton iteration on the pieces ends exactly once it has the right pieces (checked on the
+/// residual). A 1×1 block takes one step; a block starts from t = 0. Status NotConverged after 30 steps.
+template <class V1, class V2>
+inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                  const V2& qd) {
+  const int n = m.n;
+  velocities_from_joint_n<0>(m, d, qd);
+  Status status = Status::Ok;
+  d.block_iterations = 0;
+  for (int end = n - 1; end >= 0;) {
+    const int begin = m.block_begin(end);
+    for (int i = begin; i <= end; ++i) d.block_step(i) = 0.0;  // t_i, the end tensions of the block's cables
+    bool done = false;
+    for (int it = 0; it < 30 && !done; ++it) {
+      for (int i = begin; i <= end; ++i) climb_cable(m, d, i, d.block_step(i));
+      for (int j = begin; j <= end; ++j)
+        for (int k = begin; k <= end; ++k) d.block_jacobian(j, k) = 0.0;
+      double scale = 0.0, worst_r = 0.0;
+      for (int j = begin; j <= end; ++j) {
+        double r = torque_joint(j), mag = std::abs(r);
+        for (int k = 0; k < n; ++k) {
+          if (k < begin || m.last_joint(k) < j) continue;  // cable k does not wrap joint j
+          double dt = 0.0;
+          const double c = cable_joint_torque(m, d, k, j, &dt);
+          r -= c;
+          mag += std::abs(c);
+          if (k <= end) d.block_jacobian(j, k) = dt;  // ∂(torque at j)/∂t_k, k in the block
+        }
+        d.block_residual(j) = r;
+        scale = std::max(scale, mag);
+        worst_r = std::max(worst_r, std::abs(r));
+      }
+      if (it > 0 && worst_r <= 1e-13 * scale) { done = true; break; }
+      // Gaussian elimination with partial pivoting on the block (rows j, columns k, begin … end).
+      for (int c = begin; c <= end; ++c) {
+        int p = c;
+        for (int r = c + 1; r <= end; ++r)
+          if (std::abs(d.block_jacobian(r, c)) > std::abs(d.block_jacobian(p, c))) p = r;
+        if (p != c) {
+          for (int k = begin; k <= end; ++k) std::swap(d.block_jacobian(c, k), d.block_jacobian(p, k));
+          std::swap(d.block_residual(c), d.block_residual(p));
+        }
+        const double piv = d.block_jacobian(c, c);
+        if (piv == 0.0) return Status::InvalidModel;
+        for (int r = c + 1; r <= end; ++r) {
+          const double f = d.block_jacobian(r, c) / piv;
+          if (f == 0.0) continue;
+          for (int k = c; k <= end; ++k) d.block_jacobian(r, k) -= f * d.block_jacobian(c, k);
+          d.block_residual(r) -= f * d.block_residual(c);
+        }
+      }
+      for (int c = end; c >= begin; --c) {
+        double x = d.block_residual(c);
+        for (int k = c + 1; k <= end; ++k) x -= d.block_jacobian(c, k) * d.block_residual(k);
+        d.block_residual(c) = x / d.block_jacobian(c, c);
+      }
+      for (int i = begin; i <= end; ++i) d.block_step(i) += d.block_residual(i);
+      ++d.block_iterations;
+    }
+    if (!done) status = worst(status, Status::NotConverged);
+    end = begin - 1;
+  }
+  for (int i = 0; i < n; ++i) {
+    d.self_locked(i) = 0;
+    d.torque_motor(i) = m.motor_radius(i) * d.tension_motor(i);
+    d.torque_joint(i) = torque_joint(i);
+  }
+  return status;
+}
+
 /// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); sizes already checked.
 template <int N, class V1, class V2>
 inline Status motor_torque_feedforward_n(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
@@ -281,6 +409,7 @@ inline Status motor_torque_feedforward_n(const TransmissionModel& m, Transmissio
   if (!all_finite_n<N>(torque_joint)) return Status::NonFiniteInput;
   if (!all_finite_n<N>(qd)) return Status::NonFiniteInput;
   if (d.statics.model != &m) take_statics_constants(m, d);
+  if (N == 0 && !m.serial) return feedforward_general(m, d, torque_joint, qd);
   return d.statics.bearings ? feedforward_recursion<N, true>(m, d, torque_joint, qd)
                             : feedforward_recursion<N, false>(m, d, torque_joint, qd);
 }
@@ -306,7 +435,7 @@ inline Status motor_torque_feedforward(const TransmissionModel& m, TransmissionD
                                        const V1& torque_joint, const V2& qd) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
   if (qd.size() != m.n) return all_finite(torque_joint) ? Status::SizeMismatch : Status::NonFiniteInput;
-  return dispatch_size(m.n, [&](auto N) {
+  return dispatch_routing(m, [&](auto N) {
     return detail::motor_torque_feedforward_n<decltype(N)::value>(m, d, torque_joint, qd);
   });
 }
@@ -332,7 +461,7 @@ inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData&
     d.torque_motor(i) = torque_motor(i);
     double t = torque_motor(i) / m.motor_radius(i);
     d.tension_motor(i) = t;
-    for (int b = 0; b <= i; ++b) {
+    for (int b = 0; b <= m.last_joint(i); ++b) {
       const double sdot = d.Sdot(i, b);
       const BranchFriction f = branch_friction(m, i, b, sdot);
       if (sdot != 0.0) {
@@ -362,7 +491,8 @@ inline Status joint_torque_forward(const TransmissionModel& m, TransmissionData&
       }
     }
     double s = own;
-    for (int k = j + 1; k < m.n; ++k) s += m.K(k, j) * d.tension(k, j);
+    for (int k = 0; k < m.n; ++k)  // every other cable that wraps joint j (serial: k > j)
+      if (k != j && (k > j || m.last_joint(k) >= j)) s += m.K(k, j) * d.tension(k, j);
     d.torque_joint(j) = s;
   }
   return status;

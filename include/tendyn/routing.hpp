@@ -3,13 +3,23 @@
 // S0 §II-A/B with the corrections of ERRATA (S0 eqs. 1–2, 5):
 //   per transmission i: S_0^i = r_m^i q_m^i; S_j^i = S_{j-1}^i − r_j^i q_j (joints crossed);
 //   at its driven joint q_i = S_{i-1}^i / r_i^i.  Compact form  R_m q_m = K q,
-//   R_m = diag(r_m^i), K lower-triangular with K_ij = r_j^i (signed idle radius, j < i) and
+//   R_m = diag(r_m^i), K_ij = r_j^i (signed radius of the pulley of joint j the cable wraps) and
 //   K_ii = driven pulley radius · reducer ratio (S0 footnote 1: generalised radius).
 //   Statics: τ_J = Kᵀ t, C_m = R_m t (t = cable tensions); virtual work q̇ᵀτ_J = q̇_mᵀC_m.
 //
-// Indices are 0-based: transmission i drives joint i and crosses joints 0…i−1. Branch b of
-// transmission i (b = 0…i) is the stretch of cable just before joint b: branch 0 runs from the
-// motor pulley to joint 0 on the base, branch i ends on the driven pulley of joint i.
+// General routing (issue 19): S0's cables are serial (K lower-triangular, a cable crosses only the joints
+// before the one it drives). Here a cable may also wrap joints after its driven joint (differentials:
+// K_ij ≠ 0 for j > i), radii are signed (winding direction, driven radius included) and a diagonal may be
+// zero, as long as K is invertible. The last joint a cable wraps is last_joint(i) ≥ i; the cable has the
+// branches b = 0…last_joint(i), in the order it runs from the motor. K is block lower-triangular with the
+// finest contiguous blocks [block_begin, block_end] (a differential pair is one 2×2 block); the statics with
+// losses solve a block of size 1 in closed form (S0's recursion) and a larger block by a piecewise-linear
+// Newton iteration (losses.hpp). A device whose blocks all have size 1 and a positive diagonal is serial:
+// it takes S0's recursion unchanged (same operations, same numbers).
+//
+// Indices are 0-based: transmission i drives joint i and wraps joints 0…last_joint(i). Branch b of
+// transmission i (b = 0…last_joint(i)) is the stretch of cable just before joint b: branch 0 runs from the
+// motor pulley to joint 0 on the base; in a serial routing branch i ends on the driven pulley of joint i.
 //
 // Model / Data convention: the model is immutable after construction; every call writes into a
 // Data preallocated from it and allocates nothing. Setup-time helpers (set_field, validate_report,
@@ -23,9 +33,13 @@
 #include <string>
 #include <string_view>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
+#include <limits>
+
 #include <Eigen/Core>
+#include <Eigen/LU>
 
 #include "tendyn/status.hpp"
 
@@ -40,8 +54,8 @@ namespace tendyn {
 // derive from this one list. Bearing fields are "bearing_" + the device-file key of `bearings` entries.
 #define TENDYN_TRANSMISSION_FIELDS(X)                                                                  \
   X(motor_radius, 1, "m", "motor pulley radius r_m, > 0")                                               \
-  X(K, 2, "m", "transmission matrix, lower-triangular: signed idle radii below, driven_radius * reducer_ratio on the diagonal") \
-  X(driven_radius, 1, "m", "driven pulley radius (without reducer), > 0")                               \
+  X(K, 2, "m", "transmission matrix, invertible: [i, j] signed radius of the pulley of joint j that cable i wraps (after i: differentials), driven_radius * reducer_ratio on the diagonal") \
+  X(driven_radius, 1, "m", "driven pulley radius (without reducer), signed (winding direction); 0 = the cable does not wrap its joint (zero diagonal, K must stay invertible)") \
   X(reducer_ratio, 1, "-", "reducer ratio n in the driven pulley, > 0")                                 \
   X(reducer_efficiency, 1, "-", "direct efficiency eta_d in (0, 1]; <= 0.5 is self-locking")             \
   X(pretension, 1, "N", "cable pretension, >= 0 (loads the bearings)")                                  \
@@ -85,8 +99,8 @@ struct ValidationIssue {
 struct TransmissionModel {
   int n = 0;                          ///< number of transmissions = number of joints
   Eigen::VectorXd motor_radius;       ///< r_m^i [m], motor pulley radius, > 0
-  Eigen::MatrixXd K;                  ///< (n, n) transmission matrix [m], lower-triangular
-  Eigen::VectorXd driven_radius;      ///< driven pulley radius [m] (without reducer)
+  Eigen::MatrixXd K;                  ///< (n, n) transmission matrix [m], invertible (lower-triangular: serial)
+  Eigen::VectorXd driven_radius;      ///< driven pulley radius [m] (without reducer), signed
   Eigen::VectorXd reducer_ratio;      ///< n_i [-], 1 when no reducer
   Eigen::VectorXd reducer_efficiency; ///< direct efficiency η_d [-] in (0, 1]
   Eigen::VectorXd pretension;         ///< cable pretension [N], loads the bearings
@@ -111,6 +125,12 @@ struct TransmissionModel {
   Eigen::MatrixXd motor_from_joint_position;  ///< q_m = R_m⁻¹ K q
   Eigen::MatrixXd motor_from_joint_torque;    ///< C_m = R_m K⁻ᵀ τ_J
   Eigen::MatrixXd joint_from_motor_torque;    ///< τ_J = Kᵀ R_m⁻¹ C_m
+  // Structure of the routing, computed with the matrices (validate() checks they match K).
+  Eigen::VectorXi last_joint;   ///< last joint cable i wraps (≥ i; > i for a differential)
+  Eigen::VectorXi block_begin;  ///< first index of the diagonal block of K holding index i
+  Eigen::VectorXi block_end;    ///< last index of that block (block_begin = block_end: a 1×1 block)
+  int dependent_transmission = -1;  ///< first i whose row of K depends on rows 0…i−1 (singular K), or −1
+  bool serial = false;          ///< K lower-triangular with a positive diagonal (S0's recursion applies)
 
   TransmissionModel() = default;
 
@@ -178,9 +198,47 @@ struct TransmissionModel {
     return done;
   }
 
-  /// Recompute the four matrices after K or motor_radius changed (setup time; allocates).
+  /// Last joint row i of K wraps (≥ i), read from K itself (no allocation).
+  int last_joint_of(int i) const {
+    int last = i;
+    for (int j = i + 1; j < K.cols(); ++j)
+      if (K(i, j) != 0.0) last = j;
+    return last;
+  }
+
+  /// Recompute the four matrices and the structure (last_joint, blocks, serial, dependent_transmission) after
+  /// K or motor_radius changed (setup time; allocates). A singular K gives NaN matrices (validate() says which
+  /// transmission depends on the earlier ones).
   void update_matrices() {
-    const Eigen::MatrixXd Kinv = K.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n));
+    last_joint.setZero(n);
+    block_begin.setZero(n);
+    block_end.setZero(n);
+    serial = true;
+    for (int begin = 0, end = 0, i = 0; i < n; ++i) {  // finest contiguous block lower-triangular partition
+      last_joint(i) = last_joint_of(i);
+      end = std::max(end, last_joint(i));
+      serial = serial && last_joint(i) == i && K(i, i) > 0.0;
+      if (i == end) {
+        for (int k = begin; k <= end; ++k) { block_begin(k) = begin; block_end(k) = end; }
+        begin = end = i + 1;
+      }
+    }
+    dependent_transmission = -1;
+    for (int i = 0; i < n && dependent_transmission < 0; ++i) {
+      Eigen::FullPivLU<Eigen::MatrixXd> lu(K.topRows(i + 1));
+      lu.setThreshold(1e-12);
+      if (lu.rank() < i + 1) dependent_transmission = i;
+    }
+    if (dependent_transmission >= 0) {
+      const double nan = std::numeric_limits<double>::quiet_NaN();
+      for (auto* M : {&joint_from_motor_position, &motor_from_joint_torque})
+        M->setConstant(n, n, nan);
+      motor_from_joint_position = motor_radius.cwiseInverse().asDiagonal() * K;
+      joint_from_motor_torque = K.transpose() * motor_radius.cwiseInverse().asDiagonal();
+      return;
+    }
+    const Eigen::MatrixXd Kinv = serial ? Eigen::MatrixXd(K.triangularView<Eigen::Lower>().solve(Eigen::MatrixXd::Identity(n, n)))
+                                        : Eigen::MatrixXd(K.fullPivLu().inverse());
     joint_from_motor_position = Kinv * motor_radius.asDiagonal();
     motor_from_joint_position = motor_radius.cwiseInverse().asDiagonal() * K;
     motor_from_joint_torque = motor_radius.asDiagonal() * Kinv.transpose();
@@ -250,6 +308,11 @@ struct TransmissionData {
   Eigen::VectorXd torque_joint;       ///< joint torque τ_J [N·m]
   Eigen::MatrixXi stuck;              ///< 1 where a branch does not slide (Ṡ = 0) [i, b]
   Eigen::VectorXi self_locked;        ///< 1 where a self-locking reducer holds the load
+  // Workspace of the coupled blocks of a general routing (losses.hpp): slope[i, b] = ∂tension[i, b]/∂t_i
+  // (t_i the tension at the last joint cable i wraps), the block's Jacobian, residual and step.
+  Eigen::MatrixXd slope, block_jacobian;
+  Eigen::VectorXd block_residual, block_step;
+  int block_iterations = 0;           ///< Newton iterations of the last feedforward (all coupled blocks)
 
   /// Constants motor_torque_feedforward derives from the model, so that the call divides nothing (losses.hpp):
   /// taken by the first call with a model object and again whenever a call gets another one (sized here, no
@@ -272,7 +335,9 @@ struct TransmissionData {
         S(Eigen::MatrixXd::Zero(m.n, m.n)), Sdot(Eigen::MatrixXd::Zero(m.n, m.n)),
         tension(Eigen::MatrixXd::Zero(m.n, m.n)), tension_motor(Eigen::VectorXd::Zero(m.n)),
         torque_motor(Eigen::VectorXd::Zero(m.n)), torque_joint(Eigen::VectorXd::Zero(m.n)),
-        stuck(Eigen::MatrixXi::Zero(m.n, m.n)), self_locked(Eigen::VectorXi::Zero(m.n)) {
+        stuck(Eigen::MatrixXi::Zero(m.n, m.n)), self_locked(Eigen::VectorXi::Zero(m.n)),
+        slope(Eigen::MatrixXd::Zero(m.n, m.n)), block_jacobian(Eigen::MatrixXd::Zero(m.n, m.n)),
+        block_residual(Eigen::VectorXd::Zero(m.n)), block_step(Eigen::VectorXd::Zero(m.n)) {
     statics.gain_driving.setZero(m.n);
     statics.gain_backdriven.setZero(m.n);
     statics.inv_one_plus_beta.setZero(m.n, m.n);
@@ -316,21 +381,40 @@ inline int TransmissionModel::check(Sink&& sink) const {
   if (!go) return count;
   for (int i = 0; i < n && go; ++i) {
     if (!(motor_radius(i) > 0.0)) go = report("motor_radius", i, -1, motor_radius(i), "must be > 0");
-    if (go && !(driven_radius(i) > 0.0))
-      go = report("driven_radius", i, -1, driven_radius(i), "must be > 0 (a zero driven radius makes the routing singular)");
     if (go && !(reducer_ratio(i) > 0.0)) go = report("reducer_ratio", i, -1, reducer_ratio(i), "must be > 0");
     if (go && !(reducer_efficiency(i) > 0.0 && reducer_efficiency(i) <= 1.0))
       go = report("reducer_efficiency", i, -1, reducer_efficiency(i), "must be in (0, 1]");
     if (go && !(pretension(i) >= 0.0)) go = report("pretension", i, -1, pretension(i), "must be >= 0");
-    if (go && K(i, i) == 0.0) go = report("K", i, i, K(i, i), "must be nonzero (singular routing)");
     const double gen = driven_radius(i) * reducer_ratio(i);
     if (go && !(std::abs(K(i, i) - gen) <= 1e-12 * std::abs(gen)))
       go = report("K", i, i, K(i, i), "must equal driven_radius[i] * reducer_ratio[i]");
-    for (int j = i + 1; go && j < n; ++j)
-      if (K(i, j) != 0.0) go = report("K", i, j, K(i, j), "must be 0 (K is lower-triangular: a cable does not reach past its driven joint)");
+  }
+  if (!go) return count;
+  // The structure computed by update_matrices() must be that of this K (nothing stale reaches the statics).
+  if (last_joint.size() != n || block_begin.size() != n || block_end.size() != n)
+    return report("K", -1, -1, 0.0, "update_matrices() was not called after K was set"), count;
+  for (int i = 0; i < n && go; ++i)
+    if (last_joint(i) != last_joint_of(i))
+      go = report("K", i, last_joint_of(i), K(i, last_joint_of(i)), "changed after update_matrices(): call it again");
+  if (!go) return count;
+  if (dependent_transmission >= 0)
+    return report("K", dependent_transmission, -1, 0.0,
+                  "transmission depends on the earlier ones: the routing is singular (K has no inverse; "
+                  "a zero driven radius needs another transmission to wrap that joint)"), count;
+  for (int i = 0; i < n && go; ++i) {
+    // A reducer sits in the driven pulley, where the cable ends: a cable that goes on to later joints has none.
+    if (last_joint(i) > i && (reducer_ratio(i) != 1.0 || reducer_efficiency(i) != 1.0))
+      go = report(reducer_ratio(i) != 1.0 ? "reducer_ratio" : "reducer_efficiency", i, -1,
+                  reducer_ratio(i) != 1.0 ? reducer_ratio(i) : reducer_efficiency(i),
+                  "must be 1: the cable wraps joints after its driven joint (a differential), so its driven pulley "
+                  "holds no reducer");
+    if (go && !serial && reducer_efficiency(i) <= 0.5)
+      go = report("reducer_efficiency", i, -1, reducer_efficiency(i),
+                  "must be > 0.5 in a routing that is not serial (self-locking reducers are modelled for serial "
+                  "routings only)");
   }
   for (int i = 0; i < n && go; ++i)
-    for (int b = 0; b <= i && go; ++b) {
+    for (int b = 0; b <= last_joint(i) && go; ++b) {
       if (!(tau0(i, b) >= 0.0)) go = report("tau0", i, b, tau0(i, b), "must be >= 0");
       if (go && !(nu(i, b) >= 0.0)) go = report("nu", i, b, nu(i, b), "must be >= 0");
       if (go && !(beta(i, b) >= 0.0)) go = report("beta", i, b, beta(i, b), "must be >= 0");
@@ -369,6 +453,15 @@ template <class VecIn>
 inline Status joint_from_motor(const TransmissionModel& m, TransmissionData& d, const VecIn& q_motor) {
   if (q_motor.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(q_motor)) return Status::NonFiniteInput;
+  if (!m.serial) {  // general routing: q = K⁻¹ R_m q_m with the inverse taken at setup
+    for (int i = 0; i < m.n; ++i) d.q_motor(i) = q_motor(i);
+    for (int i = 0; i < m.n; ++i) {
+      double s = 0.0;
+      for (int j = 0; j < m.n; ++j) s += m.joint_from_motor_position(i, j) * q_motor(j);
+      d.q(i) = s;
+    }
+    return Status::Ok;
+  }
   for (int i = 0; i < m.n; ++i) {
     double s = m.motor_radius(i) * q_motor(i);  // S_0^i
     for (int j = 0; j < i; ++j) s -= m.K(i, j) * d.q(j);
@@ -386,7 +479,7 @@ inline Status motor_from_joint(const TransmissionModel& m, TransmissionData& d, 
   for (int i = 0; i < m.n; ++i) d.q(i) = q(i);
   for (int i = 0; i < m.n; ++i) {
     double s = 0.0;
-    for (int j = 0; j <= i; ++j) s += m.K(i, j) * q(j);
+    for (int j = 0; j <= m.last_joint(i); ++j) s += m.K(i, j) * q(j);
     d.q_motor(i) = s / m.motor_radius(i);
   }
   return Status::Ok;
@@ -397,7 +490,7 @@ inline Status motor_from_joint(const TransmissionModel& m, TransmissionData& d, 
 inline void branch_displacements(const TransmissionModel& m, TransmissionData& d) {
   for (int i = 0; i < m.n; ++i) {
     d.S(i, 0) = m.motor_radius(i) * d.q_motor(i);
-    for (int b = 1; b <= i; ++b) d.S(i, b) = d.S(i, b - 1) - m.K(i, b - 1) * d.q(b - 1);
+    for (int b = 1; b <= m.last_joint(i); ++b) d.S(i, b) = d.S(i, b - 1) - m.K(i, b - 1) * d.q(b - 1);
   }
 }
 
@@ -420,6 +513,13 @@ inline auto dispatch_size(int n, F&& f) {
   }
 }
 
+/// dispatch_size for a serial routing; N = 0 (run-time n, general routing) otherwise.
+template <class F>
+inline auto dispatch_routing(const TransmissionModel& m, F&& f) {
+  if (!m.serial) return f(std::integral_constant<int, 0>{});
+  return dispatch_size(m.n, std::forward<F>(f));
+}
+
 namespace detail {
 /// velocities_from_joint for N transmissions (N = 0: m.n at run time); inputs already checked.
 template <int N, class VecIn>
@@ -435,8 +535,9 @@ inline void velocities_from_joint_n(const TransmissionModel& m, TransmissionData
     // Ṡ_{b−1} − K_i,b−1 q̇_{b−1} from the motor: a branch beyond every moving joint comes out exactly 0, or the
     // statics would treat it as sliding (stuck test Ṡ = 0). Ṡ_0 = r_m q̇_m (S0 eq. 1).
     double s = 0.0;
+    const int last = N > 0 ? i : m.last_joint(i);  // a fixed N is a serial routing (dispatch_routing)
 #pragma GCC unroll 8
-    for (int b = i; b >= 0; --b) {
+    for (int b = last; b >= 0; --b) {
       s += K[i + b * n] * qd(b);
       Sdot[i + b * n] = s;
     }
@@ -451,7 +552,7 @@ template <class VecIn>
 inline Status velocities_from_joint(const TransmissionModel& m, TransmissionData& d, const VecIn& qd) {
   if (qd.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(qd)) return Status::NonFiniteInput;
-  dispatch_size(m.n, [&](auto N) { detail::velocities_from_joint_n<decltype(N)::value>(m, d, qd); });
+  dispatch_routing(m, [&](auto N) { detail::velocities_from_joint_n<decltype(N)::value>(m, d, qd); });
   return Status::Ok;
 }
 
@@ -463,6 +564,16 @@ template <class VecIn>
 inline Status motor_torque_lossless(const TransmissionModel& m, TransmissionData& d, const VecIn& torque_joint) {
   if (torque_joint.size() != m.n) return Status::SizeMismatch;
   if (!all_finite(torque_joint)) return Status::NonFiniteInput;
+  if (!m.serial) {  // general routing: t = K⁻ᵀ τ_J = R_m⁻¹ (R_m K⁻ᵀ) τ_J
+    for (int i = 0; i < m.n; ++i) {
+      double s = 0.0;
+      for (int j = 0; j < m.n; ++j) s += m.motor_from_joint_torque(i, j) * torque_joint(j);
+      d.torque_motor(i) = s;
+      d.tension_motor(i) = s / m.motor_radius(i);
+      d.torque_joint(i) = torque_joint(i);
+    }
+    return Status::Ok;
+  }
   for (int j = m.n - 1; j >= 0; --j) {
     double s = torque_joint(j);  // S0 eq. 4: C_j = Σ_{k≥j} τ_k r_j^k
     for (int k = j + 1; k < m.n; ++k) s -= m.K(k, j) * d.tension_motor(k);
@@ -486,7 +597,8 @@ inline Status joint_torque_lossless(const TransmissionModel& m, TransmissionData
   }
   for (int j = 0; j < m.n; ++j) {
     double s = 0.0;
-    for (int k = j; k < m.n; ++k) s += m.K(k, j) * d.tension_motor(k);
+    for (int k = 0; k < m.n; ++k)
+      if (k >= j || m.last_joint(k) >= j) s += m.K(k, j) * d.tension_motor(k);  // serial: k ≥ j only
     d.torque_joint(j) = s;
   }
   return Status::Ok;

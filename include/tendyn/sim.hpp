@@ -6,7 +6,7 @@
 //   * Tendon — inextensible cables (S0's hypothesis): motors are slaved, q_m = R_m⁻¹ K q_a; the
 //     rotor inertia is reflected through the lossless map; the friction of every cable branch
 //     (S0 eqs. 11–12) and every reducer (eq. 9–10) acts where it is, on the branch velocity
-//     Ṡ_ib = Σ_{j=b..i} K_ij q̇_j and on the driven joint.
+//     Ṡ_ib = Σ_{j=b..last_joint(i)} K_ij q̇_j and on the driven joint.
 //   * Elastic — a capstan drive per active joint: motor inertia on a spring K_T (motor side) to
 //     the joint through ratio N (S2 §V-B); Coulomb/viscous friction on the motor.
 // Friction is solved at the velocity level every step (Moreau–Jean time stepping): each friction
@@ -238,7 +238,9 @@ inline Status SimModel::finalize() {
   }
 
   // Sites: every cable branch and reducer (tendon), motor and joint Coulomb where non-zero.
-  const int n_branch = drive == DriveKind::Tendon ? na * (na + 1) / 2 : 0;
+  int n_branch = 0;  // cable i has branches 0 … last_joint(i) (serial: i)
+  if (drive == DriveKind::Tendon)
+    for (int i = 0; i < na; ++i) n_branch += tendon.last_joint(i) + 1;
   const int n_red = drive == DriveKind::Tendon ? na : 0;
   int n_mc = 0, n_jc = 0, n_lock = 0;
   for (int i = 0; i < na; ++i) {
@@ -253,8 +255,8 @@ inline Status SimModel::finalize() {
   int k = 0;
   if (drive == DriveKind::Tendon) {
     for (int i = 0; i < na; ++i)
-      for (int b = 0; b <= i; ++b, ++k) {
-        for (int j = b; j <= i; ++j) G(k, j) = tendon.K(i, j);  // Ṡ_ib = Σ_{j≥b} K_ij q̇_j
+      for (int b = 0; b <= tendon.last_joint(i); ++b, ++k) {
+        for (int j = b; j <= tendon.last_joint(i); ++j) G(k, j) = tendon.K(i, j);  // Ṡ_ib = Σ_{j≥b} K_ij q̇_j
         site_kind(k) = static_cast<int>(SiteKind::Branch); site_i(k) = i; site_b(k) = b;
         D += tendon.nu(i, b) * G.row(k).transpose() * G.row(k);
       }
@@ -478,7 +480,7 @@ inline void update_tensions(const SimModel& m, SimData& d) {
     const double accel = (d.qd_motor(i) - d.qd_motor_prev(i)) / h;
     double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / m.tendon.motor_radius(i);
     d.tension_motor(i) = t;
-    for (int b = 0; b <= i; ++b, ++k) {
+    for (int b = 0; b <= m.tendon.last_joint(i); ++b, ++k) {
       t -= -d.p(k) / h + m.tendon.nu(i, b) * d.u(k);
       d.tension(i, b) = t;
     }

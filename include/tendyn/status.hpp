@@ -15,6 +15,7 @@ namespace tendyn {
 enum class Status : int {
   Ok = 0,                ///< computed
   SelfLocked = 1,        ///< computed; a self-locking reducer (eta_d <= 0.5) holds a back-driving load
+  NotConverged = 2,      ///< computed; the iteration of a coupled block of a general routing hit its cap
   NonFiniteInput = -1,   ///< an input was NaN or Inf
   SizeMismatch = -2,     ///< an input vector does not have the model's size
   InvalidModel = -3,     ///< the model is singular or inconsistent (caught at construction in Python)
@@ -25,6 +26,7 @@ inline const char* status_message(Status s) {
   switch (s) {
     case Status::Ok: return "ok";
     case Status::SelfLocked: return "a self-locking reducer holds a back-driving load";
+    case Status::NotConverged: return "the statics of a coupled (differential) block did not converge";
     case Status::NonFiniteInput: return "an input is NaN or Inf";
     case Status::SizeMismatch: return "an input vector does not have the model's size";
     case Status::InvalidModel: return "the model is singular or inconsistent";

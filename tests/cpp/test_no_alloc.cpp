@@ -96,12 +96,98 @@ static void constants_follow_the_model() {
   for (int i = 0; i < 2; ++i) expect_near("model changed in place, forget_model", d.torque_motor(i), fresh(m2)(i), 0.0);
 }
 
+// A differential pair (issue 19): K = [[r, r], [r, -r]], r = 20 mm, r_m = 10 mm; cable 0 drives joint 0 and goes
+// on to wrap joint 1. Losses: tau0 = 0.3 N on branch 1 (between the joints) of both cables, b0 = 0.2 N and
+// b1 = 0.1 N on branch 0 of cable 0 and cable 1. Joint velocity (1, 0.5) rad/s: Sdot[0] = (0.03, 0.01) m/s,
+// Sdot[1] = (0.01, -0.01) m/s. By hand: tension at joint 0 is t0 + 0.3 (cable 0) and t1 - 0.3 (cable 1),
+// at joint 1 t0 and t1, so tau_0 = r (t0 + t1), tau_1 = r (t0 - t1): t0 = (tau_0 + tau_1)/(2r), t1 = (tau_0 -
+// tau_1)/(2r); motor tensions t0 + 0.3 + 0.2 and t1 - 0.3 + 0.1.
+static tendyn::TransmissionModel differential_pair() {
+  tendyn::TransmissionModel m(2);
+  const double r = 0.02;
+  const double K[4] = {r, r, r, -r}, rm[2] = {0.01, 0.01}, rd[2] = {r, -r}, one[2] = {1.0, 1.0};
+  m.set_field("motor_radius", rm, 2, 1);
+  m.set_field("K", K, 2, 2);
+  m.set_field("driven_radius", rd, 2, 1);
+  m.set_field("reducer_ratio", one, 2, 1);
+  m.update_matrices();
+  m.tau0(0, 1) = 0.3; m.tau0(1, 1) = 0.3; m.tau0(0, 0) = 0.2; m.tau0(1, 0) = 0.1;
+  return m;
+}
+
+static void differential_statics() {
+  tendyn::TransmissionModel m = differential_pair();
+  if (tendyn::is_error(m.validate()) || m.serial || m.block_begin(1) != 0 || m.last_joint(0) != 1) {
+    std::puts("PHYSICS FAIL differential pair: not a valid 2x2 block");
+    ++physics_failures;
+    return;
+  }
+  tendyn::TransmissionData d(m);
+  Eigen::VectorXd tau(2), qd(2);
+  tau << 0.5, -0.2; qd << 1.0, 0.5;
+  const double r = 0.02, t0 = (0.5 - 0.2) / (2 * r), t1 = (0.5 + 0.2) / (2 * r);
+  tendyn::motor_torque_feedforward(m, d, tau, qd);
+  expect_near("differential motor tension 0", d.tension_motor(0), t0 + 0.3 + 0.2);
+  expect_near("differential motor tension 1", d.tension_motor(1), t1 - 0.3 + 0.1);
+  expect_near("differential tension at joint 0, cable 1", d.tension(1, 0), t1 - 0.3);
+  // forward is the exact inverse while every branch slides
+  Eigen::VectorXd cm = d.torque_motor;
+  tendyn::joint_torque_forward(m, d, cm, qd);
+  expect_near("differential forward tau_0", d.torque_joint(0), 0.5);
+  expect_near("differential forward tau_1", d.torque_joint(1), -0.2);
+  // lossless: virtual work q̇ᵀ τ_J = q̇_mᵀ C_m (S0 eq. 5)
+  tendyn::TransmissionModel m0 = differential_pair();
+  m0.tau0.setZero();
+  tendyn::TransmissionData d0(m0);
+  tendyn::motor_torque_feedforward(m0, d0, tau, qd);
+  tendyn::velocities_from_joint(m0, d0, qd);
+  expect_near("differential virtual work", d0.qd_motor.dot(d0.torque_motor), qd.dot(tau));
+}
+
+// The coupled-block Newton solve agrees with S0's closed-form recursion: the no-alloc chain below solved
+// with its serial flag cleared (1x1 blocks through the general path) gives the same motor torques.
+static void general_path_matches_serial(const tendyn::TransmissionModel& serial_model) {
+  tendyn::TransmissionModel g = serial_model;
+  g.serial = false;
+  tendyn::TransmissionData ds(serial_model), dg(g);
+  std::mt19937 rng(7);
+  std::normal_distribution<double> N(0.0, 1.0);
+  Eigen::VectorXd tau(serial_model.n), qd(serial_model.n);
+  for (int k = 0; k < 200; ++k) {
+    for (int i = 0; i < serial_model.n; ++i) { tau(i) = N(rng); qd(i) = (k % 5 == 0 && i == 1) ? 0.0 : N(rng); }
+    tendyn::motor_torque_feedforward(serial_model, ds, tau, qd);
+    tendyn::motor_torque_feedforward(g, dg, tau, qd);
+    for (int i = 0; i < serial_model.n; ++i)
+      expect_near("general path = serial recursion", dg.torque_motor(i), ds.torque_motor(i), 1e-11);
+  }
+}
+
+/// A 4-joint routing with a differential block on joints 2-3 and losses everywhere (no-alloc run below).
+static tendyn::TransmissionModel differential_chain() {
+  const int n = 4;
+  tendyn::TransmissionModel m(n);
+  const double K[16] = {0.32, 0, 0, 0,  0.015, 0.32, 0, 0,  0.015, -0.015, 0.02, 0.02,  0.015, 0.015, 0.02, -0.02};
+  const double rm[4] = {0.008, 0.008, 0.008, 0.008}, rd[4] = {0.04, 0.04, 0.02, -0.02}, ratio[4] = {8, 8, 1, 1};
+  m.set_field("motor_radius", rm, n, 1);
+  m.set_field("K", K, n, n);
+  m.set_field("driven_radius", rd, n, 1);
+  m.set_field("reducer_ratio", ratio, n, 1);
+  m.update_matrices();
+  m.reducer_efficiency << 0.9, 0.9, 1.0, 1.0;
+  m.tau0.setConstant(1.0); m.nu.setConstant(10.0); m.beta.setConstant(0.02);
+  m.pretension.setConstant(50.0);
+  m.bearing_count(3, 2) = 2; m.bearing_radius(3, 2) = 0.01; m.bearing_wrap(3, 2) = 3.141592653589793;
+  m.bearing_static_coefficient(3, 2) = 2e-4; m.bearing_dynamic_coefficient(3, 2) = 1.5e-4; m.bearing_h0(3, 2) = 1e-4;
+  m.bearing_h1(3, 2) = 2e-5; m.bearing_n0(3, 2) = 5;
+  return m;
+}
+
 int main(int argc, char** argv) {
   const long calls = argc > 1 ? std::atol(argv[1]) : 100000;
   bearing_statics();
   stuck_chain();
   constants_follow_the_model();
-  if (physics_failures) return 1;
+  differential_statics();
   const int n = 4;
   Eigen::MatrixXd idle = Eigen::MatrixXd::Zero(n, n);
   idle(1, 0) = 0.015; idle(2, 0) = 0.015; idle(2, 1) = -0.015;
@@ -115,7 +201,12 @@ int main(int argc, char** argv) {
   m.bearing_count(3, 2) = 2; m.bearing_radius(3, 2) = 0.01; m.bearing_wrap(3, 2) = 3.141592653589793;
   m.bearing_static_coefficient(3, 2) = 2e-4; m.bearing_dynamic_coefficient(3, 2) = 1.5e-4; m.bearing_h0(3, 2) = 1e-4; m.bearing_h1(3, 2) = 2e-5; m.bearing_n0(3, 2) = 5;
   if (tendyn::is_error(m.validate())) { std::puts("invalid model"); return 1; }
+  general_path_matches_serial(m);
+  if (physics_failures) return 1;
   tendyn::TransmissionData d(m);
+  const tendyn::TransmissionModel md = differential_chain();
+  if (tendyn::is_error(md.validate()) || md.serial) { std::puts("invalid differential model"); return 1; }
+  tendyn::TransmissionData dd(md);
 
   std::mt19937 rng(1234);
   std::normal_distribution<double> N(0.0, 1.0);
@@ -135,8 +226,15 @@ int main(int argc, char** argv) {
     if (tendyn::is_error(tendyn::motor_from_joint(m, d, q))) ++bad;
     if (tendyn::is_error(tendyn::joint_from_motor(m, d, d.q_motor))) ++bad;
     tendyn::branch_displacements(m, d);
+    // the general routing (differential block): the Newton solve and the forward allocate nothing either
+    if (tendyn::is_error(tendyn::motor_torque_feedforward(md, dd, tau, qd))) ++bad;
+    cm = dd.torque_motor;
+    if (tendyn::is_error(tendyn::joint_torque_forward(md, dd, cm, qd))) ++bad;
+    if (tendyn::is_error(tendyn::motor_from_joint(md, dd, q))) ++bad;
+    if (tendyn::is_error(tendyn::joint_from_motor(md, dd, dd.q_motor))) ++bad;
+    tendyn::branch_displacements(md, dd);
   }
   counting::armed = false;
-  std::printf("%ld calls x 5 functions: %ld allocations, %ld error statuses\n", calls, counting::count, bad);
+  std::printf("%ld calls x 5 functions x 2 routings (serial, differential): %ld allocations, %ld error statuses\n", calls, counting::count, bad);
   return (counting::count == 0 && bad == 0) ? 0 : 1;
 }

@@ -49,6 +49,17 @@ def cable_device(text: str, what: str):
     return dev
 
 
+def _separable(dev, what: str) -> None:
+    """One line (exit 2) when S0's identification cannot separate the losses of this routing
+    (:func:`tendyn.device.routing_checks.require_separable`)."""
+    from tendyn.device.routing_checks import NotSeparable, require_separable
+
+    try:
+        require_separable(dev, what)
+    except NotSeparable as exc:
+        raise UsageError(str(exc), "device") from None
+
+
 def _print_json(doc) -> None:
     from tendyn.io import to_jsonable
 
@@ -232,6 +243,7 @@ def run_identify_friction(args) -> int:
     from tendyn.commands.history import check_record, record_result
 
     dev = cable_device(args.device, "to identify friction of")
+    _separable(dev, "the S0 friction identification")
     check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
@@ -288,6 +300,7 @@ def run_decompose(args) -> int:
     from tendyn.ident.friction_file import FrictionFileError, read_friction
 
     dev = cable_device(args.device, "to decompose friction into")
+    _separable(dev, "the loss decomposition")
     try:
         doc = read_friction(args.friction, device=dev, physical=True)
         p = pp = None

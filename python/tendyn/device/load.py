@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from . import routing_checks
 from .schema import (
     ACTUATOR_FIELDS,
     Actuator,
@@ -153,6 +154,10 @@ class _Parser:
             return v
         if kind == "float":
             return self.number(v, path, spec)
+        if kind == "bool":
+            if not isinstance(v, bool):
+                raise self.err(path, f"must be true or false (got {_typename(v)})")
+            return v
         if kind == "int":
             return self.integer(v, path, spec)
         if kind in ("vec3", "inertia"):
@@ -629,14 +634,23 @@ class _Parser:
                 k, other = driven_by[t.joint]
                 raise self.err(f"{path}.joint", f"joint {t.joint} is driven twice: by transmission {other} "
                                                 f"(transmissions[{k}]) and by {t.name}; each joint must be "
-                                                "driven exactly once")
+                                                "driven exactly once (an antagonistic pair is one transmission "
+                                                "with antagonistic = true; N+1 routings are analysed with "
+                                                "tendyn.device.routing_checks.tendon_coupling, not in device files)")
             driven_by[t.joint] = (i + 1, t.name)
             out.append(t)
         for num, js in enumerate(kin.joints, start=1):
             if js.actuated and num not in driven_by:
                 raise self.err("transmissions", f"joint {num} ({js.name}) is not driven by any transmission; "
                                                 "each actuated joint must be driven exactly once")
-        return tuple(sorted(out, key=lambda t: t.joint))
+        out = tuple(sorted(out, key=lambda t: t.joint))
+        file_index = {t.name: names[t.name] for t in out}
+        try:
+            routing_checks.check_transmissions(out, kin.n_joints)
+        except routing_checks.RoutingProblem as p:
+            raise self.err(f"transmissions[{file_index[p.transmission]}]" + (f".{p.key}" if p.key else ""),
+                           p.problem) from None
+        return out
 
     def transmission(self, raw: dict, path: str, kin: Kinematics) -> TransmissionSpec:
         f = self.table(raw, path, TRANSMISSION_FIELDS)
@@ -653,25 +667,30 @@ class _Parser:
             cp = f"{path}.crosses[{k + 1}]"
             if c < 1:
                 raise self.err(cp, f"must be a joint number >= 1 (got {c})")
-            if c >= joint:
-                raise self.err(cp, f"cannot reach joint {c}: transmission {name} drives joint {joint} "
-                                   f"(a cable only crosses joints before the one it drives)")
+            if c > n:
+                raise self.no_joint(cp, c, n)
+            if c == joint:
+                raise self.err(cp, f"joint {c} is the joint transmission {name} drives: its radius there is "
+                                   "driven_radius, not a crossed radius")
             if c in seen:
                 raise self.err(cp, f"joint {c} is listed twice")
             seen.add(c)
         if len(radii) != len(crosses):
             raise self.err(f"{path}.crossed_radii", f"must have one radius per crossed joint: crosses has "
                                                     f"{len(crosses)} entries, crossed_radii has {len(radii)}")
-        # friction: one entry per branch
+        # friction: one entry per branch, up to the last joint the cable wraps (past `joint` for a differential)
+        last = max((joint, *crosses))
         fr_raw = f["friction"]
-        if len(fr_raw) != joint:
-            raise self.err(f"{path}.friction", f"must have exactly {joint} entries, one per branch "
-                                               f"(transmission {name} drives joint {joint}), got {len(fr_raw)}")
+        if len(fr_raw) != last:
+            why = (f"transmission {name} drives joint {joint}" if last == joint else
+                   f"transmission {name} wraps joints up to {last}")
+            raise self.err(f"{path}.friction", f"must have exactly {last} entries, one per branch "
+                                               f"({why}), got {len(fr_raw)}")
         friction = tuple(BranchFriction(**self.table(e, f"{path}.friction[{b + 1}]", FRICTION_FIELDS))
                          for b, e in enumerate(fr_raw))
         br_raw = f["bearings"]
         if br_raw is None:
-            bearings: tuple = (None,) * joint
+            bearings: tuple = (None,) * last
         else:
             if len(br_raw) != len(fr_raw):
                 raise self.err(f"{path}.bearings", f"must have the same length as friction ({len(fr_raw)}, one "
@@ -679,13 +698,21 @@ class _Parser:
             bearings = tuple(None if not e else Bearing(**self.table(e, f"{path}.bearings[{b + 1}]",
                                                                       BEARING_FIELDS))
                              for b, e in enumerate(br_raw))
+        if last > joint and (f["reducer_ratio"] != 1.0 or f["reducer_efficiency"] != 1.0):
+            key = "reducer_ratio" if f["reducer_ratio"] != 1.0 else "reducer_efficiency"
+            raise self.err(f"{path}.{key}", f"must be 1 (got {_fmt(f[key])}): transmission {name} wraps joint "
+                                            f"{last} after the joint it drives ({joint}), a differential whose "
+                                            "driven pulley holds no reducer (put the ratio in the radii)")
+        if f["antagonistic"] and any(b is not None and b.count > 0 for b in bearings):
+            raise self.err(f"{path}.bearings", f"transmission {name} is an antagonistic pair: bearings on a pair "
+                                               "are not modelled (their load is the sum of both cables' tensions)")
         mot = self.motor(f["motor"], f"{path}.motor")
         sen = self.table(f["sensors"], f"{path}.sensors", SENSOR_FIELDS)
         return TransmissionSpec(
             name=name, joint=joint, motor_radius=f["motor_radius"], crosses=tuple(crosses),
             crossed_radii=tuple(radii), driven_radius=f["driven_radius"], reducer_ratio=f["reducer_ratio"],
             reducer_efficiency=f["reducer_efficiency"], pretension=f["pretension"], friction=friction,
-            bearings=bearings, motor=Motor(**mot), sensors=Sensors(**sen))
+            bearings=bearings, motor=Motor(**mot), sensors=Sensors(**sen), antagonistic=f["antagonistic"])
 
     def drives(self, raw: Any, kin: Kinematics) -> tuple[Drive, ...]:
         if not raw:

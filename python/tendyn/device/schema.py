@@ -238,18 +238,22 @@ TRANSMISSION_FIELDS = (
     _spec("name", "str", "", "transmission name, unique"),
     _spec("joint", "int", "-", "driven joint number (1-based); every actuated joint is driven exactly once", lo=1),
     _spec("motor_radius", "float", "m", "motor pulley radius r_m", lo=0.0, lo_open=True, hi=1.0),
-    _spec("crosses", "int_list", "-", "joints the cable crosses on idle pulleys, each < joint, unique",
-      required=False, default=()),
-    _spec("crossed_radii", "float_list", "m", "signed idle-pulley radius per crossed joint (sign = routing)",
+    _spec("crosses", "int_list", "-", "other joints the cable wraps, unique, != joint: before it (idle pulleys) "
+      "or after it (a differential: the cable goes on past its driven joint)", required=False, default=()),
+    _spec("crossed_radii", "float_list", "m", "signed pulley radius per crossed joint (sign = winding direction)",
       required=False, default=(), abs_max=1.0, nonzero=True),
-    _spec("driven_radius", "float", "m", "driven pulley radius", lo=0.0, lo_open=True, hi=1.0,
-      zero_hint="a zero driven radius makes the routing singular"),
+    _spec("driven_radius", "float", "m", "driven pulley radius, signed (winding direction); 0 = the cable does not "
+      "wrap its joint (a zero diagonal: the routing must stay invertible)", abs_max=1.0),
     _spec("reducer_ratio", "float", "-", "reducer ratio n in the driven pulley (generalised radius = "
       "driven_radius * reducer_ratio, S0 footnote 1)", required=False, default=1.0, lo=1.0, hi=1e4),
     _spec("reducer_efficiency", "float", "-", "direct efficiency eta_d of the reducer (<= 0.5: self-locking)",
       required=False, default=1.0, lo=0.0, lo_open=True, hi=1.0, range_msg="must be in (0, 1]"),
-    _spec("pretension", "float", "N", "cable pretension", required=False, default=0.0, lo=0.0, hi=1e6),
-    _spec("friction", "table_list", "", "one entry per branch (exactly `joint` entries)"),
+    _spec("pretension", "float", "N", "cable pretension (of each cable of an antagonistic pair)", required=False,
+      default=0.0, lo=0.0, hi=1e6),
+    _spec("antagonistic", "bool", "-", "the motor drives a pair of cables wound in opposite directions over the "
+      "same pulleys (2N routing): each cable keeps pretension >= the minimum reported, losses per cable",
+      required=False, default=False),
+    _spec("friction", "table_list", "", "one entry per branch (the largest of `joint` and `crosses` entries)"),
     _spec("bearings", "table_list", "", "optional per-branch bearings, same length as friction; {} = none",
       required=False),
     _spec("motor", "table", "", "motor data"),
@@ -525,6 +529,12 @@ class TransmissionSpec:
     bearings: tuple[Bearing | None, ...]
     motor: Motor
     sensors: Sensors
+    antagonistic: bool = False
+
+    @property
+    def last_joint(self) -> int:
+        """Last joint (1-based) the cable wraps: ``joint``, or a later crossed joint for a differential."""
+        return max((self.joint, *self.crosses))
 
     @property
     def generalized_radius(self) -> float:
@@ -533,7 +543,7 @@ class TransmissionSpec:
 
     @property
     def n_branches(self) -> int:
-        return self.joint
+        return self.last_joint
 
     @property
     def self_locking(self) -> bool:
@@ -773,7 +783,11 @@ class SerialDevice(Device):
         """The routing and friction data as numpy arrays, 0-based.
 
         Rows are transmissions (sorted by driven joint), columns are joints; with one transmission per
-        joint (every "dh" device) the matrices are square (n, n) and lower-triangular.
+        joint (every "dh" device) the matrices are square (n, n); lower-triangular for a serial routing, with
+        entries above the diagonal for a differential (a cable that wraps joints after the one it drives).
+        An antagonistic pair (``antagonistic = true``) is one row of net tension u = T_a − T_b: its two cables
+        slide in opposite directions, so their losses add, and while both are taut (T_a + T_b = 2P) the
+        tension-proportional part is a constant: tau0 = 2 τ₀ + 2 β P, nu = 2 ν, beta = 0 per branch.
 
         Returns
         -------
@@ -782,7 +796,7 @@ class SerialDevice(Device):
             transmission i at crossed joint j, K[i, joint_i] = generalised radius (driven_radius *
             reducer_ratio), 0 elsewhere, so that R_m q_m = K q; ``driven_radius``, ``reducer_ratio``,
             ``reducer_efficiency``, ``pretension`` (m,); ``tau0`` [N], ``nu`` [N s/m], ``beta`` [-] (m, n)
-            with [i, b] = branch b of transmission i (zero for b >= joint_i); ``bearing_count``,
+            with [i, b] = branch b of transmission i (zero past the last joint it wraps); ``bearing_count``,
             ``bearing_radius``, ``bearing_wrap``, ``bearing_static_coefficient``,
             ``bearing_dynamic_coefficient``, ``bearing_h0``, ``bearing_h1``, ``bearing_n0`` (m, n), zero where
             there is no bearing except ``bearing_radius`` = 1.0 there (no division by zero). The keys and
@@ -803,6 +817,10 @@ class SerialDevice(Device):
             for b, fr in enumerate(t.friction):
                 for spec in FRICTION_FIELDS:
                     out[spec.name][i, b] = getattr(fr, spec.name)
+                if t.antagonistic:  # the pair as one transmission of net tension (docs/device-file.md)
+                    out["tau0"][i, b] = 2.0 * fr.tau0 + 2.0 * fr.beta * t.pretension
+                    out["nu"][i, b] = 2.0 * fr.nu
+                    out["beta"][i, b] = 0.0
             for b, br in enumerate(t.bearings):
                 if br is None:
                     continue

@@ -18,12 +18,21 @@ import numpy as np
 
 def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, bearings: bool = False,
                       reducers: bool = True, beta: bool = True, gravity: bool = True, seed: int = 0,
-                      rotor_inertia: float = 4e-5) -> str:
+                      rotor_inertia: float = 4e-5, differential: bool = False) -> str:
     """The TOML text of an n-joint cable device (docs/device-file.md): transmission i drives joint i and crosses
     joints 1…i−1 on idle pulleys of random sign. Planar: every joint axis parallel, gravity in the plane (−y);
-    spatial: alternating ±90° twists, gravity along −z of the base."""
+    spatial: alternating ±90° twists, gravity along −z of the base.
+
+    differential: the last two joints (and joints 2-3 when n >= 5) are differential pairs (issue 19): the
+    cable of the first joint k of a pair also wraps joint k+1 with its driven radius r, the cable of joint k+1
+    has driven radius −r, so the pair's block of K is [[r, r], [r, −r]] (no reducer in a pair)."""
     rng = np.random.default_rng(seed)
-    name = name or f"gen{n}{'p' if planar else 's'}{'b' if bearings else ''}{seed}"
+    name = name or f"gen{n}{'p' if planar else 's'}{'b' if bearings else ''}{'d' if differential else ''}{seed}"
+    pairs = set()  # first joint (0-based) of each differential pair
+    if differential and n >= 2:
+        pairs.add(n - 2)
+        if n >= 5:
+            pairs.add(1)
     reach = 0.6
     length = reach / n
     lines = ["schema = 1", "[device]", f'name = "{name}"',
@@ -41,22 +50,34 @@ def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, b
                   f"lower = {-float(rng.uniform(1.2, 1.6))!r}", f"upper = {float(rng.uniform(1.2, 1.6))!r}",
                   f"mass = {mass!r}", f"com = {com!r}",
                   f"inertia = [{inertia!r}, {inertia!r}, {inertia!r}, 0.0, 0.0, 0.0]"]
+    pair_radius = {}
     for i in range(n):
         ratio = float(rng.choice([1.0, 4.0, 6.0])) if reducers else 1.0
         crosses = list(range(1, i + 1))
         radii = [float(rng.choice([-1, 1]) * rng.uniform(0.012, 0.025)) for _ in crosses]
+        n_branch = i + 2 if i in pairs else i + 1
         fr = ", ".join(f"{{tau0 = {float(rng.uniform(0.3, 0.9))!r}, nu = {float(rng.uniform(3, 9))!r}"
                        + (f", beta = {float(rng.uniform(0.01, 0.03))!r}" if beta else "") + "}"
-                       for _ in range(i + 1))
+                       for _ in range(n_branch))
+        driven = float(rng.uniform(0.03, 0.05))  # drawn here: the devices without differentials stay as they were
+        if i in pairs:  # first of a pair: goes on to wrap joint i+2 (1-based) with the same radius
+            ratio = 1.0
+            pair_radius[i + 1] = driven
+            crosses.append(i + 2)
+            radii.append(driven)
+        elif i in pair_radius:  # second of a pair: same pulleys, opposite winding on its own joint
+            ratio = 1.0
+            driven = -pair_radius[i]
+            radii[-1] = pair_radius[i]
         lines += ["[[transmissions]]", f'name = "t{i + 1}"', f"joint = {i + 1}", "motor_radius = 0.01",
-                  f"crosses = {crosses}", f"crossed_radii = {radii}", f"driven_radius = {float(rng.uniform(0.03, 0.05))!r}",
+                  f"crosses = {crosses}", f"crossed_radii = {radii}", f"driven_radius = {driven!r}",
                   f"reducer_ratio = {ratio!r}",
                   f"reducer_efficiency = {float(rng.uniform(0.85, 0.95)) if ratio > 1 else 1.0!r}",
                   f"pretension = {float(rng.uniform(20, 50))!r}", f"friction = [{fr}]"]
         if bearings:
             b = ", ".join("{count = 2, radius = 0.01, wrap = 3.0, static_coefficient = 1e-4, "
                           "dynamic_coefficient = 8e-5, h0 = 2e-4, h1 = 5e-5, n0 = 5.0}" if k % 2 == 0 else "{}"
-                          for k in range(i + 1))
+                          for k in range(n_branch))
             lines += [f"bearings = [{b}]"]
         lines += ["[transmissions.motor]", "torque_constant = 0.1", f"rotor_inertia = {rotor_inertia!r}", "continuous_torque = 1.0",
                   "peak_torque = 3.0", "[transmissions.sensors]", "encoder_counts = 16384", "current_noise = 0.02"]

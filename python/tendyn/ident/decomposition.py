@@ -67,7 +67,7 @@ def default_shares(device) -> tuple[np.ndarray, np.ndarray]:
     m, n = K.shape
     w = np.zeros((m, n))
     for i, t in enumerate(device.transmissions):
-        for b in range(t.joint):
+        for b in range(t.n_branches):
             w[i, b] = max(1.0, float(arr["bearing_count"][i, b]))
     p = w / w.sum(axis=1, keepdims=True)
     return p, p.copy()
@@ -154,6 +154,9 @@ def decompose(device, coulomb_motor, viscous_motor, p=None, p_prime=None, load_c
     shares (default :func:`default_shares`). S0 eqs. 20–21, corrected: ERRATA. An identified load coefficient
     c_L^i [-] is carried as it is: it belongs to the cable's tension, not to a branch's speed, and the loss model
     places it at the reducer (:mod:`tendyn.ident.loss_model`)."""
+    from tendyn.device.routing_checks import require_separable
+
+    require_separable(device, "the loss decomposition")  # what S0's method cannot separate: its docstring
     arr = device.routing_arrays()
     K, r_m = arr["K"], arr["motor_radius"]
     kp = kinematic_coefficients(K, r_m)
