@@ -88,6 +88,36 @@ def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int
                         baseline="numpy recursion (same physics)", baseline_value=bp999 / 1e3, ratio=bp999 / p999))
 
 
+def bench_differential_feedforward(results: list, calls: int = 1_000_000) -> None:
+    """Issue 19: feedforward motor torques with losses on a 7-transmission differential device (generated:
+    differential pairs at joints 2-3 and 6-7, every branch lossy, no bearings) against the L-EXOS feedforward
+    (serial, S0's recursion) timed in the same process (benchmarks/routing_timer.cpp: interleaved rounds, one
+    thread-CPU timer around `calls` calls, median of 7). The ratio is L-EXOS time / differential time (< 1: the
+    coupled blocks cost more). The peers cannot do it at all: the plain Eigen and numpy statics of the other
+    entries are S0's serial recursion, and MuJoCo's fixed tendons carry no tension-dependent losses."""
+    from tendyn.devices.generate import write_cable_device
+
+    timer = os.environ.get("TENDYN_ROUTING_TIMER", str(HERE.parent / "build/bench/benchmarks/routing_timer"))
+    if not Path(timer).exists():
+        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/routing_timer.cpp)")
+    print(f"[bench] differential feedforward (7 transmissions) vs L-EXOS, {calls} calls x 7 rounds …", file=sys.stderr)
+    with tempfile.TemporaryDirectory() as tmp:
+        lexos, diff = Path(tmp) / "lexos.model", Path(tmp) / "diff7.model"
+        Transmission.from_device(load_device(bundled("lexos"))).export(lexos)
+        dev = load_device(write_cable_device(tmp, 7, planar=False, differential=True, seed=19))
+        Transmission.from_device(dev).export(diff)
+        out = subprocess.run([timer, str(lexos), str(diff), str(calls), "19", "7"], capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"routing_timer failed: {out.stderr.strip()}")
+    t = json.loads(out.stdout)
+    results.append(dict(name="diff7_feedforward_mean", value=t["general_mean_ns"] / 1e3, unit="us/call",
+                        baseline="L-EXOS feedforward (serial, 4 transmissions, same run)",
+                        baseline_value=t["serial_mean_ns"] / 1e3, ratio=t["serial_mean_ns"] / t["general_mean_ns"],
+                        goal_us=0.2, newton_steps_per_call=t["general_iterations_mean"],
+                        max_rel_roundtrip=t["max_rel_roundtrip"], calls=t["calls"], rounds=t["rounds"],
+                        timer="one thread-CPU timer around 1M calls, median of 7 interleaved rounds"))
+
+
 def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int = 5000, device=None,
                       name: str = "lexos_compensator_cycle") -> None:
     """One compensator cycle (velocity estimate + gravity + losses) through the C ABI, of L-EXOS or ``device``:
@@ -157,8 +187,18 @@ def print_table(results: list) -> None:
 
 
 def main() -> int:
+    only = sys.argv[1:]   # entry names to run (e.g. `run.py differential`); none: every entry
     results: list = []
+    if only == ["differential"]:   # one entry: measured alone, merged into results.json (same name replaced)
+        bench_differential_feedforward(results)
+        path = HERE / "results.json"
+        old = json.loads(path.read_text()) if path.exists() else []
+        names = {r["name"] for r in results}
+        atomic_write_text(path, json.dumps([r for r in old if r["name"] not in names] + results, indent=2))
+        print_table(results)
+        return 0
     bench_feedforward(results)
+    bench_differential_feedforward(results)
     bench_compensator(results)
     with tempfile.TemporaryDirectory() as tmp:   # issue 17: the same cycle on a generated 8-transmission device
         from tendyn.devices.generate import write_cable_device

@@ -290,50 +290,55 @@ inline double branch_upstream_slope(double x, double sdot, double kappa, double 
 }
 
 /// Tensions of cable i from its end (the last joint it wraps, tension t) to the motor, with the slopes
-/// ∂tension[i, b]/∂t (S0 eq. 6 along every branch; a branch at rest passes the tension unchanged).
-/// Writes d.tension(i, ·), d.slope(i, ·), d.stuck(i, ·), d.tension_motor(i); returns ∂t_motor/∂t.
-inline double climb_cable(const TransmissionModel& m, TransmissionData& d, int i, double t) {
+/// ∂tension[i, b]/∂t when Slopes (S0 eq. 6 along every branch; a branch at rest passes the tension unchanged).
+/// Writes d.tension(i, ·), d.slope(i, ·) (Slopes), d.stuck(i, ·), d.tension_motor(i).
+template <bool Slopes>
+inline void climb_cable(const TransmissionModel& m, TransmissionData& d, int i, double t) {
   const int last = m.last_joint(i);
   double sl = 1.0;
   d.tension(i, last) = t;
-  d.slope(i, last) = 1.0;
+  if (Slopes) d.slope(i, last) = 1.0;
   for (int b = last; b >= 0; --b) {
     const double sdot = d.Sdot(i, b);
     if (sdot == 0.0) {
       d.stuck(i, b) = 1;
     } else {
       d.stuck(i, b) = 0;
-      const BranchFriction f = d.statics.bearings ? branch_friction(m, i, b, sdot) : BranchFriction{m.tau0(i, b), m.beta(i, b)};
       double g = 1.0;
-      t = branch_upstream_slope(t, sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
-                                1.0 / (1.0 - f.b), &g);
+      if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {  // speed-dependent bearing terms (S0 eqs. 7–8)
+        const BranchFriction f = branch_friction(m, i, b, sdot);
+        t = branch_upstream_slope(t, sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
+                                  1.0 / (1.0 - f.b), &g);
+      } else if (Slopes) {
+        t = branch_upstream_slope(t, sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b),
+                                  d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b), &g);
+      } else {
+        t = branch_tension_upstream_q(t, sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b),
+                                      d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b));
+      }
       sl *= g;
     }
-    if (b > 0) { d.tension(i, b - 1) = t; d.slope(i, b - 1) = sl; }
+    if (b > 0) {
+      d.tension(i, b - 1) = t;
+      if (Slopes) d.slope(i, b - 1) = sl;
+    }
   }
   d.tension_motor(i) = t;
-  return sl;
 }
 
-/// Torque cable i applies to joint j at its tension there, and its derivative by t_i: K_ij tension[i, j];
-/// at its driven pulley (j = i) through the reducer, S0 eqs. 9–10: × η_d when the pulley drives the joint
-/// (power K_ii t q̇_i > 0), × η_d/(2η_d − 1) when the joint back-drives it, × 1 at rest.
-inline double cable_joint_torque(const TransmissionModel& m, const TransmissionData& d, int i, int j, double* dtorque) {
-  const double k = m.K(i, j), t = d.tension(i, j);
-  double e = 1.0;
-  if (j == i) {
-    const double eta = m.reducer_efficiency(i), power = k * t * d.qd(i);
-    e = power > 0.0 ? eta : power < 0.0 ? eta / (2.0 * eta - 1.0) : 1.0;
-  }
-  *dtorque = k * e * d.slope(i, j);
-  return k * e * t;
+/// Reducer factor e of the torque K_ii e t cable i applies at its driven joint, S0 eqs. 9–10: η_d when the
+/// pulley drives the joint (power > 0), η_d/(2η_d − 1) when the joint back-drives it (power < 0), 1 at rest.
+inline double reducer_factor(double eta, double power) {
+  return power > 0.0 ? eta : power < 0.0 ? eta / (2.0 * eta - 1.0) : 1.0;
 }
 
-/// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one: a block's
-/// joint equations τ_j = Σ_i K_ij tension[i, j] hold the unknown end tensions t_i of its cables (the later
-/// blocks' cables are known by then); each tension is a monotone piecewise-linear function of t_i (the branch
-/// laws), so a Newton iteration on the pieces ends exactly once it has the right pieces (checked on the
-/// residual). A 1×1 block takes one step; a block starts from t = 0. Status NotConverged after 30 steps.
+/// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one; the later
+/// blocks' cables are known by then, their torques at this block's joints subtracted once (block_residual
+/// keeps τ_j minus them). A 1×1 block (its cable ends at its own joint) is S0's closed form: the reducer, then
+/// the climb. A larger block's joint equations τ_j = Σ_i K_ij tension[i, j] hold the end tensions t_i of its
+/// cables; each tension is a monotone piecewise-linear function of t_i (the branch laws), so a Newton
+/// iteration on the pieces, from t = 0, ends exactly once it has the right pieces (checked on the residual,
+/// 1e-13 relative). Status NotConverged after 30 steps.
 template <class V1, class V2>
 inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
                                   const V2& qd) {
@@ -341,30 +346,45 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
   velocities_from_joint_n<0>(m, d, qd);
   Status status = Status::Ok;
   d.block_iterations = 0;
+  double* known = d.block_step.data();  // τ_j minus the later blocks' cables, per joint of the block
   for (int end = n - 1; end >= 0;) {
     const int begin = m.block_begin(end);
-    for (int i = begin; i <= end; ++i) d.block_step(i) = 0.0;  // t_i, the end tensions of the block's cables
-    bool done = false;
-    for (int it = 0; it < 30 && !done; ++it) {
-      for (int i = begin; i <= end; ++i) climb_cable(m, d, i, d.block_step(i));
-      for (int j = begin; j <= end; ++j)
-        for (int k = begin; k <= end; ++k) d.block_jacobian(j, k) = 0.0;
-      double scale = 0.0, worst_r = 0.0;
+    for (int j = begin; j <= end; ++j) {
+      double r = torque_joint(j);
+      for (int k = n - 1; k > end; --k) r -= m.K(k, j) * d.tension(k, j);
+      known[j] = r;
+    }
+    if (begin == end) {  // S0's recursion for one cable: reducer (eqs. 9–10), then the climb (eq. 6)
+      const int i = begin;
+      const double own = known[i], e = reducer_factor(m.reducer_efficiency(i), own * d.qd(i));
+      climb_cable<false>(m, d, i, own / (m.K(i, i) * e));
+      end = begin - 1;
+      continue;
+    }
+    double scale = 0.0;
+    for (int j = begin; j <= end; ++j) scale = std::max(scale, std::abs(known[j]));
+    bool done = false;  // the unknowns t_i are the block cables' end tensions, kept in tension(i, last_joint(i))
+    for (int i = begin; i <= end; ++i) d.tension(i, m.last_joint(i)) = 0.0;
+    for (int it = 0; it < 30; ++it) {
+      for (int i = begin; i <= end; ++i) climb_cable<true>(m, d, i, d.tension(i, m.last_joint(i)));
+      double worst_r = 0.0, mag = scale;
       for (int j = begin; j <= end; ++j) {
-        double r = torque_joint(j), mag = std::abs(r);
-        for (int k = 0; k < n; ++k) {
-          if (k < begin || m.last_joint(k) < j) continue;  // cable k does not wrap joint j
-          double dt = 0.0;
-          const double c = cable_joint_torque(m, d, k, j, &dt);
-          r -= c;
-          mag += std::abs(c);
-          if (k <= end) d.block_jacobian(j, k) = dt;  // ∂(torque at j)/∂t_k, k in the block
+        double r = known[j];
+        for (int k = begin; k <= end; ++k) {
+          double jac = 0.0;
+          if (m.last_joint(k) >= j) {
+            const double kk = m.K(k, j), tk = d.tension(k, j);
+            const double e = j == k ? reducer_factor(m.reducer_efficiency(k), kk * tk * d.qd(j)) : 1.0;
+            r -= kk * e * tk;
+            mag = std::max(mag, std::abs(kk * e * tk));
+            jac = kk * e * d.slope(k, j);
+          }
+          d.block_jacobian(j, k) = jac;
         }
         d.block_residual(j) = r;
-        scale = std::max(scale, mag);
         worst_r = std::max(worst_r, std::abs(r));
       }
-      if (it > 0 && worst_r <= 1e-13 * scale) { done = true; break; }
+      if (it > 0 && worst_r <= 1e-13 * mag) { done = true; break; }
       // Gaussian elimination with partial pivoting on the block (rows j, columns k, begin … end).
       for (int c = begin; c <= end; ++c) {
         int p = c;
@@ -378,7 +398,6 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
         if (piv == 0.0) return Status::InvalidModel;
         for (int r = c + 1; r <= end; ++r) {
           const double f = d.block_jacobian(r, c) / piv;
-          if (f == 0.0) continue;
           for (int k = c; k <= end; ++k) d.block_jacobian(r, k) -= f * d.block_jacobian(c, k);
           d.block_residual(r) -= f * d.block_residual(c);
         }
@@ -388,7 +407,7 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
         for (int k = c + 1; k <= end; ++k) x -= d.block_jacobian(c, k) * d.block_residual(k);
         d.block_residual(c) = x / d.block_jacobian(c, c);
       }
-      for (int i = begin; i <= end; ++i) d.block_step(i) += d.block_residual(i);
+      for (int i = begin; i <= end; ++i) d.tension(i, m.last_joint(i)) += d.block_residual(i);
       ++d.block_iterations;
     }
     if (!done) status = worst(status, Status::NotConverged);

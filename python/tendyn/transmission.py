@@ -2,7 +2,9 @@
 
 Every computation runs in the C++ core (:mod:`tendyn._core`, ``include/tendyn/routing.hpp`` and
 ``losses.hpp``); this class only allocates the numpy arrays a Python user wants back. Indices are
-0-based: transmission ``i`` drives joint ``i`` and crosses joints ``0 … i-1``.
+0-based: transmission ``i`` drives joint ``i`` and crosses joints ``0 … i-1`` in a serial routing (S0's); in a
+general routing (issue 19) it also wraps joints after ``i`` (``model.last_joint[i]``: differentials), radii are
+signed and a diagonal may be zero (docs/device-file.md, "General routing").
 """
 
 from __future__ import annotations
@@ -102,7 +104,7 @@ class StaticsResult:
     tension : (n, n) tension at joint b after branch b of transmission i [N]
     stuck : (n, n) bool, branch at rest (static friction balances it)
     self_locked : (n,) bool, a self-locking reducer holds a back-driving load
-    status : the core's status (Ok or SelfLocked)
+    status : the core's status (Ok, SelfLocked, or NotConverged when a coupled block's iteration hit its cap)
     """
 
     torque_motor: np.ndarray
@@ -151,8 +153,9 @@ class Transmission:
         Parameters
         ----------
         motor_radius : (n,) motor pulley radii r_m [m]
-        K : (n, n) lower-triangular transmission matrix [m]; strict lower part = signed idle radii,
-            diagonal = generalised driven radius (pulley radius × reducer ratio, S0 footnote 1)
+        K : (n, n) invertible transmission matrix [m]; [i, j] = signed radius of the pulley of joint j cable i
+            wraps (lower-triangular for a serial routing; after the diagonal for a differential), diagonal =
+            generalised driven radius (pulley radius × reducer ratio, S0 footnote 1; signed, may be 0)
         reducer_ratio : (n,) reducer ratios n_i [-] (default 1: the diagonal is the pulley radius)
         reducer_efficiency : (n,) direct efficiencies η_d in (0, 1] (default 1)
         pretension : (n,) cable pretension [N] (loads the bearings)

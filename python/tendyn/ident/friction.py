@@ -527,6 +527,14 @@ def isolated_move_joint_speeds(K, motor_radius, j: int, strategy: str, qd_motor:
     K = np.asarray(K, float)
     n = K.shape[0]
     qd = np.zeros(n)
+    serial = np.all(np.triu(K, 1) == 0)
+    if strategy == "S1" and not serial:  # general routing (issue 19): q̇ = K⁻¹ R_m e_j q̇_m
+        rhs = np.zeros(n)
+        rhs[j] = motor_radius[j] * qd_motor
+        return np.linalg.solve(K, rhs)
+    if K[j, j] == 0.0:
+        raise ValueError(f"transmission {j + 1} does not wrap its own joint (zero driven radius): an S2 move of "
+                         "that joint alone is not a move of its motor alone")
     qd[j] = motor_radius[j] * qd_motor / K[j, j]
     if strategy == "S1":
         for i in range(j + 1, n):
@@ -540,8 +548,9 @@ def branch_speeds(K, qd) -> np.ndarray:
     n = K.shape[0]
     S = np.zeros_like(K)
     for i in range(n):
-        for b in range(i + 1):
-            S[i, b] = float(np.dot(K[i, b:i + 1], qd[b:i + 1]))
+        last = max([i] + [j for j in range(i + 1, K.shape[1]) if K[i, j] != 0.0])  # > i: a differential
+        for b in range(last + 1):
+            S[i, b] = float(np.dot(K[i, b:last + 1], qd[b:last + 1]))
     return S
 
 
