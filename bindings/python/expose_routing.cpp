@@ -1,7 +1,9 @@
 #include <string>
+#include <vector>
 
 #include <nanobind/ndarray.h>
 #include <nanobind/stl/string.h>
+#include <nanobind/stl/vector.h>
 
 #include "common.hpp"
 #include "tendyn/model_file.hpp"
@@ -66,11 +68,11 @@ void expose_routing(nb::module_& m) {
            for (const char* req : {"K", "driven_radius"})
              if (!arrays.contains(req))
                throw nb::value_error((std::string("TransmissionModel: missing required field '") + req + "'").c_str());
+           model.update_matrices();  // the structure (blocks, dependent transmission) is part of the validation
            ValidationIssue issue;
            if (model.first_issue(&issue))
              throw nb::value_error(("invalid transmission model: " + describe(issue) +
                                     " (indices 0-based: [transmission] or [transmission, joint/branch])").c_str());
-           model.update_matrices();
            new (self) M(std::move(model));
          },
          nb::arg("arrays"))
@@ -108,6 +110,26 @@ void expose_routing(nb::module_& m) {
             return out;
           },
           "The parameter table: (name, dims, unit, doc) per field, in order (dims 1: (n), 2: (n, n)).");
+  m.def(
+      "routing_structure",
+      [](const RowMatrixXd& K) {
+        if (K.rows() != K.cols() || K.rows() == 0) throw nb::value_error("routing_structure: K must be square (n, n)");
+        M mo(static_cast<int>(K.rows()));
+        mo.set_field("K", K.data(), static_cast<int>(K.rows()), static_cast<int>(K.cols()));
+        mo.motor_radius.setOnes();
+        mo.update_matrices();
+        nb::dict out;
+        out["last_joint"] = nb::cast(std::vector<int>(mo.last_joint.data(), mo.last_joint.data() + mo.n));
+        out["block_begin"] = nb::cast(std::vector<int>(mo.block_begin.data(), mo.block_begin.data() + mo.n));
+        out["block_end"] = nb::cast(std::vector<int>(mo.block_end.data(), mo.block_end.data() + mo.n));
+        out["serial"] = mo.serial;
+        out["dependent_transmission"] = mo.dependent_transmission;
+        return out;
+      },
+      nb::arg("K"),
+      "The structure of a routing K (n, n) [m] as TransmissionModel.update_matrices() finds it, without validating "
+      "anything else: last_joint, block_begin, block_end (lists, 0-based), serial, dependent_transmission (-1: K "
+      "invertible).");
   m.def(
       "validate_report",
       [](const M& mo) {

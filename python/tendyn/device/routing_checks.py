@@ -59,12 +59,8 @@ def check_transmissions(transmissions, n_joints: int) -> None:
     if len(transmissions) != n_joints:
         return  # a device with passive joints keeps S0's square form on its active joints (rigid_body maps)
     K = routing_matrix(transmissions, n_joints)
-    model = _core.TransmissionModel({
-        "motor_radius": np.array([t.motor_radius for t in transmissions]), "K": K,
-        "driven_radius": np.array([t.driven_radius for t in transmissions]),
-        "reducer_ratio": np.array([t.reducer_ratio for t in transmissions]),
-        "reducer_efficiency": np.array([t.reducer_efficiency for t in transmissions])})
-    dep = model.dependent_transmission
+    structure = _core.routing_structure(K)
+    dep = structure["dependent_transmission"]
     if dep >= 0:
         t = transmissions[dep]
         earlier = ", ".join(x.name for x in transmissions[:dep]) or "none"
@@ -76,12 +72,17 @@ def check_transmissions(transmissions, n_joints: int) -> None:
         raise RoutingProblem(t.name, "", f"the routing is singular: the row of K of transmission {t.name} "
                              f"({np.array2string(K[dep], precision=4)} m) is a combination of the rows of the "
                              f"transmissions before it ({earlier}), so K has no inverse")
-    if not model.serial:
+    if not structure["serial"]:
         for t in transmissions:
             if t.self_locking:
                 raise RoutingProblem(t.name, "reducer_efficiency", f"must be > 0.5 (got {t.reducer_efficiency:g}): "
                                      "self-locking reducers are modelled in serial routings only, and this "
                                      "routing has differentials, negative or zero driven radii")
+    model = _core.TransmissionModel({
+        "motor_radius": np.array([t.motor_radius for t in transmissions]), "K": K,
+        "driven_radius": np.array([t.driven_radius for t in transmissions]),
+        "reducer_ratio": np.array([t.reducer_ratio for t in transmissions]),
+        "reducer_efficiency": np.array([t.reducer_efficiency for t in transmissions])})
     res = virtual_work_residual(model)
     if not res < 1e-9:
         raise RoutingProblem(transmissions[0].name, "", f"the routing is not power-consistent: q̇ᵀτ_J and "
@@ -170,10 +171,10 @@ def coupled_transmissions(device) -> list[list[str]]:
     K = arr["K"]
     if K.shape[0] != K.shape[1]:
         return []
-    model = _core.TransmissionModel({k: arr[k] for k in ("motor_radius", "K", "driven_radius", "reducer_ratio")})
-    if model.serial:
+    structure = _core.routing_structure(K)
+    if structure["serial"]:
         return []
-    begin, end = np.asarray(model.block_begin), np.asarray(model.block_end)
+    begin, end = np.asarray(structure["block_begin"]), np.asarray(structure["block_end"])
     groups, seen = [], set()
     for i in range(len(trans)):
         if begin[i] in seen:
