@@ -207,6 +207,7 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
     while (std::string(transmission_fields[k].name) != req) ++k;
     if (!seen[k]) return fail(0, std::string(req) + ": missing required field");
   }
+  model.update_matrices();  // the structure of K (blocks, dependent transmission) is part of the validation
   ValidationIssue issue;
   if (model.first_issue(&issue)) {
     int line_of = 0;
@@ -214,7 +215,6 @@ inline bool parse_transmission_model(const std::string& text, const std::string&
       if (std::string(issue.field).rfind(transmission_fields[k].name, 0) == 0) line_of = seen[k];
     return fail(line_of, describe(issue));
   }
-  model.update_matrices();
   *m = std::move(model);
   return true;
 }

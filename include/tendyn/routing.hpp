@@ -397,10 +397,27 @@ inline int TransmissionModel::check(Sink&& sink) const {
     if (last_joint(i) != last_joint_of(i))
       go = report("K", i, last_joint_of(i), K(i, last_joint_of(i)), "changed after update_matrices(): call it again");
   if (!go) return count;
-  if (dependent_transmission >= 0)
-    return report("K", dependent_transmission, -1, 0.0,
-                  "transmission depends on the earlier ones: the routing is singular (K has no inverse; "
-                  "a zero driven radius needs another transmission to wrap that joint)"), count;
+  if (dependent_transmission >= 0) {
+    const int i = dependent_transmission;
+    if (driven_radius(i) == 0.0)
+      return report("driven_radius", i, -1, 0.0, "must be nonzero here (a zero driven radius makes the routing "
+                    "singular: the row of K of this transmission depends on the rows before it)"), count;
+    return report("K", i, -1, K(i, i), "the row of K of this transmission depends on the rows before it (singular "
+                  "routing: K has no inverse)"), count;
+  }
+  // K (R_m⁻¹ ... ) taken at update_matrices(): K · joint_from_motor_position = R_m, or K changed since.
+  for (int i = 0; i < n && go; ++i)
+    for (int j = 0; j < n && go; ++j) {
+      double s = 0.0, mag = 0.0;
+      for (int k = 0; k < n; ++k) {
+        s += K(i, k) * joint_from_motor_position(k, j);
+        mag += std::abs(K(i, k) * joint_from_motor_position(k, j));
+      }
+      const double want = i == j ? motor_radius(i) : 0.0;
+      if (!(std::abs(s - want) <= 1e-9 * (mag + std::abs(want))))
+        go = report("K", i, j, K(i, j), "changed after update_matrices() (or motor_radius did): call it again");
+    }
+  if (!go) return count;
   for (int i = 0; i < n && go; ++i) {
     // A reducer sits in the driven pulley, where the cable ends: a cable that goes on to later joints has none.
     if (last_joint(i) > i && (reducer_ratio(i) != 1.0 || reducer_efficiency(i) != 1.0))

@@ -173,6 +173,28 @@ static void step_on_pinocchio_matches() {
   }
 }
 
+// The chain with a differential on joints 2-3 (issue 19): cables 2 and 3 both wrap the pulleys of joints 2 and 3
+// (30 mm), cable 3 reversed on joint 3: K block [[r, r], [r, -r]]; friction on every branch (their sites reach
+// joint 3 for cable 2, past its driven joint).
+static tendyn::SimModel differential_chain() {
+  tendyn::SimModel m = chain(tendyn::DriveKind::Tendon);
+  const int n = 3;
+  tendyn::TransmissionModel t(n);
+  const double K[9] = {0.32, 0, 0, 0.015, 0.03, 0.03, 0.015, 0.03, -0.03};
+  const double rm[3] = {0.008, 0.008, 0.008}, rd[3] = {0.04, 0.03, -0.03}, ratio[3] = {8, 1, 1};
+  t.set_field("motor_radius", rm, n, 1);
+  t.set_field("K", K, n, n);
+  t.set_field("driven_radius", rd, n, 1);
+  t.set_field("reducer_ratio", ratio, n, 1);
+  t.update_matrices();
+  t.reducer_efficiency(0) = 0.9;
+  t.tau0.setConstant(1.0);
+  t.nu.setConstant(10.0);
+  t.beta.setConstant(0.02);
+  m.tendon = t;
+  return m;
+}
+
 int main(int argc, char** argv) {
   tree_dynamics_matches_pinocchio();
   step_on_pinocchio_matches();
@@ -182,9 +204,11 @@ int main(int argc, char** argv) {
   if (physics_failures) return 1;
   const long steps = argc > 1 ? std::atol(argv[1]) : 20000;
   int failures = 0;
-  for (auto kind : {tendyn::DriveKind::Tendon, tendyn::DriveKind::Elastic}) {
-    tendyn::SimModel m = chain(kind);
+  for (int c = 0; c < 3; ++c) {
+    const auto kind = c == 1 ? tendyn::DriveKind::Elastic : tendyn::DriveKind::Tendon;
+    tendyn::SimModel m = c == 2 ? differential_chain() : chain(kind);
     if (tendyn::is_error(m.finalize())) { std::puts("finalize failed"); return 1; }
+    if (c == 2 && m.n_sites != (1 + 3 + 3) + 3) { std::puts("differential: cable 2 must have 3 branch sites"); return 1; }
     tendyn::SimData d(m);
     d.reset(Eigen::VectorXd::Constant(m.na, 0.2), 42);
     Eigen::VectorXd ref = Eigen::VectorXd::Constant(m.na, 0.5), zero = Eigen::VectorXd::Zero(m.na);
@@ -193,9 +217,14 @@ int main(int argc, char** argv) {
     for (long s = 0; s < steps; ++s) tendyn::step(m, d, ref, zero, zero, zero);
     counting::armed = false;
     std::printf("%s: %ld steps, %ld allocations, q = %.4f %.4f %.4f\n",
-                kind == tendyn::DriveKind::Tendon ? "tendon" : "elastic", steps, counting::count,
-                d.q(0), d.q(1), d.q(2));
+                c == 2 ? "tendon, differential" : kind == tendyn::DriveKind::Tendon ? "tendon" : "elastic", steps,
+                counting::count, d.q(0), d.q(1), d.q(2));
     if (counting::count != 0) ++failures;
+    // the joint PID brings every joint to its reference through the differential too
+    if (c == 2 && !(std::abs(d.q(1) - 0.5) < 0.05 && std::abs(d.q(2) - 0.5) < 0.05)) {
+      std::puts("differential chain: the PID did not reach the reference");
+      ++failures;
+    }
   }
   return failures;
 }

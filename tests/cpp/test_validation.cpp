@@ -25,6 +25,7 @@ tendyn::TransmissionModel lexos_like() {
 void expect(const char* what, const std::function<void(tendyn::TransmissionModel&)>& edit, const std::string& message) {
   tendyn::TransmissionModel m = lexos_like();
   edit(m);
+  m.update_matrices();  // as every builder does after setting the routing
   tendyn::ValidationIssue issue;
   const bool found = m.first_issue(&issue);
   const std::string got = found ? tendyn::describe(issue) : std::string("(valid)");
@@ -53,10 +54,29 @@ int main() {
   expect("beta", [](auto& m) { m.beta(2, 1) = 1.5; }, "beta[2,1] = 1.5: must be < 1 (no tension passes the branch)");
   expect("negative tau0", [](auto& m) { m.tau0(3, 0) = -0.5; }, "tau0[3,0] = -0.5: must be >= 0");
   expect("driven radius", [](auto& m) { m.driven_radius(1) = 0.0; m.K(1, 1) = 0.0; },
-         "driven_radius[1] = 0: must be > 0 (a zero driven radius makes the routing singular)");
+         "driven_radius[1] = 0: must be nonzero here (a zero driven radius makes the routing singular: the row of K "
+         "of this transmission depends on the rows before it)");
+  // issue 19: rows 2 and 3 equal (a differential that couples nothing new): transmission 3 is named
+  expect("dependent rows", [](auto& m) { m.K(2, 3) = 0.24; m.K(3, 2) = 0.09; },
+         "K[3] = 0.24: the row of K of this transmission depends on the rows before it (singular routing: K has no "
+         "inverse)");
+  // a differential: cable 2 goes on to wrap joint 3 (no reducer on it): valid, and K stays consistent only
+  // through update_matrices()
+  expect("differential", [](auto& m) { m.K(2, 3) = 0.03; }, "(valid)");
+  {
+    tendyn::TransmissionModel m = lexos_like();
+    m.K(3, 0) = 0.02;  // changed without update_matrices(): the stale inverse is caught
+    tendyn::ValidationIssue issue;
+    const std::string got = m.first_issue(&issue) ? tendyn::describe(issue) : "(valid)";
+    if (got.find("changed after update_matrices()") == std::string::npos) {
+      std::printf("FAIL stale K:\n  got: %s\n", got.c_str());
+      ++failures;
+    }
+  }
   expect("efficiency", [](auto& m) { m.reducer_efficiency(0) = 1.2; }, "reducer_efficiency[0] = 1.2: must be in (0, 1]");
   expect("upper K", [](auto& m) { m.K(0, 2) = 0.01; },
-         "K[0,2] = 0.01: must be 0 (K is lower-triangular: a cable does not reach past its driven joint)");
+         "reducer_ratio[0] = 8: must be 1: the cable wraps joints after its driven joint (a differential), so its "
+         "driven pulley holds no reducer");
   expect("K diagonal", [](auto& m) { m.K(3, 3) = 0.5; }, "K[3,3] = 0.5: must equal driven_radius[i] * reducer_ratio[i]");
   expect("nan", [](auto& m) { m.nu(2, 2) = std::nan(""); }, "nu[2,2] = nan: must be finite");
   expect("shape", [](auto& m) { m.tau0.resize(3, 3); m.tau0.setZero(); }, "tau0: shape (3, 3): must be (n, n) (n = 4)");

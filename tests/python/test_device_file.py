@@ -523,8 +523,8 @@ MALFORMED = [
     ("inertia_length", _set("kinematics/joints/1/inertia", [0.01, 0.01, 0.03]),
      ["kinematics.joints[2].inertia: must be an array of 6 numbers [Ixx, Iyy, Izz, Ixy, Ixz, Iyz]"]),
     # a cable may cross joints after the one it drives (a differential, issue 19): it then has branches up to there
-    ("crosses_beyond_driven", _set("transmissions/1/crosses", [1, 4]),
-     ["transmissions[2].friction: must have exactly 4 entries", "transmission t2 wraps joints up to 4, got 2"]),
+    ("crosses_beyond_driven", _set("transmissions/2/crosses", [1, 4]),
+     ["transmissions[3].friction: must have exactly 4 entries", "transmission t3 wraps joints up to 4), got 3"]),
     ("crosses_own_joint", _set("transmissions/2/crosses", [1, 3]),
      ["transmissions[3].crosses[2]: joint 3 is the joint transmission t3 drives"]),
     ("crosses_zero", _set("transmissions/1/crosses", [0]), ["transmissions[2].crosses[1]: must be a joint number >= 1"]),
