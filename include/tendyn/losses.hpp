@@ -178,6 +178,33 @@ inline void take_statics_constants(const TransmissionModel& m, TransmissionData&
       c.inv_one_minus_beta(i, b) = 1.0 / (1.0 - m.beta(i, b));
       c.bearings = c.bearings || m.bearing_count(i, b) > 0.0;
     }
+  if (!m.serial) {  // (K_Bᵀ)⁻¹ of each coupled block by Gauss–Jordan, in the preallocated workspace
+    for (int i = 0; i < m.n; ++i) {
+      const double e = m.reducer_efficiency(i);
+      c.back_factor(i) = e / (2.0 * e - 1.0);  // e > 0.5: self-locking is refused outside serial routings
+    }
+    Eigen::MatrixXd& A = d.block_jacobian;
+    Eigen::MatrixXd& X = c.block_inverse;
+    for (int begin = 0; begin < m.n;) {
+      const int end = m.block_end(begin);
+      for (int r = begin; r <= end; ++r)
+        for (int k = begin; k <= end; ++k) { A(r, k) = m.K(k, r); X(r, k) = r == k ? 1.0 : 0.0; }
+      for (int col = begin; col <= end; ++col) {
+        int p = col;
+        for (int r = col + 1; r <= end; ++r)
+          if (std::abs(A(r, col)) > std::abs(A(p, col))) p = r;
+        for (int k = begin; k <= end; ++k) { std::swap(A(col, k), A(p, k)); std::swap(X(col, k), X(p, k)); }
+        const double piv = A(col, col);  // nonzero: K is invertible (validated), so is each diagonal block
+        for (int k = begin; k <= end; ++k) { A(col, k) /= piv; X(col, k) /= piv; }
+        for (int r = begin; r <= end; ++r) {
+          if (r == col) continue;
+          const double f = A(r, col);
+          for (int k = begin; k <= end; ++k) { A(r, k) -= f * A(col, k); X(r, k) -= f * X(col, k); }
+        }
+      }
+      begin = end + 1;
+    }
+  }
   c.model = &m;
 }
 
@@ -281,24 +308,25 @@ inline Status feedforward_recursion(const TransmissionModel& m, TransmissionData
 inline double branch_upstream_slope(double x, double sdot, double kappa, double b, double q_plus,
                                     double q_minus, double* slope) {
   const double sign = sign_bit(sdot), z = flip(x, sign), c = z + kappa;
-  double y = c * q_plus, sl = q_plus;
-  if (c * q_minus > y) { y = c * q_minus; sl = q_minus; }
-  const double y3 = c + b * std::abs(z);
-  if (y3 > y) { y = y3; sl = z >= 0.0 ? 1.0 + b : 1.0 - b; }
-  *slope = sl;
+  const double y1 = c * q_plus, y2 = c * q_minus, y3 = c + b * std::abs(z);
+  const double y12 = larger(y1, y2), y = larger(y12, y3);
+  // selects, not branches (the piece follows random signs)
+  const double s12 = y2 > y1 ? q_minus : q_plus, s3 = 1.0 + flip(b, sign_bit(z));
+  *slope = y3 > y12 ? s3 : s12;
   return flip(y, sign);
 }
 
-/// Tensions of cable i from its end (the last joint it wraps, tension t) to the motor, with the slopes
-/// ∂tension[i, b]/∂t when Slopes (S0 eq. 6 along every branch; a branch at rest passes the tension unchanged).
-/// Writes d.tension(i, ·), d.slope(i, ·) (Slopes), d.stuck(i, ·), d.tension_motor(i).
+/// Tensions of cable i from its end (the last joint it wraps, tension t) toward the motor, branch by branch down
+/// to branch `down_to` (0: to the motor), with the slopes ∂tension[i, b]/∂t when Slopes (S0 eq. 6 along every
+/// branch; a branch at rest passes the tension unchanged). Writes d.tension(i, ·), d.slope(i, ·) (Slopes),
+/// d.stuck(i, ·), and d.tension_motor(i) when it reaches the motor.
 template <bool Slopes>
-inline void climb_cable(const TransmissionModel& m, TransmissionData& d, int i, double t) {
+inline void climb_cable(const TransmissionModel& m, TransmissionData& d, int i, double t, int down_to = 0) {
   const int last = m.last_joint(i);
   double sl = 1.0;
   d.tension(i, last) = t;
   if (Slopes) d.slope(i, last) = 1.0;
-  for (int b = last; b >= 0; --b) {
+  for (int b = last; b >= down_to; --b) {
     const double sdot = d.Sdot(i, b);
     if (sdot == 0.0) {
       d.stuck(i, b) = 1;
@@ -323,13 +351,15 @@ inline void climb_cable(const TransmissionModel& m, TransmissionData& d, int i, 
       if (Slopes) d.slope(i, b - 1) = sl;
     }
   }
-  d.tension_motor(i) = t;
+  if (down_to == 0) d.tension_motor(i) = t;
 }
 
 /// Reducer factor e of the torque K_ii e t cable i applies at its driven joint, S0 eqs. 9–10: η_d when the
-/// pulley drives the joint (power > 0), η_d/(2η_d − 1) when the joint back-drives it (power < 0), 1 at rest.
-inline double reducer_factor(double eta, double power) {
-  return power > 0.0 ? eta : power < 0.0 ? eta / (2.0 * eta - 1.0) : 1.0;
+/// pulley drives the joint (power > 0), back = η_d/(2η_d − 1) when the joint back-drives it (power < 0), 1 at
+/// rest. Selects, not branches.
+inline double reducer_factor(double eta, double back, double power) {
+  const double e = power > 0.0 ? eta : 1.0;
+  return power < 0.0 ? back : e;
 }
 
 /// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one; the later
@@ -337,8 +367,10 @@ inline double reducer_factor(double eta, double power) {
 /// keeps τ_j minus them). A 1×1 block (its cable ends at its own joint) is S0's closed form: the reducer, then
 /// the climb. A larger block's joint equations τ_j = Σ_i K_ij tension[i, j] hold the end tensions t_i of its
 /// cables; each tension is a monotone piecewise-linear function of t_i (the branch laws), so a Newton
-/// iteration on the pieces, from t = 0, ends exactly once it has the right pieces (checked on the residual,
-/// 1e-13 relative). Status NotConverged after 30 steps.
+/// iteration on the pieces, from the lossless tensions, ends exactly once it has the right pieces (checked on the residual,
+/// 1e-13 relative). The iteration climbs only the branches between the block's joints (the tensions its
+/// equations read); once it ends, each cable climbs the rest of the way to its motor. Status NotConverged
+/// after 30 steps.
 template <class V1, class V2>
 inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
                                   const V2& qd) {
@@ -356,17 +388,24 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
     }
     if (begin == end) {  // S0's recursion for one cable: reducer (eqs. 9–10), then the climb (eq. 6)
       const int i = begin;
-      const double own = known[i], e = reducer_factor(m.reducer_efficiency(i), own * d.qd(i));
-      climb_cable<false>(m, d, i, own / (m.K(i, i) * e));
+      // t = own / (K_ii e): the gains 1/(η_d K_ii) and 1/(K_ii back) taken once per model (no division here)
+      const double own = known[i], power = own * d.qd(i), g_drive = d.statics.gain_driving(i);
+      const double g = power > 0.0 ? g_drive : power < 0.0 ? d.statics.gain_backdriven(i)
+                                                            : g_drive * m.reducer_efficiency(i);
+      climb_cable<false>(m, d, i, own * g);
       end = begin - 1;
       continue;
     }
     double scale = 0.0;
     for (int j = begin; j <= end; ++j) scale = std::max(scale, std::abs(known[j]));
     bool done = false;  // the unknowns t_i are the block cables' end tensions, kept in tension(i, last_joint(i))
-    for (int i = begin; i <= end; ++i) d.tension(i, m.last_joint(i)) = 0.0;
+    for (int i = begin; i <= end; ++i) {  // start from the lossless tensions (K_Bᵀ)⁻¹ τ_B
+      double t0 = 0.0;
+      for (int j = begin; j <= end; ++j) t0 += d.statics.block_inverse(i, j) * known[j];
+      d.tension(i, m.last_joint(i)) = t0;
+    }
     for (int it = 0; it < 30; ++it) {
-      for (int i = begin; i <= end; ++i) climb_cable<true>(m, d, i, d.tension(i, m.last_joint(i)));
+      for (int i = begin; i <= end; ++i) climb_cable<true>(m, d, i, d.tension(i, m.last_joint(i)), begin + 1);
       double worst_r = 0.0, mag = scale;
       for (int j = begin; j <= end; ++j) {
         double r = known[j];
@@ -374,7 +413,8 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
           double jac = 0.0;
           if (m.last_joint(k) >= j) {
             const double kk = m.K(k, j), tk = d.tension(k, j);
-            const double e = j == k ? reducer_factor(m.reducer_efficiency(k), kk * tk * d.qd(j)) : 1.0;
+            const double e = j == k ? reducer_factor(m.reducer_efficiency(k), d.statics.back_factor(k), kk * tk * d.qd(j))
+                                    : 1.0;
             r -= kk * e * tk;
             mag = std::max(mag, std::abs(kk * e * tk));
             jac = kk * e * d.slope(k, j);
@@ -411,6 +451,7 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
       ++d.block_iterations;
     }
     if (!done) status = worst(status, Status::NotConverged);
+    for (int i = begin; i <= end; ++i) climb_cable<false>(m, d, i, d.tension(i, m.last_joint(i)));  // to the motor
     end = begin - 1;
   }
   for (int i = 0; i < n; ++i) {

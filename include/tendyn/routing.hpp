@@ -323,6 +323,10 @@ struct TransmissionData {
     Eigen::VectorXd gain_driving;              ///< 1/(η_d n r_d) [1/m]: tension per joint torque, joint driven
     Eigen::VectorXd gain_backdriven;           ///< (2η_d − 1)/(η_d n r_d) [1/m], 0 when self-locking
     Eigen::MatrixXd inv_one_plus_beta, inv_one_minus_beta;  ///< 1/(1 + β), 1/(1 − β) [-], [i, b]
+    /// Inverse of each coupled diagonal block of Kᵀ [1/m], [i, j] for i, j in one block (general routings): the
+    /// lossless end tensions t_B = (K_Bᵀ)⁻¹ τ_B start the block's Newton iteration.
+    Eigen::MatrixXd block_inverse;
+    Eigen::VectorXd back_factor;  ///< η_d/(2η_d − 1) [-]: the reducer's back-driven factor (general routings)
     bool bearings = false;                     ///< some branch has bearings (speed-dependent terms)
   } statics;
 
@@ -342,6 +346,8 @@ struct TransmissionData {
     statics.gain_backdriven.setZero(m.n);
     statics.inv_one_plus_beta.setZero(m.n, m.n);
     statics.inv_one_minus_beta.setZero(m.n, m.n);
+    statics.block_inverse.setZero(m.n, m.n);
+    statics.back_factor.setZero(m.n);
   }
 };
 
