@@ -45,3 +45,45 @@ def consistent_fit(model, W, Y, eps: float = 0.0) -> np.ndarray:
     if x.value is None:
         raise RuntimeError(f"the consistent identification failed: solver status {prob.status}")
     return np.asarray(x.value, float)
+
+
+def completed_standard(model, names, values) -> np.ndarray:
+    """Standard parameters (``model.standard_names`` order) that reproduce identified base values: each base
+    parameter's own standard column solved for, every standard parameter the data cannot separate at the device
+    file's value (:meth:`IdentModel.prior`). A base parameter not in ``names`` (omitted) is taken as 0."""
+    base = model.base
+    prior = model.prior()
+    x = prior.copy()
+    given = dict(zip(names, values))
+    for i, name in enumerate(base.names):
+        k = base.columns[i]
+        x[k] = float(given.get(name, 0.0)) - (base.combination[i] @ prior - prior[k])
+    return x
+
+
+def pseudo_inertia_check(model, x) -> list[dict]:
+    """Per link of the tree: the smallest eigenvalue [kg·m²] of its pseudo-inertia J = [[½ tr(I) 1 − I, h],
+    [hᵀ, m]] (Wensing, Kim, Slotine 2017) at the standard parameters x, and whether J is positive definite
+    (``ok``); links whose device-file J is not positive definite (massless frames) are left out."""
+    idx = {n: k for k, n in enumerate(model.standard_names)}
+    prior = model.prior()
+    out = []
+
+    def J_of(v, num):
+        g = lambda p: float(v[idx[f"{p}{num}"]])
+        inertia = np.array([[g("XX"), g("XY"), g("XZ")], [g("XY"), g("YY"), g("YZ")], [g("XZ"), g("YZ"), g("ZZ")]])
+        h = np.array([g("MX"), g("MY"), g("MZ")])
+        J = np.zeros((4, 4))
+        J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+        J[:3, 3] = J[3, :3] = h
+        J[3, 3] = g("M")
+        return J
+
+    for num in model.tree_numbers:
+        J0 = J_of(prior, num)
+        ev0 = np.linalg.eigvalsh(J0)
+        if ev0[0] <= 1e-12 * max(1.0, ev0[-1]):
+            continue
+        ev = float(np.linalg.eigvalsh(J_of(x, num))[0])
+        out.append({"link": int(num), "min_eigenvalue": ev, "ok": bool(ev > 0.0)})
+    return out
