@@ -61,6 +61,49 @@ def completed_standard(model, names, values) -> np.ndarray:
     return x
 
 
+def _pseudo_inertia(v, idx, num) -> np.ndarray:
+    """J (4, 4) of link ``num`` from standard parameters v (``idx``: name → index)."""
+    g = lambda p: float(v[idx[f"{p}{num}"]])
+    inertia = np.array([[g("XX"), g("XY"), g("XZ")], [g("XY"), g("YY"), g("YZ")], [g("XZ"), g("YZ"), g("ZZ")]])
+    J = np.zeros((4, 4))
+    J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
+    J[:3, 3] = J[3, :3] = [g("MX"), g("MY"), g("MZ")]
+    J[3, 3] = g("M")
+    return J
+
+
+def best_min_eigenvalue(model, names, values, links) -> list[float]:
+    """Per listed link a t_j ≤ 0 [kg·m²], Σ t_j as large as possible, such that some standard parameters
+    reproduce the identified base values exactly (omitted ones 0) with each link's pseudo-inertia J_j ⪰ t_j·1 (an
+    SDP, cvxpy + Clarabel): all 0 means a mass distribution has these base parameters; t_j < 0 names the links
+    no completion of what the data cannot separate makes physical."""
+    import cvxpy as cp
+
+    base = model.base
+    idx = {n: k for k, n in enumerate(model.standard_names)}
+    given = dict(zip(names, values))
+    xb = np.array([float(given.get(n, 0.0)) for n in base.names])
+    x = cp.Variable(len(model.standard_names))
+    t = cp.Variable(len(links))
+    cons = [base.combination @ x == xb, t <= 0.0]
+    for k, num in enumerate(links):
+        g = lambda p: x[idx[f"{p}{num}"]]
+        I = cp.bmat([[g("XX"), g("XY"), g("XZ")], [g("XY"), g("YY"), g("YZ")], [g("XZ"), g("YZ"), g("ZZ")]])
+        S = 0.5 * (g("XX") + g("YY") + g("ZZ")) * np.eye(3) - I
+        h = cp.vstack([g("MX"), g("MY"), g("MZ")])
+        J = cp.bmat([[S, h], [h.T, cp.reshape(g("M"), (1, 1), order="C")]])
+        cons.append((J + J.T) / 2 >> t[k] * np.eye(4))
+    prob = cp.Problem(cp.Maximize(cp.sum(t)), cons)
+    prob.solve(solver=cp.CLARABEL)
+    if t.value is None:
+        return [-np.inf] * len(links)
+    out = []
+    for k, num in enumerate(links):      # the solver's tolerance: 1e-4 of the link's own scale (its file J)
+        lam = float(np.max(np.abs(_pseudo_inertia(model.prior(), idx, num))))
+        out.append(0.0 if t.value[k] > -1e-4 * lam else float(t.value[k]))
+    return out
+
+
 def pseudo_inertia_check(model, x) -> list[dict]:
     """Per link of the tree: the smallest eigenvalue [kg·m²] of its pseudo-inertia J = [[½ tr(I) 1 − I, h],
     [hᵀ, m]] (Wensing, Kim, Slotine 2017) at the standard parameters x, and whether J is positive definite
@@ -68,16 +111,7 @@ def pseudo_inertia_check(model, x) -> list[dict]:
     idx = {n: k for k, n in enumerate(model.standard_names)}
     prior = model.prior()
     out = []
-
-    def J_of(v, num):
-        g = lambda p: float(v[idx[f"{p}{num}"]])
-        inertia = np.array([[g("XX"), g("XY"), g("XZ")], [g("XY"), g("YY"), g("YZ")], [g("XZ"), g("YZ"), g("ZZ")]])
-        h = np.array([g("MX"), g("MY"), g("MZ")])
-        J = np.zeros((4, 4))
-        J[:3, :3] = 0.5 * np.trace(inertia) * np.eye(3) - inertia
-        J[:3, 3] = J[3, :3] = h
-        J[3, 3] = g("M")
-        return J
+    J_of = lambda v, num: _pseudo_inertia(v, idx, num)
 
     for num in model.tree_numbers:
         J0 = J_of(prior, num)

@@ -100,17 +100,24 @@ class IdentificationResult(Result):
 
     def flag_pseudo_inertia(self, model) -> None:
         """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
-        file's values, :func:`tendyn.ident.consistent.completed_standard`) and add a warning per link whose J is
-        not positive definite: no mass distribution has these parameters."""
-        from .consistent import completed_standard, pseudo_inertia_check
+        file's values, :func:`tendyn.ident.consistent.completed_standard`); a link that fails there is checked
+        again over every completion (:func:`tendyn.ident.consistent.best_min_eigenvalue`), and a warning is
+        added per link whose J cannot be positive (semi)definite: no mass distribution has these parameters."""
+        from .consistent import best_min_eigenvalue, completed_standard, pseudo_inertia_check
 
         self.pseudo_inertia = pseudo_inertia_check(model, completed_standard(model, self.names, self.values))
+        bad = [p["link"] for p in self.pseudo_inertia if not p["ok"]]
+        if bad:     # the device file's values may be what fails: ask whether any completion is physical (SDP)
+            best = dict(zip(bad, best_min_eigenvalue(model, self.names, self.values, bad)))
+            for p in self.pseudo_inertia:
+                if p["link"] in best:
+                    p["min_eigenvalue"], p["ok"] = best[p["link"]], bool(best[p["link"]] >= 0.0)
         for p in self.pseudo_inertia:
             if not p["ok"]:
                 self.warnings.append(
-                    f"link {p['link']}: pseudo-inertia not positive definite (smallest eigenvalue "
-                    f"{p['min_eigenvalue']:.3g} kg·m², with what the data cannot separate at the device file's "
-                    "values): no mass distribution has these parameters; --consistent constrains them")
+                    f"link {p['link']}: pseudo-inertia not positive definite (smallest eigenvalue at best "
+                    f"{p['min_eigenvalue']:.3g} kg·m², whatever the parameters the data cannot separate): no mass "
+                    "distribution has these parameters; --consistent constrains them")
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
