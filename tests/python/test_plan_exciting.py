@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 
 from tendyn.device import load_device
 from tendyn.devices.generate import write_cable_device
@@ -16,8 +17,9 @@ from tendyn.ident.exciting import FourierDesign, plan_exciting
 
 def test_plan_simulate_identify_recovers_the_parameters(tmp_path, capsys):
     """plan (CLI) → the CSV's design runs on the twin (no friction: a rigid-body truth) → identify: every base
-    parameter with %σ below 5 % is within 4σ of the truth (the device file's links and rotors), and the
-    optimised cond(W) is below the starting one; the references stay inside the limits it reports."""
+    parameter within 4σ of the truth (the device file's links and rotors, no friction), the links' and rotors'
+    with %σ below 10 %; the optimised cond(W) is below the starting one; the references stay inside the limits
+    it reports."""
     from tendyn.cli import main
     from tendyn.io import read_log
     from tendyn.sim.experiments import exciting_trajectory
@@ -42,22 +44,30 @@ def test_plan_simulate_identify_recovers_the_parameters(tmp_path, capsys):
         if n.rstrip("0123456789") in ("FV", "FS", "OFFSET", "FVm", "FSm"):
             truth[k] = 0.0
     xb = m.base.combination @ truth
-    good = fit.rel_stderr_ < 5.0
-    assert good.sum() >= 6
     z = np.abs(fit.params_ - xb) / fit.stderr_
-    assert np.all(z[good] < 4.0), dict(zip(np.array(fit.names_)[good], z[good]))
+    assert np.all(z < 4.0), dict(zip(fit.names_, z))
+    inertial = np.abs(xb) > 0                          # the links' and rotors' base parameters, determined
+    assert inertial.sum() >= 5 and np.all(fit.rel_stderr_[inertial] < 10.0)
 
 
 def test_optimisation_lowers_cond_and_keeps_the_torque_limit(tmp_path):
     """A tight motor peak torque is respected (the torques of the file's model), and more iterations give a
     cond(W) no worse."""
     path = write_cable_device(tmp_path, 3, seed=2)
+    path.write_text(path.read_text().replace("peak_torque = 3.0", "peak_torque = 0.35")
+                    .replace("continuous_torque = 1.0", "continuous_torque = 0.3"))
     dev = load_device(path)
     a = plan_exciting(dev, iterations=0, seed=1)
     b = plan_exciting(dev, iterations=120, seed=1)
     assert b.cond_scaled <= a.cond_scaled
     peak = np.array(b.limits["peak_motor_torque"])
+    assert np.all(peak == 0.35)
     assert np.all(np.array(b.peaks["motor_torque"]) <= peak + 1e-9)
+    assert b.peaks["motor_torque"][0] > 0.9 * 0.35         # the torque limit is what bounds it
+    path.write_text(path.read_text().replace("peak_torque = 0.35", "peak_torque = 0.1").replace(
+        "continuous_torque = 0.3", "continuous_torque = 0.05"))
+    with pytest.raises(ValueError, match="motor 1 needs .* to hold the centre"):
+        plan_exciting(load_device(path), iterations=0)
     q, qd, qdd = b.design.at(np.array([0.0]))
     np.testing.assert_allclose(qd, 0.0, atol=1e-12)
     np.testing.assert_allclose(qdd, 0.0, atol=1e-9)

@@ -1,7 +1,7 @@
 """`tendyn plan exciting DEVICE --out REF.csv`: an optimised exciting trajectory for identification (issue 18
 item 7): a finite Fourier series per active joint minimising cond(W) of the base regressor inside the joint,
 speed and motor-torque limits (:func:`tendyn.ident.exciting.plan_exciting`), written as joint references
-``q_ref_<k>``, ``qd_ref_<k>``, ``qdd_ref_<k>``; cond(W) reported. The `plan` subparser belongs to
+``q_ref_<k>``, ``qd_ref_<k>``; cond(W) reported. The `plan` subparser belongs to
 :mod:`tendyn.commands.s0`; it adds these options with :func:`add_arguments` and hands the kind to :func:`run`.
 """
 
@@ -41,8 +41,11 @@ def run(args, load_device) -> int:
     dev = load_device(args.device)
     if getattr(dev, "kind", None) != "serial":
         raise UsageError(f"{dev.name} is a {dev.kind}: an exciting trajectory needs a rigid serial device", "device")
-    plan = plan_exciting(dev, harmonics=args.harmonics, base_hz=args.base_hz, max_speed=args.max_speed,
-                         iterations=args.iterations, seed=args.seed)
+    try:
+        plan = plan_exciting(dev, harmonics=args.harmonics, base_hz=args.base_hz, max_speed=args.max_speed,
+                             iterations=args.iterations, seed=args.seed)
+    except ValueError as exc:       # the limits leave no room (a motor cannot even hold the pose)
+        raise UsageError(str(exc), "device") from None
     duration = args.duration if args.duration is not None else args.periods * plan.design.period
     log = plan.reference_log(duration, args.rate, dev.name)
     write_log(log, args.out)

@@ -109,13 +109,13 @@ class ExcitingPlan:
                                   f"before optimisation)") + "\n" + "\n".join(f"why: {w}" for w in self.why)
 
     def reference_log(self, duration: float, rate_hz: float, device_name: str):
-        """The references as a log (``time``, ``q_ref_<k>``, ``qd_ref_<k>``, ``qdd_ref_<k>`` per active axis;
-        ``options.design`` holds the series, so :meth:`FourierDesign.from_dict` rebuilds it)."""
+        """The references as a log (``time``, ``q_ref_<k>``, ``qd_ref_<k>`` per active axis; ``options.design``
+        holds the series, so :meth:`FourierDesign.from_dict` rebuilds it, accelerations included)."""
         from tendyn.io import make_log
 
         q, qd, qdd = self.design.references(duration, 1.0 / rate_hz)
         cols = {"time": np.arange(q.shape[0]) / rate_hz}
-        for name, x in (("q_ref_", q), ("qd_ref_", qd), ("qdd_ref_", qdd)):
+        for name, x in (("q_ref_", q), ("qd_ref_", qd)):
             for k in range(x.shape[1]):
                 cols[f"{name}{k + 1}"] = x[:, k]
         opts = {"design": self.design.to_dict(), "cond": self.cond, "cond_scaled": self.cond_scaled,
@@ -175,29 +175,39 @@ def plan_exciting(device, harmonics: int = 5, base_hz: float | None = None, max_
     prior = model.prior()
     Ginv_T = np.linalg.inv(model.G).T
     t = np.arange(samples) / (samples * base_hz)
+    nc = 64 * harmonics                          # limits checked on a grid fine for the highest harmonic
+    tc = np.arange(nc) / (nc * base_hz)
     cols = list(model.base.columns)
 
     def project(a, b):
         a, b = _at_rest(a, b)
         d = FourierDesign(center, base_hz, a, b)
-        q, qd, _ = d.at(t)
+        q, qd, _ = d.at(tc)
         exc = np.max(np.abs(q - center), axis=0)
-        s = min(1.0, float(np.min(room / np.maximum(exc, 1e-12))),
-                float(np.min(vmax / np.maximum(np.max(np.abs(qd), axis=0), 1e-12))))
+        s = 0.995 * min(1.0, float(np.min(room / np.maximum(exc, 1e-12))),     # 0.5 % for between grid points
+                        float(np.min(vmax / np.maximum(np.max(np.abs(qd), axis=0), 1e-12))))
         d = FourierDesign(center, base_hz, s * a, s * b)
-        for _ in range(30):
-            if peak is None:
-                break
-            y = _motor_torque(d)
-            if np.all(np.max(np.abs(y), axis=0) <= peak):
-                break
+        if peak is None:
+            return d
+        for _ in range(60):
+            if np.all(np.max(np.abs(_motor_torque(d)), axis=0) <= peak):
+                return d
             d = FourierDesign(center, base_hz, 0.85 * d.a, 0.85 * d.b)
-        return d
+        return FourierDesign(center, base_hz, 0.0 * a, 0.0 * b)   # at rest: checked below
 
     def _motor_torque(d):
-        q, qd, qdd = d.at(t)
+        q, qd, qdd = d.at(tc)
         tau = (model.regressor(q, qd, qdd, threads=1) @ prior).reshape(na, -1).T
         return tau @ Ginv_T
+
+    if peak is not None:        # holding the centre pose must be possible at all
+        still = np.max(np.abs(_motor_torque(FourierDesign(center, base_hz, np.zeros((na, 1)), np.zeros((na, 1))))),
+                       axis=0)
+        over = np.flatnonzero(still > peak)
+        if over.size:
+            i = int(over[0])
+            raise ValueError(f"motor {i + 1} needs {still[i]:.3g} N·m to hold the centre of the joint ranges "
+                             f"against gravity (device file's model), above its peak_torque {peak[i]:.3g} N·m")
 
     def score(d):
         q, qd, qdd = d.at(t)
@@ -227,7 +237,7 @@ def plan_exciting(device, harmonics: int = 5, base_hz: float | None = None, max_
             sigma *= 1.5 ** -0.25                # one-fifth rule
         sigma = float(np.clip(sigma, 1e-3, 2.0))
     f_best, W = score(best)
-    q, qd, _ = best.at(t)
+    q, qd, _ = best.at(tc)
     y = _motor_torque(best) if peak is not None else None
     limits = {"lower": lo_m.tolist(), "upper": hi_m.tolist(), "max_speed": vmax.tolist(),
               "peak_motor_torque": None if peak is None else peak.tolist()}
