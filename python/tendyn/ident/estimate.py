@@ -115,8 +115,8 @@ class IdentificationResult(Result):
         for p in self.pseudo_inertia:
             if not p["ok"]:
                 self.warnings.append(
-                    f"link {p['link']}: pseudo-inertia not positive definite (smallest eigenvalue at best "
-                    f"{p['min_eigenvalue']:.3g} kg·m², whatever the parameters the data cannot separate): no mass "
+                    f"link {p['link']}: pseudo-inertia not positive definite for any choice of the parameters the "
+                    f"data cannot separate (smallest eigenvalue reached {p['min_eigenvalue']:.3g} kg·m²): no mass "
                     "distribution has these parameters; --consistent constrains them")
 
     @property
