@@ -213,9 +213,19 @@ def plan_exciting(device, harmonics: int = 5, base_hz: float | None = None, max_
         q, qd, qdd = d.at(t)
         W = model.regressor(q, qd, qdd, threads=1)[:, cols]
         n = np.linalg.norm(W, axis=0)
-        sv = np.linalg.svd(W / np.where(n > 0, n, 1.0), compute_uv=False)
-        return float(sv[0] / max(sv[-1], 1e-300)), W
+        Wn = W / np.where(n > 0, n, 1.0)
+        ev = np.linalg.eigvalsh(Wn.T @ Wn)          # cond = √(λmax/λmin) of the Gram matrix: 60 × 60, not 720 × 60
+        return float(np.sqrt(ev[-1] / max(ev[0], 1e-300))), W
 
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):   # small matrices: one thread (IDIM.fit measured 3x)
+        return _optimise(project, score, _motor_torque, peak, na, harmonics, seed, iterations, tc, lo_m, hi_m,
+                         vmax, why)
+
+
+def _optimise(project, score, _motor_torque, peak, na, harmonics, seed, iterations, tc, lo_m, hi_m, vmax, why):
+    """The (1+1) evolution strategy of :func:`plan_exciting` (one-fifth success rule)."""
     rng = np.random.default_rng(seed)
     L = harmonics
     a0 = rng.normal(size=(na, L)) / np.arange(1, L + 1)
