@@ -258,3 +258,24 @@ def test_seven_dof_master_with_a_wrist_spring_and_a_polynomial_cable_torque(tmp_
     err = np.linalg.norm(est_ - true, axis=0) / np.linalg.norm(true, axis=0)
     print("term torque error on joints 3, 6:", err)
     assert np.all(err < 0.25)
+
+
+def test_known_table_and_a_coupled_term_the_twin_refuses(tmp_path):
+    """A tabulated known torque interpolates its table (held beyond the ends); a spring from the base to link 2
+    acts on joints 1 and 2 through both angles: identified as columns, but the twin (one table per joint over
+    its own angle) refuses it, naming the joint."""
+    from tendyn.sim.model import sim_model
+
+    known = ('[[terms]]\nname = "weight"\nkind = "known"\njoint = 2\nknots = [-1.0, 0.0, 1.0]\n'
+             'torques = [0.1, 0.0, 0.2]\n')
+    twin, _ = _files(tmp_path, 2, known, "known2")
+    tm = IdentModel(twin).terms
+    q = np.array([[0.0, -2.0], [0.0, -0.5], [0.3, 0.25], [0.0, 3.0]])
+    np.testing.assert_allclose(tm.known(q)[:, 1], [0.1, 0.05, 0.05, 0.2])
+    np.testing.assert_allclose(tm.known(q)[:, 0], 0.0)
+    assert len(tm) == 0 and sim_model(twin) is not None
+    coupled = TABLE_SPRING_OFFSET.replace("link_b = 1", "link_b = 2").split('[[terms]]\nname = "bias"')[0]
+    twin, _ = _files(tmp_path, 2, coupled, "coupled2")
+    assert "elastic_k" in IdentModel(twin).standard_names
+    with pytest.raises(ValueError, match="depends on that joint's position alone; joint 1"):
+        sim_model(twin)
