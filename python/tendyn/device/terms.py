@@ -241,7 +241,7 @@ class TermModel:
     def joint_tables(self, n_knots: int = 4001, margin: float = 0.5):
         """Per active joint a uniform table of the total term torque (file values) over its own coordinate, for
         the simulator: (lo (na,), step (na,), table (na, n_knots)) [rad or m, N·m or N]; None when the device has
-        no terms. Raises ValueError naming a term whose torque depends on more than one joint or acts on another
+        no terms. Raises DeviceError (a ValueError) naming a term whose torque depends on more than one joint or acts on another
         active joint than its own (the twin's tables are one-dimensional)."""
         if not self.terms:
             return None
@@ -270,8 +270,12 @@ class TermModel:
                 [k for k in range(na) if k != i]]
             if np.max(np.abs(other), initial=0.0) > 1e-9 * (1 + np.max(np.abs(tau))) or \
                     not np.allclose(self.torque(q2)[:, i], tau[:, i], rtol=1e-9, atol=1e-12):
+                from .schema import DeviceError
+
                 culprit = [t.name for t in self.terms if t.kind == "spring" or t.kind in ("functions", "known")]
-                raise ValueError(f"{self.device.name}: the twin simulates terms whose torque on an active joint "
-                                 f"depends on that joint's position alone; joint {active_numbers[i]} "
-                                 f"(terms {', '.join(culprit) or '?'}) does not")
+                path = getattr(self.device, "path", None)
+                raise DeviceError(f"the twin simulates terms whose torque on an active joint depends on that "
+                                  f"joint's position alone; joint {active_numbers[i]} (terms "
+                                  f"{', '.join(culprit) or '?'}) does not (identification takes them)",
+                                  file=None if path is None else path.name, field="terms")
         return lo, step, table
