@@ -37,8 +37,8 @@ def actuator_device(folder: Path, G: np.ndarray, *, name: str = "geared", rotor:
     for i, row in enumerate(G):
         j = next(k for k in range(n) if row[k] != 0 and k not in taken)
         taken.add(j)
-        coup = ", ".join(f'"{k + 1}" = {row[k] / row[j]!r}' for k in range(n) if k != j and row[k] != 0)
-        text += (f'[[actuators]]\nname = "m{i + 1}"\njoint = {j + 1}\nratio = {row[j]!r}\nrotor_inertia = {rotor!r}\n'
+        coup = ", ".join(f'"{k + 1}" = {float(row[k] / row[j])!r}' for k in range(n) if k != j and row[k] != 0)
+        text += (f'[[actuators]]\nname = "m{i + 1}"\njoint = {j + 1}\nratio = {float(row[j])!r}\nrotor_inertia = {rotor!r}\n'
                  + (f"coupling = {{ {coup} }}\n" if coup else ""))
     path = folder / f"{name}.toml"
     path.write_text(text)
@@ -297,6 +297,17 @@ def _mujoco_run(xml: str, u_of_t, q0, dt: float, steps: int) -> np.ndarray:
     return np.array(out)
 
 
+def _tx40_with_rotors(folder: Path) -> Path:
+    """The TX40 file with rotor inertias (its priors are 0, and its last link has almost no inertia about its axis:
+    M would be singular), the URDF path made absolute."""
+    src = Path(bundled("tx40"))
+    text = src.read_text().replace('urdf = "tx40.urdf"', f'urdf = "{src.parent / "tx40.urdf"}"')
+    text = text.replace("[[actuators]]\n", "[[actuators]]\nrotor_inertia = 2e-5\n")
+    path = folder / "tx40r.toml"
+    path.write_text(text)
+    return path
+
+
 @pytest.mark.parametrize("device", ["generated_spatial", "tx40", "zero_diagonal"])
 def test_mjcf_round_trip_lossless_agrees_within_1e_6_rad(tmp_path, device):
     """The exported model, lossless, simulated by MuJoCo (RK4) and by an independent RK4 integration of the
@@ -304,7 +315,7 @@ def test_mjcf_round_trip_lossless_agrees_within_1e_6_rad(tmp_path, device):
     from tendyn.io.mjcf import to_mjcf
 
     path = {"generated_spatial": lambda: write_cable_device(tmp_path, 3, planar=False, seed=4),
-            "tx40": lambda: bundled("tx40"),
+            "tx40": lambda: _tx40_with_rotors(tmp_path),
             "zero_diagonal": lambda: actuator_device(tmp_path, ZERO_DIAGONAL)}[device]()
     dev = load_device(path)
     n_m = coupling(dev).n_motors
