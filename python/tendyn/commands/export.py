@@ -165,7 +165,9 @@ def _export_other(args) -> int:
                    "tendons": text.count("<fixed "), "actuators": text.count("<motor "), "not_expressed": left_out}
         lines = [f"{args.out}: MuJoCo model of {dev.name}: {summary['actuators']} motors on fixed tendons, "
                  f"{summary['tendons']} fixed tendons in all"]
-        lines += [f"  not expressible in MuJoCo (named in the file's comment): {m}" for m in left_out]
+        if left_out:
+            lines.append("  not expressible in MuJoCo, left out (named in the file's comment):")
+            lines += [f"    - {m}" for m in left_out]
     else:
         from tendyn.io.ros2_control import CouplingNotExpressible, plan, to_ros2_control
 

@@ -46,7 +46,7 @@ def _name(text: str) -> str:
 def branch_jacobian(transmission) -> np.ndarray:
     """(m, n_branches, n) J with Ṡ[i, b] = Σ_j J[i, b, j] q̇_j [m/rad], from the core's branch velocities (linear
     in q̇: one call per unit joint velocity)."""
-    n = transmission.n
+    n = np.shape(transmission.K)[1]          # joints (columns of K), whatever the number of cables
     cols = [np.array(transmission.branch_velocities(np.eye(n)[j])) for j in range(n)]
     return np.stack(cols, axis=-1)
 
