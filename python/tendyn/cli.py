@@ -197,11 +197,12 @@ def cmd_routing_import(args) -> int:
     from tendyn.io.coupling_file import (CouplingFileError, actuator_entries, device_text, fit_to_device,
                                          read_coupling)
 
-    out = Path(args.out)
-    if out.suffix.lower() != ".toml":
-        raise UsageError(f"must end in .toml (got {args.out!r})", "out")
-    if out.is_dir() or not (out.parent if str(out.parent) else Path(".")).is_dir():
-        raise UsageError(f"{out} is a folder or its folder does not exist", "out")
+    from tendyn.commands.args import out_path
+
+    try:
+        out = out_path((".toml",))(args.out)      # suffix, existing and writable folder, not a folder itself
+    except argparse.ArgumentTypeError as exc:
+        raise UsageError(str(exc), "out") from None
     src = Path(args.coupling)
     if not src.is_file():
         raise UsageError(f"{src}: file not found", "coupling")

@@ -366,3 +366,23 @@ def test_mjcf_loads_for_geared_and_closed_loop_devices(capsys, tmp_path, device)
     assert m.nu == coupling(load_device(bundled(device))).n_motors
     if device == "cea_branch":
         assert m.neq > 0 and "stiffness_motor" in out.read_text()
+
+
+def test_bad_inputs_are_one_line_and_exit_2(capsys, tmp_path):
+    src = write_cable_device(tmp_path, 2, seed=2)
+    (tmp_path / "g.json").write_text('{"coupling": {"JointToActuatorPosition": [[1, 0], [0, 2]]}}')
+    cases = [
+        (["routing", "import", src, tmp_path / "g.json", "--out", tmp_path / "x.txt"], ".toml"),
+        (["routing", "import", src, tmp_path / "missing.json", "--out", tmp_path / "x.toml"], "not found"),
+        (["routing", "import", src, tmp_path / "g.json", "--format", "icub", "--out", tmp_path / "x.toml"], "not XML"),
+        (["routing", "import", src, tmp_path / "g.json", "--out", tmp_path / "nofolder" / "x.toml"], "does not exist"),
+        (["routing", "import", "mcgill_bench", tmp_path / "g.json", "--out", tmp_path / "x.toml"], "tendon bench"),
+        (["export", "mjcf", "mcgill_bench", "--out", tmp_path / "m.xml"], "tendon bench"),
+        (["export", "mjcf", "lexos", "--out", tmp_path / "m.urdf"], ".xml"),
+        (["export", "ros2-control", "lexos", "--out", tmp_path / "m.comp"], ".urdf"),
+    ]
+    for argv, words in cases:
+        code, _, err = run_cli(capsys, *argv)
+        assert code == 2, (argv, err)
+        assert len(err.strip().splitlines()) == 1 and words in err, (argv, err)
+    assert not list(tmp_path.glob("x.*")) and not list(tmp_path.glob("m.*"))
