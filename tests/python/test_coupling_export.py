@@ -312,7 +312,7 @@ def _tx40_with_rotors(folder: Path) -> Path:
 def test_mjcf_round_trip_lossless_agrees_within_1e_6_rad(tmp_path, device):
     """The exported model, lossless, simulated by MuJoCo (RK4) and by an independent RK4 integration of the
     device's rigid body with the coupling: joint trajectories agree within 1e-6 rad over 0.3 s."""
-    from tendyn.io.mjcf import to_mjcf
+    from tendyn.interop.mjcf import to_mjcf
 
     path = {"generated_spatial": lambda: write_cable_device(tmp_path, 3, planar=False, seed=4),
             "tx40": lambda: _tx40_with_rotors(tmp_path),

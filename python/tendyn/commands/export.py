@@ -13,7 +13,7 @@ the identified losses replace every loss term of the device file (one loss model
 :mod:`tendyn.ident.loss_model`), and the compensator file records each term's source (``section losses``).
 
 ``mjcf`` and ``ros2-control`` take the device to a simulator and to a ROS 2 controller: a MuJoCo model
-(:mod:`tendyn.io.mjcf`) and a URDF ``<ros2_control>`` block with transmissions (:mod:`tendyn.io.ros2_control`),
+(:mod:`tendyn.interop.mjcf`) and a URDF ``<ros2_control>`` block with transmissions (:mod:`tendyn.interop.ros2_control`),
 for any device kind (``[[transmissions]]``, ``[[drives]]``, ``[[actuators]]``), coupling from
 :func:`tendyn.coupling.coupling`.
 """
@@ -157,7 +157,7 @@ def _export_other(args) -> int:
     if getattr(dev, "kind", None) != "serial":
         raise UsageError(f"{dev.name} is a tendon bench (one 2N channel): it has no joint chain to export", "device")
     if args.kind == "mjcf":
-        from tendyn.io.mjcf import not_expressible, to_mjcf
+        from tendyn.interop.mjcf import not_expressible, to_mjcf
 
         text = to_mjcf(dev, timestep=args.timestep, losses=not args.lossless)
         left_out = ["every loss term (--lossless)"] if args.lossless else not_expressible(dev)
@@ -169,7 +169,7 @@ def _export_other(args) -> int:
             lines.append("  not expressible in MuJoCo, left out (named in the file's comment):")
             lines += [f"    - {m}" for m in left_out]
     else:
-        from tendyn.io.ros2_control import CouplingNotExpressible, plan, to_ros2_control
+        from tendyn.interop.ros2_control import CouplingNotExpressible, plan, to_ros2_control
 
         try:
             rows = plan(dev, four_bar=args.four_bar)
