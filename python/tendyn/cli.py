@@ -205,7 +205,7 @@ def cmd_routing_import(args) -> int:
         raise UsageError(str(exc), "out") from None
     src = Path(args.coupling)
     if not src.is_file():
-        raise UsageError(f"{src}: file not found", "coupling")
+        raise UsageError(f"{src}: file not found")
     dev = _load(args.device)
     if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a tendon bench (one 2N channel): it has no joint chain", "device")
@@ -222,7 +222,7 @@ def cmd_routing_import(args) -> int:
         G = fit_to_device(G, len(joint_numbers), src.name)
         entries = actuator_entries(G, joint_numbers, priors)
     except CouplingFileError as exc:
-        raise UsageError(str(exc), "coupling") from None
+        raise UsageError(str(exc)) from None
     text = device_text(Path(dev.path).read_text(encoding="utf-8"), Path(dev.path).parent, out.parent, entries,
                        f"{src.name} ({fmt})")
     with tempfile.NamedTemporaryFile("w", suffix=".toml", dir=out.parent, delete=False, encoding="utf-8") as fh:
@@ -230,7 +230,7 @@ def cmd_routing_import(args) -> int:
     try:
         new = load_device(Path(fh.name))
     except DeviceError as exc:
-        raise UsageError(f"the imported coupling does not make a valid device: {exc}", "coupling") from None
+        raise UsageError(f"the imported coupling does not make a valid device: {exc}") from None
     finally:
         Path(fh.name).unlink(missing_ok=True)
     G_back = coupling(new).G

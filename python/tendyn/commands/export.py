@@ -180,6 +180,9 @@ def _export_other(args) -> int:
                    "transmissions": [{"type": r["type"].split("/")[-1], "motors": r["motors"], "joints": r["joints"],
                                       "actuator_reduction": r["actuator_reduction"],
                                       "joint_reduction": r["joint_reduction"]} for r in rows]}
+        if any(r["type"].endswith("FourBarLinkageTransmission") for r in rows):
+            print("tendyn: warning: ros2_control's four-bar effort map is not the transpose of its position map: "
+                  "effort commands through it are not power-consistent with the device's coupling", file=sys.stderr)
         lines = [f"{args.out}: {len(rows)} ros2_control transmissions of {dev.name}"]
         lines += [f"  {t['type']}: {', '.join(t['motors'])} -> {', '.join(t['joints'])}"
                   for t in summary["transmissions"]]
