@@ -399,6 +399,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
+    os.environ["TENDYN_DEBUG"] = "1" if debug else ""   # tendyn.progress.debugging(): Dask's warnings shown
     command = next((a for a in argv if not a.startswith("-")), "tendyn")
     input_errors: tuple[type[Exception], ...] = (UsageError,)
     check_errors: tuple[type[Exception], ...] = (CheckFailed,)

@@ -72,3 +72,31 @@ class Steps:
     def __exit__(self, *exc):
         self.close()
         return False
+
+
+def debugging() -> bool:
+    """True under ``tendyn --debug`` (the entry point sets ``TENDYN_DEBUG=1``)."""
+    import os
+
+    return os.environ.get("TENDYN_DEBUG", "") not in ("", "0")
+
+
+def quiet_dask() -> None:
+    """Hide Dask's worker, nanny and scheduler warnings (unless ``--debug``): the ``distributed`` loggers of this
+    process at ERROR, and the same level for the worker processes a local cluster spawns after this call (through
+    Dask's configuration, which they read at start)."""
+    if debugging():
+        return
+    import logging
+    import os
+
+    os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "error")
+    for name in ("distributed", "distributed.nanny", "distributed.worker", "distributed.scheduler",
+                 "distributed.core", "distributed.utils_perf", "distributed.shuffle"):
+        logging.getLogger(name).setLevel(logging.ERROR)
+    try:
+        import dask
+
+        dask.config.set({"logging.distributed": "error"})
+    except ImportError:
+        pass
