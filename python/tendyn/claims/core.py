@@ -27,7 +27,7 @@ class Verdict:
         """|actual − expected| ≤ abs_ + rel·|expected|, element-wise (numbers or arrays)."""
         import numpy as np
 
-        a, e = np.asarray(actual, float), np.asarray(expected, float)
+        a, e = np.asarray(actual), np.asarray(expected)         # real or complex (frequency responses)
         ok = a.shape == e.shape and bool(np.all(np.abs(a - e) <= abs_ + rel * np.abs(e)))
         return self.that(ok, f"{what}: {np.array2string(a, precision=6)} vs {np.array2string(e, precision=6)}")
 

@@ -74,11 +74,11 @@ def s1_json(ctx):
 
         from tendyn.cli import main
 
-        buf = io.StringIO()
-        with contextlib.redirect_stdout(buf):
+        buf, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):   # its step lines: not ours
             code = main(["pipeline", "s1", "--json", "--quick"])
         if code != 0:
-            raise RuntimeError(f"tendyn pipeline s1 --json --quick exited {code}")
+            raise RuntimeError(f"tendyn pipeline s1 --json --quick exited {code}: {err.getvalue().strip()[-300:]}")
         return json.loads(buf.getvalue())
 
     return ctx.get("s1_json", make)
