@@ -71,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _Parser(prog="tendyn", description="Tendon transmissions: model, simulate, identify, compensate.")
     p.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
-    p.add_argument("--version", action="version", version=f"tendyn {_version()}")
+    p.add_argument("--version", action=_VersionAction, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     routing = sub.add_parser("routing", help="transmission routing and matrices")
@@ -115,6 +115,14 @@ def _register_commands(sub) -> None:
         module = importlib.import_module(f"tendyn.commands.{info.name}")
         if hasattr(module, "register"):
             module.register(sub)
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow to import)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"tendyn {_version()}")
+        parser.exit()
 
 
 def _metavar(opt) -> str:
@@ -395,37 +403,40 @@ def _config_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _error_kind(exc: BaseException) -> str | None:
+    """"input" (exit 2: UsageError, DeviceError, LogError), "check" (exit 1: CheckFailed, SimulationDiverged: a run
+    that diverged in any command) or None. The classes are looked up only in the modules already imported, so
+    that the command line loads nothing for its error handling (an exception of a module never imported cannot
+    have been raised)."""
+    def classes(*where):
+        return tuple(getattr(sys.modules[m], n) for m, n in where if m in sys.modules)
+
+    if isinstance(exc, (UsageError,) + classes(("tendyn.device.schema", "DeviceError"), ("tendyn.io.logs", "LogError"))):
+        return "input"
+    if isinstance(exc, (CheckFailed,) + classes(("tendyn._core", "SimulationDiverged"))):
+        return "check"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
     os.environ["TENDYN_DEBUG"] = "1" if debug else ""   # tendyn.progress.debugging(): Dask's warnings shown
     command = next((a for a in argv if not a.startswith("-")), "tendyn")
-    input_errors: tuple[type[Exception], ...] = (UsageError,)
-    check_errors: tuple[type[Exception], ...] = (CheckFailed,)
     try:
         if argv[:1] == ["config"]:
             parser = _config_parser()
         else:
-            from tendyn._core import SimulationDiverged
-            from tendyn.device import DeviceError
-            from tendyn.io.logs import LogError
-            from tendyn.sim import catalogue
+            if any(_NEGATIVE_VALUE.match(a) for a in argv):     # the catalogue (numpy) only when it matters
+                from tendyn.sim import catalogue
 
-            input_errors = (UsageError, DeviceError, LogError)
-            check_errors = (CheckFailed, SimulationDiverged)   # a run that diverged in any command (demo, …): exit 1
-            argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
+                argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
         code = args.func(args)
         sys.stdout.flush()
         return code
-    except input_errors as exc:
-        print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except check_errors as exc:
-        print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("tendyn: interrupted", file=sys.stderr)
         return 130
@@ -433,6 +444,13 @@ def main(argv: list[str] | None = None) -> int:
         _quiet_stdout()
         return 0
     except Exception as exc:  # noqa: BLE001 — the one place that turns a bug into one clear line
+        kind = _error_kind(exc)
+        if kind == "input":
+            print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        if kind == "check":
+            print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
+            return 1
         if debug:
             import traceback
 
