@@ -100,3 +100,35 @@ def quiet_dask() -> None:
         dask.config.set({"logging.distributed": "error"})
     except ImportError:
         pass
+
+
+class Ticker:
+    """``progress(message)`` callback of a long run whose number of steps is not known in advance (the pipelines'
+    ``progress=``): on a terminal one tqdm line with the current step, the steps done, elapsed time and (with
+    ``expected``, the usual number of steps) an ETA; elsewhere ``[name] message …`` lines."""
+
+    def __init__(self, name: str, expected: int | None = None, *, stream: TextIO | None = None):
+        self.name, self.expected = name, expected
+        self.stream = sys.stderr if stream is None else stream
+        self._bar = None
+        self.count = 0
+
+    def __call__(self, message: str) -> None:
+        if not is_terminal(self.stream):
+            print(f"[{self.name}] {message} …", file=self.stream, flush=True)
+            return
+        if self._bar is None:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=self.expected, desc=self.name, unit="step", file=self.stream, leave=False)
+        elif self.count:
+            self._bar.update(1)
+        if self.expected is not None and self.count >= self._bar.total:
+            self._bar.total = self.count + 1
+        self._bar.set_postfix_str(message[:60])
+        self.count += 1
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None

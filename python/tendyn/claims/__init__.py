@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from tendyn.claims.core import (QUICK_MODES, REGISTRY, Claim, Context, Outcome, Verdict, assert_claim, check,
                                 claim_ids, run, xfail_reason)
+from tendyn.claims import s0, s1, s2  # noqa: E402,F401 — the checks register themselves in REGISTRY
 
 __all__ = ["QUICK_MODES", "REGISTRY", "Claim", "Context", "Outcome", "Verdict", "assert_claim", "check", "claim_ids",
            "run", "xfail_reason"]
