@@ -297,7 +297,11 @@ def _check_out_folder(text: str, option: str = "out") -> Path:
 
 
 def cmd_demo(args) -> int:
+    global _DEMO_STEP
     from tendyn.io.files import all_or_none
+    from tendyn.progress import Ticker
+
+    _DEMO_STEP = Ticker("demo")               # a bar on a terminal, `[demo] step …` lines otherwise
 
     dev = _load(args.device)
     out = _check_out_folder(args.out)
@@ -309,11 +313,15 @@ def cmd_demo(args) -> int:
         job = _demo_cables
     with all_or_none(out) as stage:       # every file of the demo, or none of them
         doc, lines = job(dev, _Outputs(stage, out))
+    _DEMO_STEP.close()
     if args.json:
         _print_json(doc)
     else:
         print("\n".join(lines))
     return 0
+
+
+_DEMO_STEP = print
 
 
 class _Outputs:
@@ -334,7 +342,7 @@ def _demo_cables(dev, outputs: _Outputs):
     from tendyn.pipelines.friction_sweep import friction_sweep
     from tendyn.pipelines.statics_demo import statics_demo
 
-    print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
+    _DEMO_STEP(f"statics with losses on {dev.name}")
     demo = statics_demo(dev)
     fig, data = outputs.save(demo, "statics_with_losses")
     lines = []
@@ -346,7 +354,7 @@ def _demo_cables(dev, outputs: _Outputs):
     lines.append(f"figure: {fig}")
     doc = {"device": dev.name, "figure": str(fig), "data": str(data)}
     if dev.n_joints >= 2:
-        print(f"[demo] constant-velocity tests on the {dev.name} twin (S1, S2) …", file=sys.stderr)
+        _DEMO_STEP(f"constant-velocity tests on the {dev.name} twin (S1, S2)")
         sweep = friction_sweep(dev, transmission=1)
         fig2, data2 = outputs.save(sweep, "constant_velocity_tests")
         for name, (v, c) in sweep.points.items():
@@ -360,7 +368,7 @@ def _demo_cables(dev, outputs: _Outputs):
 def _demo_capstan(dev, outputs: _Outputs):
     from tendyn.pipelines.capstan_demo import blocked_link_demo
 
-    print(f"[demo] blocked-link tests on the {dev.name} twin …", file=sys.stderr)
+    _DEMO_STEP(f"blocked-link tests on the {dev.name} twin")
     demo = blocked_link_demo(dev)
     fig, data = outputs.save(demo, "blocked_link")
     lines = [f"{name}: torque/angle slope {k:.3f} N·m/rad (motor side)" for name, k in demo.stiffness_motor.items()]
@@ -373,7 +381,7 @@ def _demo_bench(bench, outputs: _Outputs):
     """Open-loop FRF at several amplitudes vs the analytic plant (S1, C22)."""
     from tendyn.pipelines.bench_frf import bench_frf
 
-    print(f"[demo] stepped sines on the {bench.name} twin at 4 amplitudes …", file=sys.stderr)
+    _DEMO_STEP(f"stepped sines on the {bench.name} twin at 4 amplitudes")
     frf = bench_frf(bench)
     fig, data = outputs.save(frf, "bench_frf_amplitudes")
     peaks = frf.peaks_hz()
