@@ -269,6 +269,8 @@ ALLOWED = {
     "results": {"results"},
     "transmission": {"transmission", "_core", "device.schema"},
     "capstan": {"capstan"},
+    "coupling": {"coupling"},
+    "interop": {"interop", "coupling", "device", "transmission", "_core"},
     "errors": {"errors"},
     "progress": {"progress"},
 }

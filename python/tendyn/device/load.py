@@ -364,7 +364,7 @@ class _Parser:
                                 viscous_motor=f["viscous_motor"], coulomb_motor=f["coulomb_motor"],
                                 torque_constant=f["torque_constant"]))
         self.every_joint_driven("actuators", "actuator", kin, driven_by)
-        out = sorted(out, key=lambda a: a.joint)
+        # Motor i is the file's i-th entry (never sorted by joint: a zero-diagonal coupling keeps its numbering).
         active = [num for num, js in enumerate(kin.joints, start=1) if js.actuated and js.sigma != 2]
         col = {num: k for k, num in enumerate(active)}
         G = np.zeros((len(out), len(active)))

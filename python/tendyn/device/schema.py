@@ -702,6 +702,7 @@ class SerialDevice(Device):
     kinematics : :class:`Kinematics`
     transmissions : tuple of :class:`TransmissionSpec`, sorted by driven joint (empty for a drive device)
     drives : tuple of :class:`Drive`, sorted by driven joint (empty for a transmission device)
+    actuators : tuple of :class:`Actuator` in the file's order: motor i is the i-th ``[[actuators]]`` entry
     kind : "serial" (class attribute; see :class:`tendyn.device.base.Device`)
     experiments : the experiments of a chain twin (class attribute)
     """
