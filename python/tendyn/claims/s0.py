@@ -247,7 +247,7 @@ def c11(ctx, v):
 
 @claim("C12", "S0", "the paper's hypotheses as switches (sensors, static friction, efficiencies)",
        "C11 holds under S0's hypotheses", "C11 (> 50 %) and passivity (≤ 1e-3 J per cycle) with each switch flipped",
-       quick="skip", tests=("test_s0_hypotheses.py::test_C12_C11_holds_under_every_setting_and_each_stays_passive",))
+       tests=("test_s0_hypotheses.py::test_C12_C11_holds_under_every_setting_and_each_stays_passive",))
 def c12(ctx, v):
     res = twins.hypotheses(ctx)
     parts = []
