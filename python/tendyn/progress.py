@@ -114,6 +114,8 @@ class Ticker:
         self.count = 0
 
     def __call__(self, message: str) -> None:
+        if message.startswith(f"{self.name}: "):           # callers that name themselves ("maps: …")
+            message = message[len(self.name) + 2:]
         if not is_terminal(self.stream):
             print(f"[{self.name}] {message} …", file=self.stream, flush=True)
             return
