@@ -8,8 +8,6 @@ import json
 import re
 from pathlib import Path
 
-import pytest
-
 from tendyn.claims import QUICK_MODES, REGISTRY, Context, check, claim_ids
 from tendyn.claims.core import Outcome
 from tendyn.cli import main

@@ -7,7 +7,6 @@ import pytest
 
 from tendyn import _core
 from tendyn.claims import assert_claim
-from tendyn.claims.s0 import compensator_oracle
 from tendyn.control import Compensator, Renderer, chain_model
 from tendyn.device import compile_device, load_device
 from tendyn.device.rigid_body import dh_forward_kinematics

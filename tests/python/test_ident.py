@@ -11,7 +11,7 @@ import pytest
 from tendyn.device import load_device
 from tendyn.devices import bundled
 from tendyn.ident import (IDIM, AlignmentError, IdentModel, butter_zero_phase, khalil_from_pinocchio,
-                          least_squares, pinocchio_from_khalil)
+                          pinocchio_from_khalil)
 from tendyn.ident.treatment import Treatment, stack_blocks, treat
 from tendyn.io import make_log
 

@@ -4,8 +4,6 @@ performance (C25–C28), and `tendyn pipeline s1 --json`."""
 
 from __future__ import annotations
 
-import contextlib
-import io
 import json
 import math
 

@@ -16,8 +16,6 @@ import pytest
 
 from tendyn.claims import assert_claim, twins, xfail_reason
 from tendyn.device import load_device
-from tendyn.device.closed_loop import base_parameters, drive_parameters
-from tendyn.device.rigid_body import standard_parameters
 from tendyn.devices import bundled
 
 

@@ -19,7 +19,7 @@ from tendyn.analysis.operational import (OperationalModel, ParamsError, natural_
                                          read_params, true_params)
 from tendyn.claims import assert_claim, xfail_reason
 from tendyn.device import compile_device, load_device
-from tendyn.device.closed_loop import active_dynamics, active_mass_matrix
+from tendyn.device.closed_loop import active_mass_matrix
 from tendyn.devices import bundled
 
 D3 = 0.30  # m, arm and forearm lengths of the twin (d3 = d4, DEVICES.md §3)

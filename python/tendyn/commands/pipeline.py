@@ -7,7 +7,6 @@ module owns the one ``pipeline`` subparser and dispatches its ``NAME`` positiona
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from typing import Callable
 
