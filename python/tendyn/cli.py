@@ -71,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _Parser(prog="tendyn", description="Tendon transmissions: model, simulate, identify, compensate.")
     p.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
-    p.add_argument("--version", action="version", version=f"tendyn {_version()}")
+    p.add_argument("--version", action=_VersionAction, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     routing = sub.add_parser("routing", help="transmission routing and matrices")
@@ -125,6 +125,14 @@ def _register_commands(sub) -> None:
         module = importlib.import_module(f"tendyn.commands.{info.name}")
         if hasattr(module, "register"):
             module.register(sub)
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow to import)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"tendyn {_version()}")
+        parser.exit()
 
 
 def _metavar(opt) -> str:
@@ -392,7 +400,11 @@ def _check_out_folder(text: str, option: str = "out") -> Path:
 
 
 def cmd_demo(args) -> int:
+    global _DEMO_STEP
     from tendyn.io.files import all_or_none
+    from tendyn.progress import Ticker
+
+    _DEMO_STEP = Ticker("demo")               # a bar on a terminal, `[demo] step …` lines otherwise
 
     dev = _load(args.device)
     out = _check_out_folder(args.out)
@@ -404,11 +416,15 @@ def cmd_demo(args) -> int:
         job = _demo_cables
     with all_or_none(out) as stage:       # every file of the demo, or none of them
         doc, lines = job(dev, _Outputs(stage, out))
+    _DEMO_STEP.close()
     if args.json:
         _print_json(doc)
     else:
         print("\n".join(lines))
     return 0
+
+
+_DEMO_STEP = print
 
 
 class _Outputs:
@@ -429,7 +445,7 @@ def _demo_cables(dev, outputs: _Outputs):
     from tendyn.pipelines.friction_sweep import friction_sweep
     from tendyn.pipelines.statics_demo import statics_demo
 
-    print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
+    _DEMO_STEP(f"statics with losses on {dev.name}")
     demo = statics_demo(dev)
     fig, data = outputs.save(demo, "statics_with_losses")
     lines = []
@@ -441,7 +457,7 @@ def _demo_cables(dev, outputs: _Outputs):
     lines.append(f"figure: {fig}")
     doc = {"device": dev.name, "figure": str(fig), "data": str(data)}
     if dev.n_joints >= 2:
-        print(f"[demo] constant-velocity tests on the {dev.name} twin (S1, S2) …", file=sys.stderr)
+        _DEMO_STEP(f"constant-velocity tests on the {dev.name} twin (S1, S2)")
         sweep = friction_sweep(dev, transmission=1)
         fig2, data2 = outputs.save(sweep, "constant_velocity_tests")
         for name, (v, c) in sweep.points.items():
@@ -455,7 +471,7 @@ def _demo_cables(dev, outputs: _Outputs):
 def _demo_capstan(dev, outputs: _Outputs):
     from tendyn.pipelines.capstan_demo import blocked_link_demo
 
-    print(f"[demo] blocked-link tests on the {dev.name} twin …", file=sys.stderr)
+    _DEMO_STEP(f"blocked-link tests on the {dev.name} twin")
     demo = blocked_link_demo(dev)
     fig, data = outputs.save(demo, "blocked_link")
     lines = [f"{name}: torque/angle slope {k:.3f} N·m/rad (motor side)" for name, k in demo.stiffness_motor.items()]
@@ -468,7 +484,7 @@ def _demo_bench(bench, outputs: _Outputs):
     """Open-loop FRF at several amplitudes vs the analytic plant (S1, C22)."""
     from tendyn.pipelines.bench_frf import bench_frf
 
-    print(f"[demo] stepped sines on the {bench.name} twin at 4 amplitudes …", file=sys.stderr)
+    _DEMO_STEP(f"stepped sines on the {bench.name} twin at 4 amplitudes")
     frf = bench_frf(bench)
     fig, data = outputs.save(frf, "bench_frf_amplitudes")
     peaks = frf.peaks_hz()
@@ -498,36 +514,40 @@ def _config_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _error_kind(exc: BaseException) -> str | None:
+    """"input" (exit 2: UsageError, DeviceError, LogError), "check" (exit 1: CheckFailed, SimulationDiverged: a run
+    that diverged in any command) or None. The classes are looked up only in the modules already imported, so
+    that the command line loads nothing for its error handling (an exception of a module never imported cannot
+    have been raised)."""
+    def classes(*where):
+        return tuple(getattr(sys.modules[m], n) for m, n in where if m in sys.modules)
+
+    if isinstance(exc, (UsageError,) + classes(("tendyn.device.schema", "DeviceError"), ("tendyn.io.logs", "LogError"))):
+        return "input"
+    if isinstance(exc, (CheckFailed,) + classes(("tendyn._core", "SimulationDiverged"))):
+        return "check"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
+    os.environ["TENDYN_DEBUG"] = "1" if debug else ""   # tendyn.progress.debugging(): Dask's warnings shown
     command = next((a for a in argv if not a.startswith("-")), "tendyn")
-    input_errors: tuple[type[Exception], ...] = (UsageError,)
-    check_errors: tuple[type[Exception], ...] = (CheckFailed,)
     try:
         if argv[:1] == ["config"]:
             parser = _config_parser()
         else:
-            from tendyn._core import SimulationDiverged
-            from tendyn.device import DeviceError
-            from tendyn.io.logs import LogError
-            from tendyn.sim import catalogue
+            if any(_NEGATIVE_VALUE.match(a) for a in argv):     # the catalogue (numpy) only when it matters
+                from tendyn.sim import catalogue
 
-            input_errors = (UsageError, DeviceError, LogError)
-            check_errors = (CheckFailed, SimulationDiverged)   # a run that diverged in any command (demo, …): exit 1
-            argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
+                argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
         code = args.func(args)
         sys.stdout.flush()
         return code
-    except input_errors as exc:
-        print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except check_errors as exc:
-        print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("tendyn: interrupted", file=sys.stderr)
         return 130
@@ -535,6 +555,13 @@ def main(argv: list[str] | None = None) -> int:
         _quiet_stdout()
         return 0
     except Exception as exc:  # noqa: BLE001 — the one place that turns a bug into one clear line
+        kind = _error_kind(exc)
+        if kind == "input":
+            print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        if kind == "check":
+            print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
+            return 1
         if debug:
             import traceback
 

@@ -314,6 +314,9 @@ class IDIM:
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
         from dask.distributed import Client, LocalCluster, as_completed
 
+        from tendyn.progress import quiet_dask
+
+        quiet_dask()                                    # no nanny/worker warnings unless --debug
         dev = self._model().device
         own = None
         if self.scheduler == "local":
