@@ -166,3 +166,24 @@ def test_pipeline_s1_given_a_log_points_to_the_log_commands(tmp_path):
     """Issue 21: `tendyn pipeline s1 LOG` used to fail with a TOML syntax error."""
     code, _, err = run(["pipeline", "s1", str(tmp_path / "bench.csv")])
     assert code == 2 and "is a log" in err and "tendyn identify-bench" in err
+
+
+def test_simulate_prbs_on_the_tendon_bench_feeds_identify_bench(tmp_path):
+    """Issue 21: `tendyn simulate mcgill_bench prbs` (an experiment of the catalogue's table) writes a PRBS log:
+    two levels ±torque changing only on the clock's 20 ms ticks, the register from --seed (another seed,
+    another sequence), the same command as excitation.prbs; its clock is checked against the log rate."""
+    from tendyn.sim.excitation import prbs
+
+    code, _, err = run(["simulate", "mcgill_bench", "prbs", "--torque", "1.5", "--duration", "3", "--seed", "4",
+                        "--out", str(tmp_path / "p.csv"), "--quiet"])
+    assert code == 0, err
+    log = read_log(tmp_path / "p.csv")
+    u = log["force_cmd"]
+    assert log.meta["experiment"] == "prbs" and log.meta["options"]["clock_hz"] == 50.0
+    assert set(np.unique(u)) == {-1.5, 1.5} and log.n_samples == 3000
+    assert np.all((np.flatnonzero(np.diff(u)) + 1) % 20 == 0)
+    np.testing.assert_array_equal(u, prbs(1.5, 3.0, 20000.0, clock_hz=50.0, seed=4)[19::20])
+    assert np.std(log["force_tendon"]) > 0.1                 # the bench moved
+    code, _, err = run(["simulate", "mcgill_bench", "prbs", "--torque", "1", "--duration", "1", "--clock", "800",
+                        "--out", str(tmp_path / "q.csv")])
+    assert code == 2 and "--clock" in err and not (tmp_path / "q.csv").exists()
