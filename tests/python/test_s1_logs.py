@@ -76,9 +76,13 @@ def test_dead_band_from_prbs_logs_on_generated_benches(mcgill, changes):
     assert summary["wiener"]["dead_band_rel_error"] < 0.10
 
 
-@pytest.mark.xfail(strict=True, reason="with the twin's node friction the response is not G(s) at any PRBS level "
-                   "below slack: the Wiener model's linear block is 6.7-10.7 % off G(s) from 2 to 20 Hz and ~40 % at "
-                   "the 30 Hz resonance, where the sliding friction adds damping (issue 21 report)")
+@pytest.mark.xfail(strict=True, reason="the twin's Coulomb node friction acts inside the dynamics (it damps the "
+                   "motion), which a Wiener model (G then a static dead-zone) cannot hold: its linear block absorbs "
+                   "it, and the error falls with the PRBS level as friction's share does — measured max error 2-20 Hz, "
+                   "one level per fit: 42 % at 0.5 N, 14.8 % at 1 N, 6.3 % at 2 N, 4.1 % at 3 N (but then no "
+                   "dead-band: width 0), 14.8 % at 4 N and 58 % at 6 N (force peaks -24 N, -34 N: cable slack); "
+                   "the three levels together 10.7 %, with 3 N added 6.8-8.1 %; the frictionless bench 0.3 % "
+                   "(not leakage, order or alignment). No level set meets 5 % and the dead-band at once")
 def test_linear_block_within_5_percent_of_G_on_the_mcgill_twin(mcgill_route):
     assert mcgill_route[0]["wiener"]["linear_max_rel_error_in_band"] < 0.05
 
