@@ -80,7 +80,8 @@ def test_dead_band_from_prbs_logs_on_generated_benches(mcgill, changes):
                    "motion), which a Wiener model (G then a static dead-zone) cannot hold: its linear block absorbs "
                    "it, and the error falls with the PRBS level as friction's share does — measured max error 2-20 Hz, "
                    "one level per fit: 42 % at 0.5 N, 14.8 % at 1 N, 6.3 % at 2 N, 4.1 % at 3 N (but then no "
-                   "dead-band: width 0), 14.8 % at 4 N and 58 % at 6 N (force peaks -24 N, -34 N: cable slack); "
+                   "dead-band: width 0), 14.8 % at 4 N and 58 % at 6 N (force peaks -17, -24, -34 N at 3, 4, 6 N "
+                   "against a 5 N pretension: slack sets in); "
                    "the three levels together 10.7 %, with 3 N added 6.8-8.1 %; the frictionless bench 0.3 % "
                    "(not leakage, order or alignment). No level set meets 5 % and the dead-band at once")
 def test_linear_block_within_5_percent_of_G_on_the_mcgill_twin(mcgill_route):
