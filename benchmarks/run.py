@@ -214,26 +214,40 @@ def print_table(results: list) -> None:
               f"{r['ratio']:9.1f}  {r['baseline']}")
 
 
-ONLY = {"lexos_compensator_cycle_tracking": bench_compensator_tracking, "zwidth_grid": bench_zwidth_grid}
-"""Entries ``--only NAME[,NAME]`` runs alone (printed, results.json left as it is): the machine is shared."""
+ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify", "lexos_compensator_cycle_tracking": "tracking",
+        "zwidth_grid": "zwidth"}
+"""Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 
-def main(argv=None) -> int:
-    import argparse
+def run_only(names: list[str]) -> int:
+    import cli_bench
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--only", default=None, help=f"comma-separated entries of {', '.join(ONLY)}")
-    args = ap.parse_args(argv)
+    unknown = [n for n in names if n not in ONLY]
+    if unknown:
+        print(f"run.py: --only: unknown {', '.join(unknown)} (known: {', '.join(ONLY)})", file=sys.stderr)
+        return 2
     results: list = []
-    if args.only:
-        names = args.only.split(",")
-        unknown = [n for n in names if n not in ONLY]
-        if unknown:
-            ap.error(f"--only: unknown entry {unknown[0]!r} (known: {', '.join(ONLY)})")
-        for n in names:
-            ONLY[n](results)
-        print_table(results)
-        return 0
+    groups = {ONLY[n] for n in names}
+    if "cli" in groups:
+        cli_bench.bench_cli_latency(results)
+    if "identify" in groups:
+        cli_bench.bench_identify_end_to_end(results)
+    if "tracking" in groups:
+        bench_compensator_tracking(results)
+    if "zwidth" in groups:
+        bench_zwidth_grid(results)
+    path = HERE / "results.json"
+    old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
+    new = {r["name"] for r in results}
+    atomic_write_text(path, json.dumps([r for r in old if r["name"] not in new] + results, indent=2))
+    print_table(results)
+    return 0
+
+
+def main() -> int:
+    if "--only" in sys.argv:
+        return run_only(sys.argv[sys.argv.index("--only") + 1].split(","))
+    results: list = []
     bench_feedforward(results)
     bench_compensator(results)
     bench_compensator_tracking(results)
@@ -266,6 +280,10 @@ def main(argv=None) -> int:
     bench_dask(results)
     bench_stream(results)
     bench_zwidth_grid(results)
+    from cli_bench import bench_cli_latency, bench_identify_end_to_end
+
+    bench_cli_latency(results)
+    bench_identify_end_to_end(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)

@@ -15,3 +15,12 @@ def rng(request):
 @pytest.fixture
 def count(request):
     return request.config.getoption("--count")
+
+
+@pytest.fixture(scope="session")
+def claims_ctx(request):
+    """The twins and expensive runs of the claims' checks (tendyn.claims), shared by every test file of a session:
+    the tests and `tendyn claims` run the same definitions."""
+    from tendyn.claims import Context
+
+    return Context(quick=False, seed=request.config.getoption("--seed"), count=request.config.getoption("--count"))
