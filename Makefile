@@ -64,7 +64,7 @@ bench: install
 	cmake --build build/bench -j 2 --target feedforward_timer compensator_timer routing_timer >> build/bench.log 2>&1 || (cat build/bench.log; exit 1)
 	TENDYN_FEEDFORWARD_TIMER=$(abspath build/bench/benchmarks/feedforward_timer) \
 	TENDYN_ROUTING_TIMER=$(abspath build/bench/benchmarks/routing_timer) \
-	TENDYN_COMPENSATOR_TIMER=$(abspath build/bench/benchmarks/compensator_timer) $(VPY) benchmarks/run.py
+	TENDYN_COMPENSATOR_TIMER=$(abspath build/bench/benchmarks/compensator_timer) $(VPY) benchmarks/run.py $(BENCH_ARGS)
 
 clean:
 	rm -rf build $(VENV) out

@@ -179,6 +179,64 @@ def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int
                         baseline_value=np.percentile(base, 99.9) / 1e3, ratio=np.percentile(base, 99.9) / p999))
 
 
+def bench_compensator_tracking(results: list, calls: int = 1_000_000,
+                               name: str = "lexos_compensator_cycle_tracking") -> None:
+    """Issue 23: one L-EXOS compensator cycle with online friction tracking (RLS, every cycle an update: the
+    acceleration gate opened) and the passivity observer/controller on, through the C ABI (target ≤ 0.6 µs mean,
+    p99.9 ≤ 1.5 µs), against the plain C++ Eigen cycle without either (same executable, same run): the ratio
+    is the price of both; no peer tracks friction online or guarantees the compensator's passivity."""
+    from tendyn.control import Compensator
+    from tendyn.device import compile_device
+
+    dev = compile_device(load_device(bundled("lexos")))
+    comp = Compensator.from_device(dev, passivity=True, tracking={"acceleration_max": 1e6, "velocity_min": 0.1})
+    timer = os.environ.get("TENDYN_COMPENSATOR_TIMER", str(HERE.parent / "build/bench/benchmarks/compensator_timer"))
+    if not Path(timer).exists():
+        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/compensator_timer.cpp)")
+    print(f"[bench] {name}: compensator + tracking + passivity controller cycle of {dev.name}, {calls} calls …",
+          file=sys.stderr)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "model.comp"
+        comp.export(path)
+        if "section tracking" not in path.read_text() or "section passivity" not in path.read_text():
+            raise SystemExit("the tracking benchmark's model file lacks its tracking or passivity section")
+        out = subprocess.run([timer, str(path), str(calls), "7"], capture_output=True, text=True, check=True)
+    timed = json.loads(out.stdout)   # max_abs_diff is not checked: the baseline neither tracks nor dissipates
+    base = "plain C++ Eigen cycle without tracking/passivity"
+    for suffix, key in (("", "mean_ns"), ("_median", "median_ns"), ("_p99.9", "p999_ns")):
+        value, ref = timed[key], timed["eigen_" + key]
+        results.append(dict(name=name + suffix, value=value / 1e3, unit="us/call", baseline=base,
+                            baseline_value=ref / 1e3, ratio=ref / value))
+
+
+def bench_zwidth_grid(results: list, points: int = 40, serial_points: int = 40, n_workers: int = 2) -> None:
+    """Issue 23: the Z-width grid of the L-EXOS twin, ``points`` × ``points`` (K, B) points in the compensated
+    mode (target ≤ 60 s on 2 cores), on a local Dask cluster of ``n_workers``; baseline: the same points one
+    after the other in one process (``serial_points`` of them timed, scaled to the grid), same run."""
+    from tendyn.device import compile_device
+    from tendyn.pipelines.zwidth import DEFAULT_DAMPING, DEFAULT_STIFFNESS, _task, run_zwidth, zwidth_point
+
+    dev = compile_device(load_device(bundled("lexos")))
+    ks = np.geomspace(DEFAULT_STIFFNESS[0], DEFAULT_STIFFNESS[1], points)
+    bs = np.linspace(DEFAULT_DAMPING[0], DEFAULT_DAMPING[1], points)
+    print(f"[bench] zwidth_grid: {points}x{points} points of {dev.name} on {n_workers} local Dask workers …",
+          file=sys.stderr)
+    t0 = time.perf_counter()
+    res = run_zwidth(dev, stiffness=ks, damping=bs, modes=("compensated",), n_workers=n_workers, progress=False)
+    grid_s = time.perf_counter() - t0
+    if len(res.rows) != points * points:
+        raise SystemExit(f"zwidth_grid: {len(res.rows)} points came back, {points * points} asked")
+    q0, normal = _task(dev)
+    rng = np.random.default_rng(3)
+    pick = rng.choice(points * points, serial_points, replace=False)
+    t0 = time.perf_counter()
+    for p in pick:
+        zwidth_point(dev.device, ks[p // points], bs[p % points], mode="compensated", q0=q0, normal=normal)
+    serial_s = (time.perf_counter() - t0) / serial_points * points * points
+    results.append(dict(name="zwidth_grid", value=grid_s, unit="s", baseline=f"the same points in one process "
+                        f"({serial_points} timed, scaled)", baseline_value=serial_s, ratio=serial_s / grid_s))
+
+
 def print_table(results: list) -> None:
     print(f"{'benchmark':<34} {'tendyn':>12} {'baseline':>12} {'unit':>9} {'ratio':>9}  baseline")
     for r in results:
@@ -187,7 +245,8 @@ def print_table(results: list) -> None:
 
 
 ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
-        "diff7_feedforward_mean": "differential"}
+        "diff7_feedforward_mean": "differential", "lexos_compensator_cycle_tracking": "tracking",
+        "zwidth_grid": "zwidth"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 
@@ -199,12 +258,17 @@ def run_only(names: list[str]) -> int:
         print(f"run.py: --only: unknown {', '.join(unknown)} (known: {', '.join(ONLY)})", file=sys.stderr)
         return 2
     results: list = []
-    if any(ONLY[n] == "cli" for n in names):
+    groups = {ONLY[n] for n in names}
+    if "cli" in groups:
         cli_bench.bench_cli_latency(results)
-    if any(ONLY[n] == "identify" for n in names):
+    if "identify" in groups:
         cli_bench.bench_identify_end_to_end(results)
-    if any(ONLY[n] == "differential" for n in names):
+    if "differential" in groups:
         bench_differential_feedforward(results)
+    if "tracking" in groups:
+        bench_compensator_tracking(results)
+    if "zwidth" in groups:
+        bench_zwidth_grid(results)
     path = HERE / "results.json"
     old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
     new = {r["name"] for r in results}
@@ -220,6 +284,7 @@ def main() -> int:
     bench_feedforward(results)
     bench_differential_feedforward(results)
     bench_compensator(results)
+    bench_compensator_tracking(results)
     with tempfile.TemporaryDirectory() as tmp:   # issue 17: the same cycle on a generated 8-transmission device
         from tendyn.devices.generate import write_cable_device
 
@@ -248,6 +313,7 @@ def main() -> int:
 
     bench_dask(results)
     bench_stream(results)
+    bench_zwidth_grid(results)
     from cli_bench import bench_cli_latency, bench_identify_end_to_end
 
     bench_cli_latency(results)

@@ -85,6 +85,7 @@ void expose_compensator(nb::module_& m) {
       .def_ro("covariance", &TD::covariance)
       .def_ro("friction_constant", &TD::friction_constant)
       .def_ro("friction_viscous", &TD::friction_viscous)
+      .def_ro("friction_load", &TD::friction_load)
       .def_ro("acceleration", &TD::acceleration)
       .def_ro("residual", &TD::residual)
       .def_ro("updates", &TD::updates);

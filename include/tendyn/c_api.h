@@ -127,7 +127,8 @@ TENDYN_API tendyn_status tendyn_compensator_passivity(const tendyn_compensator* 
 
 /* Online friction tracking (include/tendyn/friction_tracking.hpp; on when the model file has `section
  * tracking 1` with `enabled 1`). scale_constant, scale_viscous (n) [-] (may be NULL): the tracked scales of the
- * model's constant (tau0, beta, bearings) and viscous (nu) losses per transmission (1 = as identified); updates
+ * model's constant (tau0: C_m0) and viscous (nu) losses per transmission (1 = as identified; the load-dependent
+ * losses beta, eta_d and bearings are held as identified); updates
  * (n) (may be NULL): RLS updates since the last reset. TENDYN_INVALID_MODEL without tracking. */
 TENDYN_API tendyn_status tendyn_compensator_tracking(const tendyn_compensator* c, double* scale_constant,
                                                      double* scale_viscous, long* updates);

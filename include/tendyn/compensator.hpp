@@ -14,7 +14,7 @@
 //      compensated with under-estimated coefficients) and w_i = min(1, |q̇_m,i| / v_band) fading the
 //      friction feedforward linearly to zero inside the velocity band (no chatter at rest; static friction
 //      is not compensated, S0 §III);
-//   6b. with model.tracking enabled, C_f is split into its constant and viscous parts and scaled by the
+//   6b. with model.tracking enabled, C_f is split into its τ_0, ν and load-dependent parts, the first two scaled by the
 //      scales tracked online (friction_tracking.hpp: RLS with forgetting), which are updated from the last
 //      cycle's command first;
 //   7. with model.passivity enabled: the passivity observer at each motor port and the controller's damping
@@ -224,15 +224,20 @@ inline Status friction_tracking_step(const CompensatorModel& m, CompensatorData&
     if (std::abs(t.velocity_prev(i)) < fm.velocity_min || std::abs(t.acceleration(i)) > fm.acceleration_max ||
         std::abs(phi_c) + std::abs(phi_v) < 1e-9)
       continue;  // no information: near rest, accelerating, or nothing to scale
-    friction_tracking_update(fm, t, i, phi_c, phi_v, t.torque_motor_prev(i) - t.gravity_motor_prev(i));
+    friction_tracking_update(fm, t, i, phi_c, phi_v,
+                             t.torque_motor_prev(i) - t.gravity_motor_prev(i) - t.regressor_prev(2 * n + i));
   }
-  const Status s = motor_torque_feedforward(t.constant_model, t.constant_data, d.torque_joint, d.qd);
+  Status s = motor_torque_feedforward(t.constant_model, t.constant_data, d.torque_joint, d.qd);
+  if (is_error(s)) return s;
+  s = worst(s, motor_torque_feedforward(t.tau0_model, t.tau0_data, d.torque_joint, d.qd));
   if (is_error(s)) return s;
   for (int i = 0; i < n; ++i) {
-    t.friction_constant(i) = t.constant_data.torque_motor(i) - d.torque_motor_lossless(i);
+    t.friction_constant(i) = t.tau0_data.torque_motor(i) - d.torque_motor_lossless(i);
     t.friction_viscous(i) = d.transmission.torque_motor(i) - t.constant_data.torque_motor(i);
+    t.friction_load(i) = t.constant_data.torque_motor(i) - t.tau0_data.torque_motor(i);
     t.regressor_prev(i) = t.friction_constant(i);
     t.regressor_prev(n + i) = t.friction_viscous(i);
+    t.regressor_prev(2 * n + i) = t.friction_load(i);
   }
   return s;
 }
@@ -265,7 +270,8 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
     const double v = std::abs(d.qd_motor(i));
     const double w = m.velocity_band > 0.0 ? std::min(1.0, v / m.velocity_band) : 1.0;
     d.friction_weight(i) = w;
-    const double friction = tracking ? d.tracking.scale_constant(i) * d.tracking.friction_constant(i) +
+    const double friction = tracking ? d.tracking.friction_load(i) +
+                                           d.tracking.scale_constant(i) * d.tracking.friction_constant(i) +
                                            d.tracking.scale_viscous(i) * d.tracking.friction_viscous(i)
                                      : d.transmission.torque_motor(i) - d.torque_motor_lossless(i);
     d.torque_motor_friction(i) = m.underestimation > 0.0 ? m.underestimation * w * friction : 0.0;

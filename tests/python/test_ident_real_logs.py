@@ -481,6 +481,36 @@ def test_cli_validate(arm, tmp_path, capsys):
     assert "params[0].value" in err and len(err.splitlines()) == 1
 
 
+def test_cli_validate_record_goes_into_the_history(arm, tmp_path, capsys):
+    """Issue 23: `tendyn validate --record` adds per joint relative_error[j] (over the logs, sample-weighted RMS)
+    to the calibration history next to identify's parameters; a log with 3x the friction shows as a rise in
+    `tendyn history`; --db without --record is refused before any work."""
+    import json
+
+    from tendyn.cli import main
+    from tendyn.io import write_log
+
+    fit = write_log(synthetic_log(arm, duration=8.0, seed=21, noise=0.01), tmp_path / "fit.csv")
+    same = write_log(synthetic_log(arm, duration=4.0, seed=22, noise=0.01), tmp_path / "same.csv")
+    other = write_log(synthetic_log(arm, duration=4.0, seed=22, noise=0.01, fv=3 * FV), tmp_path / "other.csv")
+    params, db = tmp_path / "params.json", tmp_path / "h.sqlite"
+    assert main(["identify", str(arm.file), str(fit), "--out", str(params), "--quiet", "--record", "--db",
+                 str(db)]) == 0
+    docs = []
+    for log in (same, other):
+        capsys.readouterr()
+        assert main(["validate", str(arm.file), str(params), str(log), "--json", "--record", "--db", str(db)]) == 0
+        docs.append(json.loads(capsys.readouterr().out))
+    assert main(["history", str(arm.file), "--db", str(db), "--json"]) == 0
+    rows = [r for r in json.loads(capsys.readouterr().out)["rows"] if r["kind"] == "validate"]
+    assert [r["name"] for r in rows] == ["relative_error[1]", "relative_error[2]"] * 2
+    logged = [e for d in docs for e in d["logs"][0]["relative_error"]]   # one log each: the metric is its error
+    np.testing.assert_allclose([r["value"] for r in rows], logged, rtol=1e-12)
+    assert rows[2]["value"] > 2 * rows[0]["value"] and all(r["sigma"] is None for r in rows)
+    code = main(["validate", str(arm.file), str(params), str(same), "--db", str(db)])
+    assert code == 2 and "--db needs --record" in capsys.readouterr().err
+
+
 # a vertical prismatic joint carrying a revolute one
 MIXED = mdh_device_toml("mixed_gen", [0.0, 0.0, -9.81],
                         [("z", 1, 0.0, -0.3, 0.3, 1.8, [0.0, 0.0, -0.05], [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]),

@@ -76,9 +76,14 @@ def test_dead_band_from_prbs_logs_on_generated_benches(mcgill, changes):
     assert summary["wiener"]["dead_band_rel_error"] < 0.10
 
 
-@pytest.mark.xfail(strict=True, reason="with the twin's node friction the response is not G(s) at any PRBS level "
-                   "below slack: the Wiener model's linear block is 6.7-10.7 % off G(s) from 2 to 20 Hz and ~40 % at "
-                   "the 30 Hz resonance, where the sliding friction adds damping (issue 21 report)")
+@pytest.mark.xfail(strict=True, reason="the twin's Coulomb node friction acts inside the dynamics (it damps the "
+                   "motion), which a Wiener model (G then a static dead-zone) cannot hold: its linear block absorbs "
+                   "it, and the error falls with the PRBS level as friction's share does — measured max error 2-20 Hz, "
+                   "one level per fit: 42 % at 0.5 N, 14.8 % at 1 N, 6.3 % at 2 N, 4.1 % at 3 N (but then no "
+                   "dead-band: width 0), 14.8 % at 4 N and 58 % at 6 N (force peaks -17, -24, -34 N at 3, 4, 6 N "
+                   "against a 5 N pretension: slack sets in); "
+                   "the three levels together 10.7 %, with 3 N added 6.8-8.1 %; the frictionless bench 0.3 % "
+                   "(not leakage, order or alignment). No level set meets 5 % and the dead-band at once")
 def test_linear_block_within_5_percent_of_G_on_the_mcgill_twin(mcgill_route):
     assert mcgill_route[0]["wiener"]["linear_max_rel_error_in_band"] < 0.05
 
@@ -166,3 +171,24 @@ def test_pipeline_s1_given_a_log_points_to_the_log_commands(tmp_path):
     """Issue 21: `tendyn pipeline s1 LOG` used to fail with a TOML syntax error."""
     code, _, err = run(["pipeline", "s1", str(tmp_path / "bench.csv")])
     assert code == 2 and "is a log" in err and "tendyn identify-bench" in err
+
+
+def test_simulate_prbs_on_the_tendon_bench_feeds_identify_bench(tmp_path):
+    """Issue 21: `tendyn simulate mcgill_bench prbs` (an experiment of the catalogue's table) writes a PRBS log:
+    two levels ±torque changing only on the clock's 20 ms ticks, the register from --seed (another seed,
+    another sequence), the same command as excitation.prbs; its clock is checked against the log rate."""
+    from tendyn.sim.excitation import prbs
+
+    code, _, err = run(["simulate", "mcgill_bench", "prbs", "--torque", "1.5", "--duration", "3", "--seed", "4",
+                        "--out", str(tmp_path / "p.csv"), "--quiet"])
+    assert code == 0, err
+    log = read_log(tmp_path / "p.csv")
+    u = log["force_cmd"]
+    assert log.meta["experiment"] == "prbs" and log.meta["options"]["clock_hz"] == 50.0
+    assert set(np.unique(u)) == {-1.5, 1.5} and log.n_samples == 3000
+    assert np.all((np.flatnonzero(np.diff(u)) + 1) % 20 == 0)
+    np.testing.assert_array_equal(u, prbs(1.5, 3.0, 20000.0, clock_hz=50.0, seed=4)[19::20])
+    assert np.std(log["force_tendon"]) > 0.1                 # the bench moved
+    code, _, err = run(["simulate", "mcgill_bench", "prbs", "--torque", "1", "--duration", "1", "--clock", "800",
+                        "--out", str(tmp_path / "q.csv")])
+    assert code == 2 and "--clock" in err and not (tmp_path / "q.csv").exists()

@@ -48,7 +48,7 @@ def test_tracker_follows_its_recurrences(lexos):
                 if abs(prev["v"][i]) < t.velocity_min or abs(tr.acceleration[i]) > t.acceleration_max:
                     continue
                 phi = np.array([prev["c"][i], prev["v_"][i]])
-                y = prev["torque"][i] - prev["gravity"][i]
+                y = prev["torque"][i] - prev["gravity"][i] - prev["load"][i]    # load-dependent losses held
                 norm = np.abs(phi).sum()
                 phi, y = phi / norm, y / norm
                 k = P[i] @ phi / (t.forgetting + phi @ P[i] @ phi)
@@ -60,9 +60,44 @@ def test_tracker_follows_its_recurrences(lexos):
         np.testing.assert_allclose(tr.scale_constant, theta[:, 0], rtol=1e-9, atol=1e-12)
         np.testing.assert_allclose(tr.scale_viscous, theta[:, 1], rtol=1e-9, atol=1e-12)
         prev = {"v": np.array(d.qd_motor), "c": np.array(tr.friction_constant), "v_": np.array(tr.friction_viscous),
-                "torque": np.array(d.torque_motor), "gravity": gravity_map @ np.array(d.gravity_torque)}
+                "torque": np.array(d.torque_motor), "gravity": gravity_map @ np.array(d.gravity_torque),
+                "load": np.array(tr.friction_load)}
     assert np.array(tr.updates).min() > 1000
     assert np.abs(theta - 1).max() > 0.05          # the random torques moved the scales: something was tested
+
+
+def test_tracked_split_scales_tau0_and_nu_and_holds_the_load_dependent_losses(lexos):
+    """The split of the model's friction (issue 23: C_m0 and ν tracked): C_c from τ_0 alone (ν = β = 0, η_d = 1),
+    C_v from ν, C_l = the load-dependent rest (β, η_d) held at the model — recomputed here from the device's
+    arrays with the transmission's feedforward; the command is lossless + k w (C_l + σ_c C_c + σ_v C_v)."""
+    from tendyn.transmission import Transmission
+
+    comp = Compensator.from_device(lexos, underestimation=0.8, tracking={"acceleration_max": 1e6})
+    for _ in _motion(comp, 400, np.random.default_rng(2), torque_scale=1.0):
+        pass
+    d, tr = comp.data, comp.data.tracking
+    a = lexos.transmission.to_dict()
+
+    def feedforward(**change):
+        args = dict(tau0=a["tau0"], nu=a["nu"], beta=a["beta"], **{k: a[k] for k in a if k.startswith("bearing_")})
+        eta = change.pop("reducer_efficiency", a["reducer_efficiency"])
+        args.update(change)
+        t = Transmission.from_arrays(a["motor_radius"], a["K"], a["reducer_ratio"], eta, a["pretension"], **args)
+        return np.array(t.feedforward(np.array(d.torque_joint), np.array(d.qd)).torque_motor)
+
+    lossless = np.array(d.torque_motor_lossless)
+    zero = np.zeros_like(a["nu"])
+    tau0_only = feedforward(nu=zero, beta=zero, reducer_efficiency=np.ones_like(a["reducer_efficiency"]))
+    no_nu = feedforward(nu=zero)
+    np.testing.assert_allclose(tr.friction_constant, tau0_only - lossless, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(tr.friction_load, no_nu - tau0_only, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(tr.friction_viscous, feedforward() - no_nu, rtol=1e-9, atol=1e-12)
+    assert np.abs(tr.friction_load).max() > 0.1 * np.abs(tr.friction_constant).max()   # β, η_d matter here
+    w = np.array(d.friction_weight)
+    want = lossless + 0.8 * w * (np.array(tr.friction_load) + np.array(tr.scale_constant) * tr.friction_constant
+                                 + np.array(tr.scale_viscous) * tr.friction_viscous)
+    np.testing.assert_allclose(d.torque_motor, want, rtol=1e-9, atol=1e-12)
+    assert np.abs(np.array(tr.scale_constant) - 1).max() > 1e-3       # the scales moved: the sum was tested
 
 
 def test_tracker_learns_nothing_at_rest_or_when_gated_and_stays_in_its_bounds(lexos):
@@ -91,17 +126,20 @@ def drift_run(lexos):
 
 
 def test_C46_tracked_friction_follows_a_30_percent_drift(lexos, drift_run):
-    """After 30 s the friction the tracked scales give a motor at 10 rad/s (no-load line c + b v of the model)
-    stays within 10 % of the twin's drifted friction at every sample, 6.5 % RMS; the fixed model is off by up to
-    29 % over the same run."""
+    """Issue 23: after 30 s the friction the tracked scales give a motor at 10 rad/s (no-load line c + b v of the
+    model, where β and η_d add nothing: the twin's no-load friction there scales with the drift exactly) stays
+    within 5 % of the twin's drifted friction at every sample on every transmission (measured 2.6 / 2.2 / 3.9 /
+    3.2 %), 2.5 % RMS; the fixed model is off by up to 29 % over the same run. Was 7.7 / 7.6 % on transmissions
+    2 and 3: σ_c scaled the load-dependent losses (β, η_d) that do not drift with τ_0, the self-test ran motor 3
+    at 2.7–5.8 rad/s only, and the 10 s memory lagged the drift (friction_tracking.hpp, tracking.py)."""
     r = drift_run
     c, b = dissipation_bound(lexos, margin=1.0)
     keep = r.time >= 30.0
     tracked = (r.scale_constant * c + r.scale_viscous * b * 10.0) / (c + b * 10.0)
     err = tracked[keep] / r.truth[keep, None] - 1.0
     print("max", np.abs(err).max(axis=0), "rms", np.sqrt(np.mean(err ** 2, axis=0)))
-    assert np.abs(err).max() < 0.10
-    assert np.sqrt(np.mean(err ** 2, axis=0)).max() < 0.065
+    assert np.abs(err).max() < 0.05
+    assert np.sqrt(np.mean(err ** 2, axis=0)).max() < 0.025
     assert np.abs(1.0 / r.truth[keep] - 1.0).max() > 0.2     # what the fixed model would be off by
 
 

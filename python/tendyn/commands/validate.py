@@ -1,10 +1,14 @@
-"""`tendyn validate DEVICE PARAMS.json LOG... [--json] [--report DIR]`: an identified model on other logs."""
+"""`tendyn validate DEVICE PARAMS.json LOG... [--json] [--report DIR] [--record [--db PATH]]`: an identified model
+on other logs; with ``--record`` the per-joint errors go into the calibration history (``tendyn history``)."""
 
 from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from tendyn.commands.args import existing_file
+from tendyn.commands.history import add_record_arguments, check_record, record_result
 from tendyn.errors import UsageError
 
 
@@ -16,7 +20,21 @@ def register(subparsers) -> None:
     p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
     p.add_argument("--report", help="folder for the table and one figure per log (one panel per joint)")
     p.add_argument("--json", action="store_true", help="print the errors as one JSON document on stdout")
+    add_record_arguments(p)
     p.set_defaults(func=cmd_validate)
+
+
+def metrics(results) -> dict:
+    """What ``--record`` keeps: per joint ``relative_error[j]`` [-] (j the file's joint number) over all the logs,
+    each log's relative error weighted by its samples (RMS over the logs: the error of one pooled record when
+    the logs carry similar torque levels)."""
+    n = np.array([r.time.size for r in results], float)
+    out = {}
+    for k, j in enumerate(results[0].joint_numbers):
+        e = np.array([r.relative_error[k] for r in results], float)
+        out[f"relative_error[{j}]"] = {"value": float(np.sqrt(np.sum(n * e ** 2) / n.sum())), "sigma": None,
+                                       "unit": "-"}
+    return out
 
 
 def cmd_validate(args) -> int:
@@ -27,6 +45,7 @@ def cmd_validate(args) -> int:
     from tendyn.io.logs import LogError
 
     dev = _load(args.device)
+    check_record(args)
     if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a {dev.kind}: validation needs a rigid serial device", "device")
     out = _check_out_folder(args.report) if args.report else None
@@ -42,12 +61,13 @@ def cmd_validate(args) -> int:
         except LogError as exc:
             raise LogError(exc.problem, file=path.name, column=exc.column) from None
     doc = {"device": dev.name, "params": str(args.params),
-           "logs": [{"log": str(p), **r.to_dict()} for p, r in zip(args.logs, results)]}
+           "logs": [{"log": str(p), **r.to_dict()} for p, r in zip(args.logs, results)], "metrics": metrics(results)}
     text = "\n\n".join(f"{p.name}:\n{r.table()}" for p, r in zip(args.logs, results))
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         atomic_write_text(out / "table.txt", text + "\n")
         for p, r in zip(args.logs, results):
             save_png(r.plot(), out / f"{p.stem}.png")
+    record_result(args, dev, "validate", doc, source=", ".join(str(p) for p in args.logs))
     print(json.dumps(doc, indent=2) if args.json else text)
     return 0

@@ -11,7 +11,7 @@ from typing import ClassVar
 
 __all__ = ["EXPERIMENTS", "Device"]
 
-EXPERIMENTS = ("constant-velocity", "exciting", "blocked-link", "stepped-sine", "swept-sine", "low-speed-loop")
+EXPERIMENTS = ("constant-velocity", "exciting", "blocked-link", "stepped-sine", "swept-sine", "low-speed-loop", "prbs")
 """Every experiment name a device may support (the CLI's names, ``tendyn simulate DEVICE EXPERIMENT``)."""
 
 

@@ -65,7 +65,7 @@ class TendonBench(Device):
     kind : str
         ``"tendon_bench_2n"`` (class attribute).
     experiments : tuple of str
-        ``("stepped-sine", "swept-sine", "low-speed-loop")`` (class attribute).
+        ``("stepped-sine", "swept-sine", "low-speed-loop", "prbs")`` (class attribute).
     name : str
     ratio : float
         Pulley ratio r [-].
@@ -113,7 +113,7 @@ class TendonBench(Device):
     description: str = ""
     source: str | None = None
     kind: ClassVar[str] = KIND
-    experiments: ClassVar[tuple[str, ...]] = ("stepped-sine", "swept-sine", "low-speed-loop")
+    experiments: ClassVar[tuple[str, ...]] = ("stepped-sine", "swept-sine", "low-speed-loop", "prbs")
 
     @property
     def path(self) -> Path | None:

@@ -136,12 +136,16 @@ def stroke_reference(q0, amplitude, speeds, duration: float, rate_hz: float, ble
 
 
 def self_test_run(device, *, duration: float = 120.0, drift: FrictionDrift | None = FrictionDrift(period=240.0),
-                  amplitude: float = 0.3, speeds=(0.15, 0.4, 0.25), bandwidth_hz: float = 4.0,
+                  amplitude: float = 0.3, speeds=None, motor_speeds=(6.0, 16.0, 10.0), bandwidth_hz: float = 4.0,
                   compensator=None, tracking=True, rate_hz: float = 10_000.0, control_hz: float = 1_000.0,
                   sample_every: float = 0.1, seed: int = 7) -> TrackingRun:
     """The self-test of the module docstring for ``duration`` [s]: joint j strokes about the middle of its range,
     ±``amplitude`` [rad] (at most 40 % of the range), at the joint speeds ``speeds`` [rad/s] in turn, shifted by
-    one per joint (:func:`stroke_reference`) under a joint PD
+    one per joint (:func:`stroke_reference`); by default the speeds that run the joint's own motor at
+    ``motor_speeds`` [rad/s] (joint speed = motor speed / the joint's motor-from-joint ratio), so every motor
+    sweeps the speeds the tracked line is used at on both sides of 10 rad/s, whatever its ratio (with one set of
+    joint speeds for all, L-EXOS motor 3, ratio 11.25 against 40, ran at 2.7–5.8 rad/s, half of it under
+    velocity_min, and its viscous scale was extrapolated: 7.6 % off at 10 rad/s); under a joint PD
     whose gains give each joint ``bandwidth_hz`` (damping ratio 0.7) on the diagonal of the joint-space mass
     matrix at q0 (Pinocchio CRBA); ``compensator`` (a :class:`tendyn.control.Compensator`, tracking on) or one built from the device
     with ``tracking`` settings. The compensator object keeps its tracked state (use it afterwards)."""
@@ -163,9 +167,13 @@ def self_test_run(device, *, duration: float = 120.0, drift: FrictionDrift | Non
     n = len(joints)
     q0 = np.array([0.5 * (j.lower + j.upper) for j in joints])
     amp = np.minimum(amplitude, 0.4 * np.array([j.upper - j.lower for j in joints]))
-    sp = list(speeds)
-    _, q_ref_all, qd_ref_all = stroke_reference(q0, amp, [sp[j % len(sp):] + sp[:j % len(sp)] for j in range(n)],
-                                                duration, control_hz)
+    if speeds is None:
+        ratio = np.abs(np.diag(np.asarray(base.matrices()["motor_from_joint_position"])))
+        per_joint = [[v / ratio[j] for v in motor_speeds] for j in range(n)]
+    else:
+        per_joint = [list(speeds)] * n
+    _, q_ref_all, qd_ref_all = stroke_reference(q0, amp, [sp[j % len(sp):] + sp[:j % len(sp)]
+                                                          for j, sp in enumerate(per_joint)], duration, control_hz)
     inertia = _joint_inertia(compiled, q0)
     wn = 2 * np.pi * bandwidth_hz
     kp, kd = inertia * wn ** 2, 2 * 0.7 * inertia * wn

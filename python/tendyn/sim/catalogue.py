@@ -92,11 +92,13 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            lo=1, hi=100_000),
     Option("freqs", "floats", "Hz", "test frequencies, comma-separated (stepped-sine; swept-sine sweeps from "
            "the lowest to the highest; default 1,2,5,10)", lo=0.0, lo_open=True, hi=100_000.0, max_len=1_000),
+    Option("clock", "float", "Hz", "PRBS clock: a level lasts 1/clock (default 50 Hz: power flat to about 22 Hz); "
+           "at most half of --log-rate", lo=0.0, lo_open=True, hi=BENCH_RATE_HZ[1]),
 )}
 
 DEFAULTS: dict[str, Any] = dict(seed=0, log_rate=1_000.0, transmission=1, joint=1, strategy="S2",
                                 speeds=None, loads=DEFAULT_LOADS, duration=20.0, torque=0.1, period=2.0, cycles=3,
-                                freqs=(1.0, 2.0, 5.0, 10.0), q0=None)
+                                freqs=(1.0, 2.0, 5.0, 10.0), q0=None, clock=None)
 """Defaults shared by the experiments; rates that depend on the device come from :func:`_device_defaults`."""
 
 
@@ -130,6 +132,9 @@ EXPERIMENTS: dict[tuple[str, str], Experiment] = {(e.kind, e.name): e for e in (
                note=" (a tendon bench has no controller and no joints)"),
     Experiment("swept-sine", _BENCH, ("freqs", "torque", "duration", "rate", "log_rate", "seed"),
                "linear chirp of force command", note=" (a tendon bench has no controller and no joints)"),
+    Experiment("prbs", _BENCH, ("torque", "duration", "clock", "rate", "log_rate", "seed"),
+               "maximum-length binary sequence ±torque of force command, from rest (S1 from logs: tendyn "
+               "identify-bench)", note=" (a tendon bench has no controller and no joints)"),
     Experiment("low-speed-loop", _BENCH, ("torque", "cycles", "rate", "log_rate", "seed"),
                "0.2 Hz sine: dead-band and friction loop (S1 Fig. 10b)",
                note=" (a tendon bench has no controller and no joints)"),
@@ -322,6 +327,17 @@ def _check_bench(device, exp: Experiment, o: dict) -> None:
         raise UsageError(f"must divide --rate ({o['rate']:g} Hz) a whole number of times (got {o['log_rate']:g})",
                          "log_rate")
     _check_signal(o, o["rate"])
+    if "clock" in o:
+        if o["clock"] is None:
+            from tendyn.pipelines.s1_logs import PRBS_CLOCK_HZ
+
+            o["clock"] = PRBS_CLOCK_HZ
+        if o["clock"] > o["log_rate"] / 2:
+            raise UsageError(f"must be at most half of --log-rate, {o['log_rate'] / 2:g} Hz (got {o['clock']:g})",
+                             "clock")
+        if o["duration"] * o["clock"] < 2:
+            raise UsageError(f"must hold at least two PRBS levels, {2 / o['clock']:g} s at --clock "
+                             f"{o['clock']:g} Hz (got {o['duration']:g})", "duration")
 
 
 def _check_signal(o: dict, rate: float) -> None:
@@ -356,6 +372,8 @@ def run_length_s(device, experiment: str, o: dict) -> list[float]:
         return [o["cycles"] / f for f in o["freqs"]]
     if experiment == "blocked-link":
         return [o["cycles"] * o["period"]]
+    if experiment == "prbs":
+        return [o["duration"]]
     if experiment == "low-speed-loop":
         from tendyn.sim.tendon_bench import LOW_SPEED_FREQ_HZ
 
@@ -434,7 +452,7 @@ def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] |
             device, experiment, rate_hz=o["rate"], log_rate_hz=o["log_rate"], seed=o["seed"],
             amplitude_N=o["torque"], omega=None if o.get("freqs") is None else 2 * math.pi * np.asarray(o["freqs"]),
             cycles=o.get("cycles"),
-            duration_s=o.get("duration"), progress=progress)]
+            duration_s=o.get("duration"), clock_hz=o.get("clock"), progress=progress)]
     from tendyn.sim import experiments as ex
 
     q0 = None if o.get("q0") is None else np.asarray(o["q0"], float)

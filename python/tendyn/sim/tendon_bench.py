@@ -348,13 +348,16 @@ LOW_SPEED_FREQ_HZ = 0.2
 
 def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float, rate_hz: float = 20000.0,
                      log_rate_hz: float = 1000.0, seed: int = 0, omega: Sequence[float] | None = None,
-                     cycles: int | None = None, duration_s: float | None = None, progress=None) -> list:
+                     cycles: int | None = None, duration_s: float | None = None, clock_hz: float | None = None,
+                     progress=None) -> list:
     """One experiment of ``tendyn simulate`` on a bench: a list of (log, truth) pairs.
 
     ``"stepped-sine"``: ``cycles`` whole cycles of a sine of ``amplitude_N`` [N] from rest at each frequency
     of ``omega`` [rad/s], one log per frequency; ``"swept-sine"``: a linear chirp from min to max of ``omega``
     over ``duration_s`` (then 1 s of zero command); ``"low-speed-loop"``: ``cycles`` cycles at
-    :data:`LOW_SPEED_FREQ_HZ`. Logs sample every ``rate_hz / log_rate_hz`` steps (must be whole).
+    :data:`LOW_SPEED_FREQ_HZ`; ``"prbs"``: a maximum-length sequence ±``amplitude_N`` clocked at ``clock_hz``
+    for ``duration_s`` (:func:`tendyn.sim.excitation.prbs`, register start from ``seed``), the input of
+    ``tendyn identify-bench``. Logs sample every ``rate_hz / log_rate_hz`` steps (must be whole).
     """
     log_every = rate_hz / log_rate_hz
     if abs(log_every - round(log_every)) > 1e-9 * log_every or round(log_every) < 1:
@@ -383,6 +386,12 @@ def bench_experiment(bench: TendonBench, experiment: str, *, amplitude_N: float,
         return [(bench_log(bench, res.runs[0], "swept_sine", opts, log_every), truth)]
     if experiment == "low-speed-loop":
         return [(sine_run(LOW_SPEED_FREQ_HZ, "low_speed_loop"), truth)]
+    if experiment == "prbs":
+        from tendyn.sim.excitation import prbs
+
+        u = prbs(amplitude_N, duration_s, rate_hz, clock_hz=clock_hz, seed=seed)
+        opts = {"amplitude_N": amplitude_N, "clock_hz": clock_hz, "duration_s": duration_s}
+        return [(bench_log(bench, simulate(bench, u, rate_hz, seed), "prbs", opts, log_every), truth)]
     raise ValueError(f"unknown bench experiment {experiment!r}")
 
 
