@@ -39,7 +39,7 @@ def register(subparsers) -> None:
                    help="identify a Parquet log too large for memory chunk by chunk (normal equations, no W held)")
     p.add_argument("--force", action="store_true", help="use logs whose meta names another device")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
+    p.add_argument("--report", help="folder for report.html, the table, params.json and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
     add_record_arguments(p)
     p.set_defaults(func=cmd_identify)
@@ -79,7 +79,7 @@ def _parameters(text, model):
 def cmd_identify(args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident import IDIM
-    from tendyn.io import atomic_write_text, read_log, save_png
+    from tendyn.io import atomic_write_text, read_log
 
     dev = _device(args.device)
     if dev.kind != "serial":
@@ -125,10 +125,12 @@ def cmd_identify(args) -> int:
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     if args.report:
-        out = Path(args.report)
-        out.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out / "table.txt", res.table() + "\n")
-        save_png(res.plot(), out / "torques.png")
+        from tendyn.report import section_of, write_report
+
+        write_report(args.report, "identify", args, doc, "params.json",
+                     [section_of("Base parameters and measured vs estimated torques", res, name="torques")],
+                     texts={"table.txt": res.table()}, device=dev, logs=args.logs,
+                     title=f"Identification of {dev.name}")
     if args.json:
         print(json.dumps(doc, indent=2))
         _warn(res)
