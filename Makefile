@@ -5,7 +5,7 @@ VPY      := $(VENV)/bin/python
 PIP      := $(VPY) -m pip
 STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
-SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: install test test-python test-cpp tools demo bench mutants clean
 
