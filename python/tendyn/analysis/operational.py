@@ -501,6 +501,9 @@ class OperationalMaps(Result):
         """{"fig8": MapFigure (mass, stiffness), "fig9": MapFigure (friction)}."""
         return {"fig8": MapFigure(self, "mass_stiffness"), "fig9": MapFigure(self, "friction")}
 
+    reading = ('Each curve is one quantity along a line through the natural pose (solid: x, dashed: y, dotted: z '
+               'offset of the handle); the colour names the component.')
+
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         if len(axes) < 4:

@@ -36,6 +36,9 @@ class BlockedLinkDemo:
 
     __str__ = table
 
+    reading = ('Motor torque against motor angle with the links blocked: the slope of each loop is the capstan '
+               'stiffness (legend), its width the friction hysteresis.')
+
     def plot(self, ax=None):
         """Torque vs angle per drive into ``ax`` (or a new figure); returns the figure."""
         from matplotlib.figure import Figure

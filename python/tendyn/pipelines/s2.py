@@ -73,6 +73,9 @@ class S2Report(Result):
     stiffness_motor: list = field(default_factory=list)
     params: list = field(default_factory=list)
 
+    reading = ('The cross-validation figure of the S2 run: measured and predicted torques on the log that was not '
+               'fitted.')
+
     def _draw(self, ax) -> None:
         self.figures["crossval"].plot(ax)
 
@@ -131,6 +134,9 @@ class CrossValidation(Result):
         return format_table(("Joint", "relative error %"), [(j, f"{100 * e:.3g}") for j, e in
                                                             zip(self.joints, self.rel_error())],
                             title="cross-validation")
+
+    reading = ('Measured (colour) and predicted (black) joint torques on the log that was not used for the fit; '
+               'where they part, the identified model misses the motion.')
 
     def _draw(self, ax) -> None:
         j = self.joints.index(self.show_joint)

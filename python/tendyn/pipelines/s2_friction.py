@@ -98,6 +98,9 @@ class FrictionProtocol(Result):
                 + f"\npassive-joint friction (C34): {zs} -> "
                 + ("negligible" if dec["passive_friction_negligible"] else "NOT negligible") + f" (|z| < {dec['z_max']:g})")
 
+    reading = ('Friction torque of each constant-velocity test (half-difference of a pair of opposite speeds) '
+               'against speed, per joint: the level at low speed is the Coulomb friction, the slope the viscous one.')
+
     def _draw(self, ax) -> None:
         for k, (v, y) in self.points.items():
             ax.plot(v, y, "o", ms=3, label=k)
