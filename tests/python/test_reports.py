@@ -70,10 +70,11 @@ def _commands(work: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def runs(s1_quick_report, s2_quick_report):
     """Run every command once: {name: {"page": Path, "figures": [Figure], "stderr": str}}."""
     import io
     import sys
+    import time
     from contextlib import redirect_stderr, redirect_stdout
 
     from matplotlib.figure import Figure
@@ -90,19 +91,28 @@ def runs(tmp_path_factory):
             drawn.append(self)
         return original(self, *a, **kw)
 
+    import tendyn.pipelines.s1
+    import tendyn.pipelines.s2
+
     out = {}
+    mp = pytest.MonkeyPatch()      # pipelines s1 and s2: the session's quick runs (conftest.py), published here
+    mp.setattr(tendyn.pipelines.s1, "run_s1", lambda dev, quick=False, progress=None: s1_quick_report)
+    mp.setattr(tendyn.pipelines.s2, "run_s2", lambda dev, quick=False, progress=None: s2_quick_report)
     Figure.savefig = recording
     try:
         for name, (argv, page) in _commands(ARTEFACTS).items():
             drawn.clear()
             err = io.StringIO()
+            t0 = time.perf_counter()
             with redirect_stdout(io.StringIO()), redirect_stderr(err):
                 code = main(argv)
+            print(f"[test_reports] {name}: {time.perf_counter() - t0:.1f} s", file=sys.stderr)
             assert code == 0, f"{name}: exit {code}: {err.getvalue()}"
             if page is not None:
                 out[name] = {"page": page, "figures": list(drawn), "stderr": err.getvalue()}
     finally:
         Figure.savefig = original
+        mp.undo()
     print(f"\n[test_reports] reports and screenshots: {ARTEFACTS}", file=sys.stderr)
     return out
 
@@ -138,7 +148,9 @@ def figure_problems(fig) -> list[str]:
         labelled = [a for a in list(ax.lines) + list(ax.collections) + list(ax.patches)
                     if a.get_label() and not a.get_label().startswith("_")]
         names = {a.get_label() for a in labelled}
-        if len(names) > 1 and ax.get_legend() is None and not fig.legends:
+        legends = [lg for a in fig.axes if (lg := a.get_legend()) is not None] + list(fig.legends)
+        told = {t.get_text() for lg in legends for t in lg.get_texts()}   # panels of the same curves share one
+        if len(names) > 1 and ax.get_legend() is None and not names <= told:
             problems.append(f"{where}: {len(names)} labelled curves ({', '.join(sorted(names)[:4])}) and no legend")
     return problems
 

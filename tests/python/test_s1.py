@@ -249,11 +249,13 @@ def test_h1_estimator_equals_the_lockin_on_a_noise_free_sine(bench):
 # ---- 5–9: the pipeline, once, through the command line ----------------------------------------------------
 
 @pytest.fixture(scope="module")
-def s1_json():
+def s1_json(s1_quick_report):
+    import tendyn.pipelines.s1
     from tendyn.cli import main
 
     buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
+    with contextlib.redirect_stdout(buf), pytest.MonkeyPatch.context() as mp:   # the session's one quick run
+        mp.setattr(tendyn.pipelines.s1, "run_s1", lambda dev, quick=False, progress=None: s1_quick_report)
         code = main(["pipeline", "s1", "--json", "--quick"])
     assert code == 0
     return json.loads(buf.getvalue())

@@ -26,10 +26,8 @@ def device():
 
 
 @pytest.fixture(scope="module")
-def report(device):
-    from tendyn.pipelines.s2 import run_s2
-
-    return run_s2(device, quick=True, seed=0)
+def report(s2_quick_report):
+    return s2_quick_report          # run_s2(cea_branch, quick=True, seed=0), once per session (conftest.py)
 
 
 @pytest.fixture(scope="module")

@@ -30,9 +30,10 @@ class BlockedLinkDemo:
                 "torque_motor_Nm": {k: v.tolist() for k, v in self.torque.items()}}
 
     def table(self) -> str:
-        rows = [f"{'drive':<10} {'slope [N·m/rad] (motor side)':>30}"]
-        rows += [f"{name:<10} {k:>30.3f}" for name, k in self.stiffness_motor.items()]
-        return "\n".join(rows)
+        from tendyn.results import format_table
+
+        return format_table(("drive", "slope [N·m/rad] (motor side)"),
+                            [(name, f"{k:.3f}") for name, k in self.stiffness_motor.items()])
 
     __str__ = table
 

@@ -6,7 +6,7 @@
 """
 
 from tendyn.report.page import HTML_NAME, Figure, Section, Table, run_info, section_of, write_html_report
-from tendyn.report.publish import publish, warn
+from tendyn.report.publish import publish, warn, write_report
 
 __all__ = ["HTML_NAME", "Figure", "Section", "Table", "publish", "run_info", "section_of", "warn",
-           "write_html_report"]
+           "write_html_report", "write_report"]
