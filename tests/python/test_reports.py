@@ -58,7 +58,7 @@ def _commands(work: Path) -> dict:
                         r("pipeline_s1") / "report.html"),
         "pipeline_s2": (["pipeline", "s2", "--quick", "--report", str(r("pipeline_s2"))],
                         r("pipeline_s2") / "report.html"),
-        "sweep": (["sweep", "mcgill_bench", "--param", "k1=20000:40000:2", "--amplitudes", "0.6,2", "--workers", "1",
+        "sweep": (["sweep", "mcgill_bench", "--param", "k1=20000:400000:2", "--amplitudes", "0.6,2", "--workers", "1",
                    "--quiet", "--out", str(work / "sweep.parquet")], work / "sweep.html"),
         "demo_lexos": (["demo", "lexos", "--out", str(r("demo_lexos"))], r("demo_lexos") / "report.html"),
         "demo_generated": (["demo", str(gen), "--out", str(r("demo_generated"))], r("demo_generated") / "report.html"),
@@ -190,11 +190,20 @@ def test_identify_draws_one_panel_per_joint(runs):
     assert len(figs) == 1 and len([a for a in figs[0].axes if a.lines]) == 6
 
 
-def test_maps_compare_with_s2_only_on_s2s_twin(runs):
-    """The maps table has the paper's column on cea_branch (S2's twin) and none on a generated device."""
+def test_maps_compare_with_s2_only_on_s2s_twin(runs, tmp_path):
+    """The maps table has the paper's column on cea_branch (S2's twin) and none on another device; a copy of the
+    twin edited by hand is another device (tendyn.devices.is_twin_of)."""
+    from tendyn.device import load_device
+    from tendyn.devices import bundled, is_twin_of
+
     cea = (runs["maps_cea_branch"]["page"].parent / "maps.txt").read_text()
     gen = (runs["maps_generated"]["page"].parent / "maps.txt").read_text()
     assert "S2 (paper)" in cea and "S2" not in gen.replace("S2 eq", "")
+    twin = load_device(bundled("cea_branch"))
+    edited = tmp_path / "branch.toml"
+    edited.write_text(bundled("cea_branch").read_text().replace('name = "CEA branch"', 'name = "my branch"', 1))
+    assert is_twin_of(twin, "cea_branch") and not is_twin_of(twin, "lexos")
+    assert not is_twin_of(load_device(edited), "cea_branch")
 
 
 # ---- the pages in a browser --------------------------------------------------------------------------------------
@@ -291,9 +300,11 @@ def test_sweep_flags_peaks_at_the_grid_edge_on_stderr_and_in_the_report(runs):
     assert any("236.9 dB" in s for s in w), w
     assert SweepResult("bench", {"k1": [1.0]}, [{"k1": 1.0, "peak_hz_2N": 20.0}], "peak_shift_hz",
                        freqs_hz=[8.0, 20.0, 40.0]).warnings == []
-    run = runs["sweep"]
+    run = runs["sweep"]             # k1 = 4e5 N/m: the resonance lies above the 40 Hz end of the grid
     page = run["page"].read_text(encoding="utf-8")
-    for s in json.loads(run["page"].with_suffix(".json").read_text())["warnings"]:
+    warnings = json.loads(run["page"].with_suffix(".json").read_text())["warnings"]
+    assert any("peak at 40 Hz, the highest frequency of the grid" in s for s in warnings), warnings
+    for s in warnings:
         assert s in page and f"tendyn sweep: warning: {s}" in run["stderr"]
 
 
@@ -304,7 +315,7 @@ def test_implausible_values_are_flagged():
     doc = {"params": [{"name": "FV1", "value": 0.1, "rel_stderr_pct": 250.0},
                       {"name": "ZZ1", "value": 1.0, "rel_stderr_pct": 3.0}],
            "viscous_motor": [0.01, -0.002], "mass_load": 0.2, "reducer_efficiency": 1.3,
-           "offset_error": -5.0, "coulomb_shift_N": -1.0}
+           "offset_error": -5.0, "coulomb_shift_N": -1.0, "dry_friction_max_direction": [-0.2, 0.9]}
     w = scan(doc)
     assert len(w) == 3, w
     assert any("FV1" in s and "250 %" in s for s in w) and any("viscous_motor" in s for s in w)

@@ -312,8 +312,8 @@ class SensitivityStudy(Result):
 
     _figsize = (4.2, 3.6)
 
-    reading = ('One panel per parameter value: the plant gain |G| (black), its band under a ±100 % change of the '
-               'parameter (dashed), and the sensitivity |S| (dots) against frequency.')
+    reading = ('One panel per parameter value: the plant gain |G| (black), the first-order gains G(1 ± S) of a ±100 % '
+               'change of the parameter (dashed), and the sensitivity |S| (dots) against frequency.')
 
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]

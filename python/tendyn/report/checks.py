@@ -23,8 +23,9 @@ EFFICIENCY = re.compile(r"(^|_)(efficiency|eta)(_|$)", re.I)
 MAX_REL_STDERR_PCT = 100.0
 """%σ above this [%]: the parameter is not determined by the data (its σ is larger than its value)."""
 
-_SKIP = re.compile(r"(^|_)(signed|offset|residual|error|delta|shift|change|diff)(_|$)", re.I)
-"""Keys that are differences or signed by construction, never checked for sign."""
+_SKIP = re.compile(r"(^|_)(signed|offset|residual|error|delta|shift|change|diff|direction|dir|axis|vector|sign|"
+                   r"position|ratio_re|ratio_im|phase)(_|$)", re.I)
+"""Keys that are differences, directions or signed by construction, never checked for sign."""
 
 
 def _numbers(v):

@@ -33,7 +33,9 @@ def sections_of(table: str, figures: Mapping[str, Any], summary: str = "Summary"
         if isinstance(res, Figure):
             out.append(Section(name.replace("_", " "), figures=[res]))
         else:
-            out.append(section_of(name.replace("_", " "), res, name=name))
+            sec = section_of(name.replace("_", " "), res, name=name)
+            sec.tables = [t for t in sec.tables if t != table]      # the summary shows it already
+            out.append(sec)
     return out
 
 
