@@ -167,6 +167,7 @@ def render_html(title: str, info: dict, sections: Sequence[Section], *, files: S
             uri, (w, h) = _svg_data_uri(fig)
             figs.append({"uri": uri, "caption": f.text(), "name": f.name, "width_in": w, "height_in": h})
             if png_dir is not None and f.name:
+                _freeze_layout(fig)    # the layout of the SVG, not computed again (seconds on log axes)
                 save_png(fig, png_dir / f"{f.name}.png", **({"dpi": png_dpi} if png_dpi else {}))
             else:
                 _close(fig)
@@ -175,6 +176,14 @@ def render_html(title: str, info: dict, sections: Sequence[Section], *, files: S
     return _env().get_template("report.html.j2").render(
         title=title, info=info, sections=rendered, files=list(files), json_name=json_name,
         warnings=list(warnings), options_json=json.dumps(info.get("options", {}), indent=1, sort_keys=True))
+
+
+def _freeze_layout(fig) -> None:
+    """Keep the axes where the last draw put them (constrained layout computed once per figure)."""
+    try:
+        fig.set_layout_engine("none")
+    except (AttributeError, RuntimeError):     # older matplotlib, or an engine that cannot be swapped
+        pass
 
 
 def _close(fig) -> None:
