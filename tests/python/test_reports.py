@@ -46,6 +46,8 @@ def _commands(work: Path) -> dict:
                         "--map", str(TX40_DATA / "import.toml"), "--out", str(log)], None),
         "identify_tx40": (["identify", "tx40", str(log), "--out", str(work / "tx40_params.json"), "--quiet",
                            "--report", str(r("identify_tx40"))], r("identify_tx40") / "report.html"),
+        "identify_stream_tx40": (["identify", "tx40", str(log), "--stream", "--report", str(r("identify_stream"))],
+                                 r("identify_stream") / "report.html"),
         "validate_tx40": (["validate", "tx40", str(work / "tx40_params.json"), str(log), "--report",
                            str(r("validate_tx40"))], r("validate_tx40") / "report.html"),
         "maps_generated": (["maps", str(gen), "--points", "3", "--report", str(r("maps_generated"))],

@@ -125,12 +125,7 @@ def cmd_identify(args) -> int:
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     if args.report:
-        from tendyn.report import section_of, write_report
-
-        write_report(args.report, "identify", args, doc, "params.json",
-                     [section_of("Base parameters and measured vs estimated torques", res, name="torques")],
-                     texts={"table.txt": res.table()}, device=dev, logs=args.logs,
-                     title=f"Identification of {dev.name}")
+        _write_report(args, dev, res, doc)
     if args.json:
         print(json.dumps(doc, indent=2))
         _warn(res)
@@ -138,6 +133,15 @@ def cmd_identify(args) -> int:
         print(res.table())
     print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
     return 0
+
+
+def _write_report(args, dev, res, doc) -> None:
+    """report.html (docs/reports.md), params.json, table.txt and torques.png into ``--report``, all or none."""
+    from tendyn.report import section_of, write_report
+
+    write_report(args.report, "identify", args, doc, "params.json",
+                 [section_of("Base parameters and measured vs estimated torques", res, name="torques")],
+                 texts={"table.txt": res.table()}, device=dev, logs=args.logs, title=f"Identification of {dev.name}")
 
 
 def _document(res, dev, logs) -> dict:
@@ -172,6 +176,8 @@ def _identify_stream(dev, args) -> int:
     record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+    if args.report:                         # a streamed fit keeps no samples: the figure is the %σ per parameter
+        _write_report(args, dev, res, doc)
     print(json.dumps(doc, indent=2) if args.json else res.table())
     if args.json:
         _warn(res)

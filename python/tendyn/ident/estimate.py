@@ -145,8 +145,15 @@ class IdentificationResult(Result):
         tail += [f"warning: {w}" for w in self.warnings]
         return text + "\n" + "\n".join(tail)
 
-    reading = ("One panel per joint: the measured torque (colour) and the torque of the identified model W X "
-               "(black dashes) at the same decimated samples; where they part, the model misses that joint's motion.")
+    @property
+    def reading(self) -> str:
+        """How to read :meth:`plot` (the caption in a report)."""
+        if self.y is None or len(self.y) == 0:
+            return ("One bar per base parameter: its relative standard deviation %σ on a log scale; a bar above "
+                    "100 % is a parameter the data do not determine.")
+        return ("One panel per joint: the measured torque (colour) and the torque of the identified model W X "
+                "(black dashes) at the same decimated samples; where they part, the model misses that joint's "
+                "motion.")
 
     def _draw(self, ax):
         n = len(self.joint_numbers)
@@ -156,6 +163,7 @@ class IdentificationResult(Result):
             ax.set_xticks(range(len(self.names)), self.names, rotation=90, fontsize=6)
             ax.set_yscale("log")
             ax.set_ylabel("relative deviation %σ [%]")
+            ax.set_xlabel("base parameter (its unit in the table)")
             ax.set_title(f"{self.device}: base parameters ({self.method})")
             return
         axes = ax if isinstance(ax, (list, tuple)) else [ax]
