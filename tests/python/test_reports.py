@@ -352,3 +352,20 @@ def test_text_tables_become_html_tables():
     assert [type(b) for b in blocks] == [Table, Text, Table]
     assert blocks[0].title == "title" and blocks[0].headers == ["a", "value [N]"]
     assert blocks[0].rows == [["x", "1.5"], ["long name", "-2.25"]] and blocks[1].text == "note"
+
+
+def test_s2_tables_compare_with_the_paper_only_on_its_twin(s2_quick_report):
+    """Pipeline s2 on S2's twin prints S2's Table 3 and Table 4 values beside its own; on another capstan device
+    (``paper_twin`` false) the same tables come without the paper's columns."""
+    import copy
+
+    from tendyn.pipelines.s2 import S2Report
+
+    s = s2_quick_report.summary
+    assert s["paper_twin"] is True
+    assert "S2 %σ" in s2_quick_report.table() and "S2 value" in s["friction_table"]
+    other = S2Report(dict(s, paper_twin=False), s2_quick_report.figures).table()
+    assert "S2 %σ" not in other and "within 3σ" not in other and "identified" in other
+    fp = copy.copy(s2_quick_report.figures["friction"])
+    fp.paper = False
+    assert "S2 value" not in fp.table() and "Rel. dev. %" in fp.table()
