@@ -7,7 +7,7 @@ STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-python test-cpp tools demo bench mutants clean
+.PHONY: install test test-python test-cpp tools demo bench mutants docs clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -50,6 +50,10 @@ test-cpp: install
 # kill rate (~20 min on 2 cores). MUTANTS_ARGS="--tests-from main" measures another ref's tests.
 mutants: install
 	$(VPY) tests/mutants/run.py $(MUTANTS_ARGS)
+
+# The documentation site (docs/*.md + the docstrings, mkdocs.yml) into build/site; warnings are errors.
+docs: install
+	$(VPY) -m mkdocs build --strict -f mkdocs.yml -d build/site
 
 demo: install
 	$(VENV)/bin/tendyn routing show lexos

@@ -156,7 +156,33 @@ def print_table(results: list) -> None:
               f"{r['ratio']:9.1f}  {r['baseline']}")
 
 
+ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify"}
+"""Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
+
+
+def run_only(names: list[str]) -> int:
+    import cli_bench
+
+    unknown = [n for n in names if n not in ONLY]
+    if unknown:
+        print(f"run.py: --only: unknown {', '.join(unknown)} (known: {', '.join(ONLY)})", file=sys.stderr)
+        return 2
+    results: list = []
+    if any(ONLY[n] == "cli" for n in names):
+        cli_bench.bench_cli_latency(results)
+    if any(ONLY[n] == "identify" for n in names):
+        cli_bench.bench_identify_end_to_end(results)
+    path = HERE / "results.json"
+    old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
+    new = {r["name"] for r in results}
+    atomic_write_text(path, json.dumps([r for r in old if r["name"] not in new] + results, indent=2))
+    print_table(results)
+    return 0
+
+
 def main() -> int:
+    if "--only" in sys.argv:
+        return run_only(sys.argv[sys.argv.index("--only") + 1].split(","))
     results: list = []
     bench_feedforward(results)
     bench_compensator(results)
@@ -188,6 +214,10 @@ def main() -> int:
 
     bench_dask(results)
     bench_stream(results)
+    from cli_bench import bench_cli_latency, bench_identify_end_to_end
+
+    bench_cli_latency(results)
+    bench_identify_end_to_end(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)

@@ -29,6 +29,7 @@
 // Model/Data convention; step() and run() allocate nothing; randomness from a seeded splitmix64.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 
@@ -103,6 +104,12 @@ struct SimModel {
   Eigen::VectorXd viscous_joint;    ///< [N·m·s/rad]
   Eigen::VectorXd offset_joint;     ///< constant torque the drive must overcome [N·m]
   Eigen::VectorXd lock_joint;       ///< 1 = the link is blocked (blocked-link tests), 0 = free
+  /// Position-dependent joint torques (the device file's [[terms]]: springs, cable torques, known torques),
+  /// one uniform table per active joint over its own position, linear between knots, constant beyond the
+  /// ends: a torque the actuators must supply, like offset_joint. term_torque empty (0 columns) = none.
+  Eigen::VectorXd term_lo;          ///< (na) position of the first knot [rad or m]
+  Eigen::VectorXd term_step;        ///< (na) knot spacing [rad or m], > 0
+  Eigen::MatrixXd term_torque;      ///< (na, knots) torque at each knot [N·m or N]
 
   // Sensors.
   Eigen::VectorXd encoder_counts;   ///< counts per motor revolution after decoding (0 = ideal)
@@ -217,6 +224,11 @@ inline Status SimModel::finalize() {
   fill(kp, 0.0); fill(kd, 0.0); fill(ki, 0.0);
   if (!(dt > 0.0) || control_decimation < 1 || !(pgs_relaxation > 0.0 && pgs_relaxation < 2.0))
     return Status::InvalidModel;
+  if (term_torque.cols() > 0) {
+    if (term_torque.rows() != na || term_torque.cols() < 2 || term_lo.size() != na || term_step.size() != na ||
+        !(term_step.array() > 0.0).all() || !term_torque.allFinite())
+      return Status::InvalidModel;
+  }
   identity_map = L.rows() == na && L.isIdentity(0.0) && c.isZero(0.0);
 
   if (drive == DriveKind::Tendon) {
@@ -859,6 +871,15 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   motor_state(m, d);
   if (d.step_count % m.control_decimation == 0) control(m, d, ref_q, ref_v, ff);
   for (int i = 0; i < na; ++i) d.ext(i) = torque_ext(i) - m.offset_joint(i);
+  if (m.term_torque.cols() > 0) {
+    const int last = static_cast<int>(m.term_torque.cols()) - 1;
+    for (int i = 0; i < na; ++i) {   // linear interpolation in the joint's table, held beyond its ends
+      const double x = (d.q(i) - m.term_lo(i)) / m.term_step(i);
+      const int k = x <= 0.0 ? 0 : x >= last ? last - 1 : static_cast<int>(x);
+      const double f = std::min(1.0, std::max(0.0, x - k));
+      d.ext(i) -= (1.0 - f) * m.term_torque(i, k) + f * m.term_torque(i, k + 1);
+    }
+  }
 
   // Rigid body through the constraint map: M_a = Lᵀ M L, b_a = Lᵀ nle(q, v).
   const Eigen::MatrixXd* Mtree = nullptr;

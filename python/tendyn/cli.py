@@ -71,7 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = _Parser(prog="tendyn", description="Tendon transmissions: model, simulate, identify, compensate.")
     p.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
-    p.add_argument("--version", action="version", version=f"tendyn {_version()}")
+    p.add_argument("--version", action=_VersionAction, nargs=0, help="show the version and exit")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     routing = sub.add_parser("routing", help="transmission routing and matrices")
@@ -80,6 +80,16 @@ def build_parser() -> argparse.ArgumentParser:
     show.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
     show.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     show.set_defaults(func=cmd_routing_show)
+    imp = rsub.add_parser("import", help="write an [[actuators]] device file from a coupling matrix file (dVRK, "
+                                         "libbarrett, iCub or plain)")
+    imp.add_argument("device", help="device file (.toml) or bundled twin name: the kinematics to keep")
+    imp.add_argument("coupling", help="coupling file: dVRK JSON, libbarrett .conf, iCub XML or a plain matrix")
+    imp.add_argument("--format", choices=("auto", "dvrk", "libbarrett", "icub", "plain"), default="auto",
+                     help="format of the coupling file (default: from its suffix: .json dVRK, .conf/.cfg libbarrett, "
+                          ".xml iCub, else plain rows of G)")
+    imp.add_argument("--out", required=True, help="the device file to write (.toml, atomically)")
+    imp.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
+    imp.set_defaults(func=cmd_routing_import)
 
     epilog = "experiments: " + "; ".join(f"{e.name} ({'tendon bench' if e.kind != 'serial' else 'chains'}): {e.help}"
                                          for e in catalogue.EXPERIMENTS.values())
@@ -117,6 +127,14 @@ def _register_commands(sub) -> None:
             module.register(sub)
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: the installed version, looked up only when asked (importlib.metadata is slow to import)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"tendyn {_version()}")
+        parser.exit()
+
+
 def _metavar(opt) -> str:
     return {"floats": "X,…", "choice": "|".join(opt.choices), "int": "N", "seed": "N"}.get(opt.kind, "X")
 
@@ -149,60 +167,153 @@ def _print_json(doc) -> None:
 
 # ---- routing show ---------------------------------------------------------------------------------
 
-def _matrix_text(name: str, M: np.ndarray, unit: str) -> str:
-    rows = "\n".join("    " + "  ".join(f"{v:+10.5f}" for v in row) for row in M)
-    return f"  {name} [{unit}]\n{rows}"
-
-
-_MATRIX_UNITS = {"K": "m", "R_m": "m", "joint_from_motor_position": "rad/rad", "motor_from_joint_position": "rad/rad",
-                 "motor_from_joint_torque": "(N·m)/(N·m)", "joint_from_motor_torque": "(N·m)/(N·m)"}
-
-
 def cmd_routing_show(args) -> int:
-    from tendyn.transmission import Transmission
+    """The coupling of any device (:func:`tendyn.coupling.coupling`), with its routing, drives or actuators."""
+    from tendyn.coupling import coupling
 
     dev = _load(args.device)
     if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a tendon bench (one 2N channel): it has no routing to show", "device")
-    if not dev.transmissions:
-        return _show_capstan_drives(dev, args.json)
-    tr = Transmission.from_device(dev)
-    M = tr.matrices()
+    c = coupling(dev)
+    doc = c.to_dict()
+    head: list[str] = []
+    if c.actuation == "transmissions":
+        head = _routing_lines(dev, doc)
+    elif c.actuation == "drives":
+        head = _drive_lines(dev, doc)
+    else:
+        head = _actuator_lines(dev, doc)
     if args.json:
-        _print_json({"device": dev.name, "n": tr.n, "routing": tr.routing_table(), **M, "units": _MATRIX_UNITS})
+        doc["n"] = c.n_motors
+        _print_json(doc)
         return 0
-    print(f"{dev.name}: {tr.n} tendon transmissions (transmission i drives joint i)")
-    print(f"{'tr':>3} {'r_m [mm]':>9}  {'signed radius at joints 1…i [mm]':<36} {'pulley':>7} {'n':>5} {'eta_d':>6} {'q/q_m':>7}")
-    for row in tr.routing_table():
-        radii = " ".join(f"{1e3 * r:+7.1f}" for r in row["radius_at_joint_m"][:-1])
-        print(f"{row['transmission']:>3} {1e3 * row['motor_radius_m']:9.2f}  {radii:<36} "
-              f"{1e3 * row['driven_radius_m']:7.1f} {row['reducer_ratio']:5.1f} "
-              f"{row['reducer_efficiency']:6.2f} {1 / row['joint_per_motor_ratio']:7.4f}")
-    print("\nR_m q_m = K q (S0 eqs. 1–2, corrected); τ_J = Kᵀ t, C_m = R_m t (eq. 5, corrected)")
-    print(_matrix_text("K", M["K"], "m"))
-    print(_matrix_text("joint_from_motor_position  q = K⁻¹R_m q_m", M["joint_from_motor_position"], "rad/rad"))
-    print(_matrix_text("motor_from_joint_position  q_m = R_m⁻¹K q", M["motor_from_joint_position"], "rad/rad"))
-    print(_matrix_text("motor_from_joint_torque  C_m = R_m K⁻ᵀ τ_J", M["motor_from_joint_torque"], "N·m/N·m"))
-    print(_matrix_text("joint_from_motor_torque  τ_J = Kᵀ R_m⁻¹ C_m", M["joint_from_motor_torque"], "N·m/N·m"))
+    print("\n".join(head))
+    print(c.table())
     return 0
 
 
-def _show_capstan_drives(dev, as_json: bool) -> int:
+def cmd_routing_import(args) -> int:
+    """A coupling file → G → ``[[actuators]]`` rows (file's motor order) on the device's kinematics, checked by
+    loading the written file back and comparing its G."""
+    import tempfile
+
+    import numpy as np
+
+    from tendyn.coupling import coupling
+    from tendyn.device import DeviceError, load_device
+    from tendyn.io import atomic_write_text
+    from tendyn.io.coupling_file import (CouplingFileError, actuator_entries, device_text, fit_to_device,
+                                         read_coupling)
+
+    from tendyn.commands.args import out_path
+
+    try:
+        out = out_path((".toml",))(args.out)      # suffix, existing and writable folder, not a folder itself
+    except argparse.ArgumentTypeError as exc:
+        raise UsageError(str(exc), "out") from None
+    src = Path(args.coupling)
+    if not src.is_file():
+        raise UsageError(f"{src}: file not found")
+    dev = _load(args.device)
+    if dev.kind != "serial":
+        raise UsageError(f"{dev.name} is a tendon bench (one 2N channel): it has no joint chain", "device")
+    if out.resolve() == Path(dev.path).resolve():
+        raise UsageError(f"{out} is the input device file: write the new device elsewhere", "out")
+    joint_numbers = coupling(dev).joint_numbers
+    priors = None
+    if dev.actuators:
+        priors = [{"encoder_offset": a.encoder_offset, "rotor_inertia": a.rotor_inertia,
+                   "viscous_motor": a.viscous_motor, "coulomb_motor": a.coulomb_motor,
+                   "torque_constant": a.torque_constant} for a in dev.actuators]
+    try:
+        G, fmt = read_coupling(src, args.format)
+        G = fit_to_device(G, len(joint_numbers), src.name)
+        entries = actuator_entries(G, joint_numbers, priors)
+    except CouplingFileError as exc:
+        raise UsageError(str(exc)) from None
+    text = device_text(Path(dev.path).read_text(encoding="utf-8"), Path(dev.path).parent, out.parent, entries,
+                       f"{src.name} ({fmt})")
+    with tempfile.NamedTemporaryFile("w", suffix=".toml", dir=out.parent, delete=False, encoding="utf-8") as fh:
+        fh.write(text)
+    try:
+        new = load_device(Path(fh.name))
+    except DeviceError as exc:
+        raise UsageError(f"the imported coupling does not make a valid device: {exc}") from None
+    finally:
+        Path(fh.name).unlink(missing_ok=True)
+    G_back = coupling(new).G
+    if not np.allclose(G_back, G, rtol=1e-12, atol=1e-12 * np.abs(G).max()):
+        raise CheckFailed(f"the written [[actuators]] do not reproduce the coupling (largest difference "
+                          f"{np.abs(G_back - G).max():.3g})")
+    atomic_write_text(out, text)
+    doc = {"out": str(out), "device": dev.name, "format": fmt, "coupling_file": str(src),
+           "motor_from_joint_position": G.tolist(),
+           "actuators": [{"motor": e["name"], "joint": e["joint"], "ratio": e["ratio"], "coupling": e["coupling"]}
+                         for e in entries]}
+    if args.json:
+        _print_json(doc)
+        return 0
+    print(f"{out}: {len(entries)} [[actuators]] from {src.name} ({fmt}) on the kinematics of {dev.name}")
+    for e in doc["actuators"]:
+        coup = ", ".join(f"{c:+g}·q{k}" for k, c in e["coupling"].items())
+        print(f"  {e['motor']}: joint {e['joint']}, N = {e['ratio']:g}" + (f", coupling {coup}" if coup else ""))
+    return 0
+
+
+def _routing_lines(dev, doc: dict) -> list[str]:
+    import numpy as np
+
+    from tendyn.transmission import Transmission
+
+    tr = Transmission.from_device(dev)
+    doc["routing"] = tr.routing_table()
+    lines = [f"{dev.name}: {tr.n} tendon transmissions (transmission i drives joint i)",
+             f"{'tr':>3} {'r_m [mm]':>9}  {'signed radius at joints 1…i [mm]':<36} {'pulley':>7} {'n':>5} "
+             f"{'eta_d':>6} {'q/q_m':>7}"]
+    for row in doc["routing"]:
+        radii = " ".join(f"{1e3 * r:+7.1f}" for r in row["radius_at_joint_m"][:-1])
+        lines.append(f"{row['transmission']:>3} {1e3 * row['motor_radius_m']:9.2f}  {radii:<36} "
+                     f"{1e3 * row['driven_radius_m']:7.1f} {row['reducer_ratio']:5.1f} "
+                     f"{row['reducer_efficiency']:6.2f} {1 / row['joint_per_motor_ratio']:7.4f}")
+    lines.append("\nR_m q_m = K q (S0 eqs. 1–2, corrected); G = R_m⁻¹K; τ_J = Kᵀ t, C_m = R_m t (eq. 5, corrected)")
+    lines.append(_matrix_text("K", np.asarray(doc["K"]), "m"))
+    return lines
+
+
+def _drive_lines(dev, doc: dict) -> list[str]:
     from tendyn.capstan import CapstanDrives
 
     cap = CapstanDrives.from_device(dev)
-    M, drives = cap.matrices(), cap.drive_table()
-    if as_json:
-        _print_json({"device": dev.name, "n": cap.n, "drives": drives, **M,
-                     "units": {"K": "- (capstan ratio: q_m = K q)"}})
-        return 0
-    print(f"{dev.name}: {cap.n} capstan drives (motor i drives active joint i through ratio N)")
-    for d in drives:
-        print(f"  {d['drive']}: joint {d['joint']}, N = {d['ratio']:g}, K_T = {d['stiffness_motor_Nm_rad']:g} N·m/rad "
-              f"(motor side), Coulomb {d['coulomb_motor_Nm']:.4g} N·m, viscous {d['viscous_motor_Nms_rad']:.3g} N·m·s/rad")
-    for name, unit in (("joint_from_motor_position", "rad/rad"), ("motor_from_joint_torque", "N·m/N·m")):
-        print(_matrix_text(name, M[name], unit))
-    return 0
+    doc["drives"] = cap.drive_table()
+    doc["K"] = cap.matrices()["K"].tolist()                       # diag(N), kept for the JSON contract
+    doc["units"]["K"] = "- (capstan ratio: q_m = K q)"
+    lines = [f"{dev.name}: {cap.n} capstan drives (motor i drives active joint i through ratio N; drives are "
+             "listed by the joint they drive)"]
+    for d in doc["drives"]:
+        lines.append(f"  {d['drive']}: joint {d['joint']}, N = {d['ratio']:g}, K_T = {d['stiffness_motor_Nm_rad']:g} "
+                     f"N·m/rad (motor side), Coulomb {d['coulomb_motor_Nm']:.4g} N·m, viscous "
+                     f"{d['viscous_motor_Nms_rad']:.3g} N·m·s/rad")
+    return lines
+
+
+def _actuator_lines(dev, doc: dict) -> list[str]:
+    doc["actuators"] = [{"motor": a.name, "joint": a.joint, "ratio": a.ratio,
+                         "coupling": {str(k): c for k, c in a.coupling}, "encoder_offset_rad": a.encoder_offset,
+                         "rotor_inertia_kgm2": a.rotor_inertia, "viscous_motor_Nms_rad": a.viscous_motor,
+                         "coulomb_motor_Nm": a.coulomb_motor} for a in dev.actuators]
+    lines = [f"{dev.name}: {len(dev.actuators)} geared motors ([[actuators]], in the file's order): "
+             "q_motor = N (q_joint + Σ coupling·q_k)"]
+    for a in doc["actuators"]:
+        coup = ", ".join(f"{c:+g}·q{k}" for k, c in a["coupling"].items())
+        lines.append(f"  {a['motor']}: joint {a['joint']}, N = {a['ratio']:g}" + (f", coupling {coup}" if coup else "")
+                     + (f", encoder offset {a['encoder_offset_rad']:+.4g} rad" if a["encoder_offset_rad"] else ""))
+    return lines
+
+
+def _matrix_text(name: str, M: np.ndarray, unit: str) -> str:
+    from tendyn.coupling import matrix_text
+
+    return matrix_text(name, M, unit)
 
 
 # ---- simulate -------------------------------------------------------------------------------------
@@ -289,7 +400,11 @@ def _check_out_folder(text: str, option: str = "out") -> Path:
 
 
 def cmd_demo(args) -> int:
+    global _DEMO_STEP
     from tendyn.io.files import all_or_none
+    from tendyn.progress import Ticker
+
+    _DEMO_STEP = Ticker("demo")               # a bar on a terminal, `[demo] step …` lines otherwise
 
     dev = _load(args.device)
     out = _check_out_folder(args.out)
@@ -303,6 +418,7 @@ def cmd_demo(args) -> int:
         outputs = _Outputs(stage, out)
         doc, lines = job(dev, outputs)
         warnings = outputs.report(dev, args, doc)
+    _DEMO_STEP.close()
     doc["report"] = str(out / "report.html")
     lines.append(f"report: {doc['report']}")
     if args.json:
@@ -314,6 +430,9 @@ def cmd_demo(args) -> int:
 
     warn("demo", warnings)
     return 0
+
+
+_DEMO_STEP = print
 
 
 class _Outputs:
@@ -345,7 +464,7 @@ def _demo_cables(dev, outputs: _Outputs):
     from tendyn.pipelines.friction_sweep import friction_sweep
     from tendyn.pipelines.statics_demo import statics_demo
 
-    print(f"[demo] statics with losses on {dev.name} …", file=sys.stderr)
+    _DEMO_STEP(f"statics with losses on {dev.name}")
     demo = statics_demo(dev)
     fig, data = outputs.save(demo, "statics_with_losses")
     lines = []
@@ -357,7 +476,7 @@ def _demo_cables(dev, outputs: _Outputs):
     lines.append(f"figure: {fig}")
     doc = {"device": dev.name, "figure": str(fig), "data": str(data)}
     if dev.n_joints >= 2:
-        print(f"[demo] constant-velocity tests on the {dev.name} twin (S1, S2) …", file=sys.stderr)
+        _DEMO_STEP(f"constant-velocity tests on the {dev.name} twin (S1, S2)")
         sweep = friction_sweep(dev, transmission=1)
         fig2, data2 = outputs.save(sweep, "constant_velocity_tests")
         for name, (v, c) in sweep.points.items():
@@ -371,7 +490,7 @@ def _demo_cables(dev, outputs: _Outputs):
 def _demo_capstan(dev, outputs: _Outputs):
     from tendyn.pipelines.capstan_demo import blocked_link_demo
 
-    print(f"[demo] blocked-link tests on the {dev.name} twin …", file=sys.stderr)
+    _DEMO_STEP(f"blocked-link tests on the {dev.name} twin")
     demo = blocked_link_demo(dev)
     fig, data = outputs.save(demo, "blocked_link")
     lines = [f"{name}: torque/angle slope {k:.3f} N·m/rad (motor side)" for name, k in demo.stiffness_motor.items()]
@@ -384,7 +503,7 @@ def _demo_bench(bench, outputs: _Outputs):
     """Open-loop FRF at several amplitudes vs the analytic plant (S1, C22)."""
     from tendyn.pipelines.bench_frf import bench_frf
 
-    print(f"[demo] stepped sines on the {bench.name} twin at 4 amplitudes …", file=sys.stderr)
+    _DEMO_STEP(f"stepped sines on the {bench.name} twin at 4 amplitudes")
     frf = bench_frf(bench)
     fig, data = outputs.save(frf, "bench_frf_amplitudes")
     peaks = frf.peaks_hz()
@@ -414,36 +533,40 @@ def _config_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _error_kind(exc: BaseException) -> str | None:
+    """"input" (exit 2: UsageError, DeviceError, LogError), "check" (exit 1: CheckFailed, SimulationDiverged: a run
+    that diverged in any command) or None. The classes are looked up only in the modules already imported, so
+    that the command line loads nothing for its error handling (an exception of a module never imported cannot
+    have been raised)."""
+    def classes(*where):
+        return tuple(getattr(sys.modules[m], n) for m, n in where if m in sys.modules)
+
+    if isinstance(exc, (UsageError,) + classes(("tendyn.device.schema", "DeviceError"), ("tendyn.io.logs", "LogError"))):
+        return "input"
+    if isinstance(exc, (CheckFailed,) + classes(("tendyn._core", "SimulationDiverged"))):
+        return "check"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]
+    os.environ["TENDYN_DEBUG"] = "1" if debug else ""   # tendyn.progress.debugging(): Dask's warnings shown
     command = next((a for a in argv if not a.startswith("-")), "tendyn")
-    input_errors: tuple[type[Exception], ...] = (UsageError,)
-    check_errors: tuple[type[Exception], ...] = (CheckFailed,)
     try:
         if argv[:1] == ["config"]:
             parser = _config_parser()
         else:
-            from tendyn._core import SimulationDiverged
-            from tendyn.device import DeviceError
-            from tendyn.io.logs import LogError
-            from tendyn.sim import catalogue
+            if any(_NEGATIVE_VALUE.match(a) for a in argv):     # the catalogue (numpy) only when it matters
+                from tendyn.sim import catalogue
 
-            input_errors = (UsageError, DeviceError, LogError)
-            check_errors = (CheckFailed, SimulationDiverged)   # a run that diverged in any command (demo, …): exit 1
-            argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
+                argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
         code = args.func(args)
         sys.stdout.flush()
         return code
-    except input_errors as exc:
-        print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
-        return 2
-    except check_errors as exc:
-        print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
-        return 1
     except KeyboardInterrupt:
         print("tendyn: interrupted", file=sys.stderr)
         return 130
@@ -451,6 +574,13 @@ def main(argv: list[str] | None = None) -> int:
         _quiet_stdout()
         return 0
     except Exception as exc:  # noqa: BLE001 — the one place that turns a bug into one clear line
+        kind = _error_kind(exc)
+        if kind == "input":
+            print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
+        if kind == "check":
+            print(f"tendyn: check failed: {_one_line(exc)}", file=sys.stderr)
+            return 1
         if debug:
             import traceback
 

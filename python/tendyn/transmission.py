@@ -249,13 +249,13 @@ class Transmission:
         return np.array(self._data.q_motor)
 
     def branch_displacements(self, q) -> np.ndarray:
-        """Branch displacements S[i, b] [m] at joint positions q [rad]."""
+        """Branch displacements ``S[i, b]`` [m] at joint positions q [rad]."""
         self.motor_from_joint(q)
         _core.branch_displacements(self.model, self.data)
         return np.array(self.data.S)
 
     def branch_velocities(self, qd) -> np.ndarray:
-        """Branch velocities Ṡ[i, b] [m/s] at joint velocities qd [rad/s]."""
+        """Branch velocities ``Ṡ[i, b]`` [m/s] at joint velocities qd [rad/s]."""
         _core.velocities_from_joint(self._model, self._data, as_vector(qd, "qd", self.n))
         return np.array(self.data.Sdot)
 

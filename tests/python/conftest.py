@@ -17,24 +17,28 @@ def count(request):
     return request.config.getoption("--count")
 
 
-# ---- the quick runs of the S1 and S2 pipelines, once per session (~40 s each) ---------------------------------
-# test_s1.py and test_s2_ident.py check their numbers; test_reports.py publishes them as HTML reports.
+@pytest.fixture(scope="session")
+def claims_ctx(request):
+    """The twins and expensive runs of the claims' checks (tendyn.claims), shared by every test file of a session:
+    the tests and `tendyn claims` run the same definitions."""
+    from tendyn.claims import Context
+
+    return Context(quick=False, seed=request.config.getoption("--seed"), count=request.config.getoption("--count"))
+
 
 @pytest.fixture(scope="session")
-def s1_quick_report():
-    """``run_s1(mcgill_bench, quick=True)``: the S1Report of `tendyn pipeline s1 --quick`."""
-    from tendyn.device import load_device
-    from tendyn.devices import bundled
+def s1_quick_report(claims_ctx):
+    """``run_s1(mcgill_bench, quick=True)``: the S1Report of `tendyn pipeline s1 --quick`, once per session, for
+    the HTML report of test_reports.py (the JSON of the claims is tendyn.claims.twins.s1_json)."""
+    from tendyn.claims import twins
     from tendyn.pipelines.s1 import run_s1
 
-    return run_s1(load_device(bundled("mcgill_bench")), quick=True)
+    return claims_ctx.get("s1_report", lambda: run_s1(twins.mcgill(claims_ctx), quick=True))
 
 
 @pytest.fixture(scope="session")
-def s2_quick_report():
-    """``run_s2(cea_branch, quick=True, seed=0)``: the S2Report of `tendyn pipeline s2 --quick`."""
-    from tendyn.device import load_device
-    from tendyn.devices import bundled
-    from tendyn.pipelines.s2 import run_s2
+def s2_quick_report(claims_ctx):
+    """``run_s2(cea_branch, quick=True, seed=0)`` (tendyn.claims.twins.s2_report), once per session."""
+    from tendyn.claims import twins
 
-    return run_s2(load_device(bundled("cea_branch")), quick=True, seed=0)
+    return twins.s2_report(claims_ctx)

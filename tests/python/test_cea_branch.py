@@ -12,6 +12,7 @@ import pinocchio as pin
 import pytest
 import sympy as sp
 
+from tendyn.claims import assert_claim
 from tendyn.device import load_device
 from tendyn.device.closed_loop import (
     active_coordinate_map,
@@ -58,20 +59,8 @@ def full_standard_vector(dev):
 # C30: constraints, L^T, loop closure
 # ------------------------------------------------------------------------------------------------------------
 
-def test_C30_constraint_map_equals_eqs_8_to_11():
-    active, L, c = active_coordinate_map(device())
-    assert active == [0, 1, 4]  # q1, q2, q5 among the tree joints 1..7
-    # eqs. 8-11 written here: q_p = [q3, q6, q4] as functions of q_a = [q1, q2, q5]
-    qa = sp.symbols("q1 q2 q5")
-    q1, q2, q5 = qa
-    qp = sp.Matrix([q5 - q2, q2 - q5, sp.pi / 2 - q5])
-    dqp = np.array(qp.jacobian(sp.Matrix(qa)), dtype=float)
-    rows = [2, 5, 3]  # tree indices of q3, q6, q4
-    np.testing.assert_array_equal(L[rows], dqp)
-    np.testing.assert_array_equal(L[rows].T, [[0, 0, 0], [-1, 1, 0], [1, -1, -1]])  # printed L^T (eq. 12)
-    np.testing.assert_array_equal(L[6], [0, -1, 1])  # q7 = q3 (eq. 10)
-    np.testing.assert_array_equal(L[active], np.eye(3))
-    np.testing.assert_allclose(c, [0, 0, 0, np.pi / 2, 0, 0, 0])
+def test_C30_constraint_map_equals_eqs_8_to_11(claims_ctx):
+    assert_claim("C30", claims_ctx)
 
 
 def test_C30_loop_closes_at_the_cut_joint(rng):
@@ -210,13 +199,9 @@ def test_active_mass_matrix_spd(rng):
 # base parameters (C36) and Table 4
 # ------------------------------------------------------------------------------------------------------------
 
-def test_C36_rank_and_base_set():
-    b = bp()
-    assert b.rank == N_BASE == len(b.names)
-    sv = b.singular_values
-    assert sv[N_BASE - 1] > 1e6 * sv[N_BASE]  # a clear numerical gap
-    assert set(b.names) == S2_BASE | {"MY4"}
-    # same rank with other samples and without the drive columns: 21 inertial base parameters
+def test_C36_rank_and_base_set(claims_ctx):
+    assert_claim("C36", claims_ctx)
+    # same rank without the drive columns: 21 inertial base parameters
     assert base_parameters(device(), n_samples=80, seed=11, include_drives=False).rank == 21
 
 

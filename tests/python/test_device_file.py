@@ -113,19 +113,11 @@ def test_lexos_loads():
     assert all(t.bearings == (None,) * t.joint for t in dev.transmissions)
 
 
-def test_C2_generalized_radius_is_pulley_times_reducer():
+def test_C2_generalized_radius_is_pulley_times_reducer(claims_ctx):
     """C2 / S0 footnote 1: with a reducer in the driven pulley, r_i^i = r_pulley * n_i."""
-    dev = load_device(LEXOS)
-    K = dev.routing_arrays()["K"]
-    assert K[0, 0] == pytest.approx(0.04 * 8) == pytest.approx(0.32)
-    assert K[1, 1] == pytest.approx(0.32)
-    assert K[2, 2] == pytest.approx(0.09)  # joint 3: ring, no reducer
-    assert K[3, 3] == pytest.approx(0.03 * 8)
-    for i, t in enumerate(dev.transmissions):
-        assert t.generalized_radius == pytest.approx(t.driven_radius * t.reducer_ratio)
-        assert K[i, i] == pytest.approx(t.generalized_radius)
-    # joint/motor ratios of DEVICES.md: 40, 40, ~11, 30
-    np.testing.assert_allclose(np.diag(K) / dev.routing_arrays()["motor_radius"], [40, 40, 11.25, 30])
+    from tendyn.claims import assert_claim
+
+    assert_claim("C2", claims_ctx)
 
 
 def test_lexos_routing_arrays_consistent():

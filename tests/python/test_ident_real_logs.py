@@ -568,7 +568,7 @@ def test_estimators_share_the_contract(arm, tmp_path):
     assert f"(per joint: 1: {100 * per[0]:.2f} %, 2: {100 * per[1]:.2f} %)" in cv.table()
     st = StreamingIDIM(arm.device, cutoff_hz=20.0, decimate=10, velocity_threshold=0.0).fit(path)
     assert set(st.get_params()) == {"device", "method", "cutoff_hz", "decimate", "order", "chunk_rows",
-                                    "velocity_threshold"}
+                                    "velocity_threshold", "velocities"}
     a, b = est.predict(log), st.predict(log)
     assert np.array_equal(a.time, log.time) and a.joint.shape == (log.n_samples, 2)
     np.testing.assert_allclose(b.joint, a.joint, rtol=1e-6, atol=1e-8 * np.abs(a.joint).max())

@@ -5,6 +5,7 @@ import pytest
 
 from routing_cases import random_routing
 from tendyn import _core
+from tendyn.claims import assert_claim
 from tendyn.transmission import Transmission
 
 
@@ -74,22 +75,10 @@ def _one_joint(**kw):
     return Transmission.from_arrays([0.01], [[0.05]], **kw)
 
 
-def test_C4_tau0_form_and_direction_of_power_flow():
+def test_C4_tau0_form_and_direction_of_power_flow(claims_ctx):
     """C4: Δτ = τ0 sgn(Ṡ) + ν Ṡ: the drop is from motor to joint when the motor drives,
     and reverses when the joint back-drives the cable."""
-    tau0, nu = 1.5, 10.0
-    tr = _one_joint(tau0=[[tau0]], nu=[[nu]])
-    t_joint = 40.0                     # N wanted at the driven pulley
-    tau_joint = t_joint * 0.05
-    for qd in (2.0, -2.0):
-        sdot = 0.05 * qd
-        res = tr.feedforward([tau_joint], [qd])
-        expected = t_joint + tau0 * np.sign(sdot) + nu * sdot
-        assert res.tension_motor[0] == pytest.approx(expected, rel=1e-12)
-    # driving (qd > 0, tension > 0): the motor-side tension is the larger one
-    assert tr.feedforward([tau_joint], [2.0]).tension_motor[0] > t_joint
-    # back-driven (qd < 0 with positive tension): the joint side is the larger one
-    assert tr.feedforward([tau_joint], [-2.0]).tension_motor[0] < t_joint
+    assert_claim("C4", claims_ctx)
 
 
 def test_C4_beta_form_is_a_capstan():
@@ -121,22 +110,11 @@ def test_C4_stuck_below_breakaway():
     assert held.stuck[0, 0] and held.tension_motor[0] == pytest.approx(0.1 / 0.05)
 
 
-def test_C5_bearing_law_every_branch():
+def test_C5_bearing_law_every_branch(claims_ctx):
     """C5, S0 eqs. 7–8: static below α p; β p + h(n) moving, h = h0 below n0, h1 n^{2/3} above.
     (The scalar law; the branch law the statics and the simulator use is tested in test_branch_law.py
     and test_sim_physics.py.)"""
-    alpha, beta, h0, h1, n0, p = 2e-3, 1.5e-3, 1e-3, 2e-4, 5.0, 100.0
-    t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, 0.1)
-    assert stuck and t == 0.1                                   # holds: 0.1 < α p = 0.2
-    t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, 0.17)
-    assert stuck and t == 0.17                                  # β p = 0.15 < 0.17 < α p: only α holds it
-    t, stuck = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 0.0, -0.3)
-    assert not stuck and t == pytest.approx(-(beta * p + h0))   # breaks away
-    t, _ = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, 2.0, 0.0)
-    assert t == pytest.approx(beta * p + h0)                    # slow: h0
-    t, _ = _core.bearing_friction_torque(alpha, beta, h0, h1, n0, p, -27.0, 0.0)
-    assert t == pytest.approx(-(beta * p + h1 * 27.0 ** (2 / 3)))   # fast: h1 n^{2/3}, opposing
-    assert _core.bearing_speed_term(h0, h1, n0, 8.0) == pytest.approx(h1 * 4.0)
+    assert_claim("C5", claims_ctx)
 
 
 def test_C5_bearings_make_friction_grow_with_tension():
@@ -151,19 +129,9 @@ def test_C5_bearings_make_friction_grow_with_tension():
     assert f.b == pytest.approx(2 * 1.5e-4 * 2.0 / 0.01)        # count β_b 2 sin(π/2) / r
 
 
-def test_C6_reducer_efficiencies():
+def test_C6_reducer_efficiencies(claims_ctx):
     """C6, S0 eq. 10: η_d = 0.9 → η_i = 0.8889; η_d ≤ 0.5 is self-locking."""
-    assert _core.reducer_inverse_efficiency(0.9) == pytest.approx(0.8889, abs=5e-5)
-    assert _core.reducer_inverse_efficiency(0.9) == pytest.approx(8 / 9, rel=1e-15)
-    assert _core.reducer_self_locking(0.5) and _core.reducer_self_locking(0.3)
-    assert not _core.reducer_self_locking(0.51)
-    tr = Transmission.from_arrays([0.008], [[0.32]], reducer_ratio=[8.0], reducer_efficiency=[0.9])
-    tau = 1.0
-    driving = tr.feedforward([tau], [1.0])
-    assert driving.torque_motor[0] == pytest.approx(0.008 / 0.04 * tau / (8 * 0.9))
-    back = tr.feedforward([tau], [-1.0])
-    assert back.torque_motor[0] == pytest.approx(0.008 / 0.04 * tau * (8 / 9) / 8)
-    assert driving.status == _core.Status.Ok
+    assert_claim("C6", claims_ctx)
 
 
 def test_C6_self_locking_reducer_holds_back_driving_load():

@@ -4,25 +4,13 @@ import numpy as np
 import pytest
 
 from routing_cases import random_routing
+from tendyn.claims import assert_claim
 from tendyn.transmission import Transmission
 
 
-def test_C1_round_trip_random_routings(rng, count):
+def test_C1_round_trip_random_routings(claims_ctx):
     """C1: motor → joint → motor and joint → motor → joint to 1e-12 on ≥ 1000 seeded routings of 1–7 joints."""
-    sizes = set()
-    for _ in range(count):
-        tr = random_routing(rng)
-        sizes.add(tr.n)
-        K = tr.K
-        assert np.allclose(K, np.tril(K), atol=0), "K must be lower-triangular for a serial routing"
-        q_m = rng.uniform(-np.pi, np.pi, tr.n)
-        q = tr.joint_from_motor(q_m)
-        np.testing.assert_allclose(tr.motor_from_joint(q), q_m, rtol=0, atol=1e-12)
-        q = rng.uniform(-np.pi, np.pi, tr.n)
-        np.testing.assert_allclose(tr.joint_from_motor(tr.motor_from_joint(q)), q, rtol=0, atol=1e-12)
-        # R_m q_m = K q, the compact form of S0 eqs. 1–2
-        np.testing.assert_allclose(np.diag(tr.model.motor_radius) @ tr.motor_from_joint(q), K @ q, atol=1e-12)
-    assert sizes == set(range(1, 8))
+    assert_claim("C1", claims_ctx)
 
 
 def test_C1_branch_recursion_matches_driven_joint(rng):
@@ -48,21 +36,9 @@ def test_C1_matrices_are_mutual_inverses(rng):
         np.testing.assert_allclose(M["joint_from_motor_torque"], M["motor_from_joint_position"].T, atol=1e-12)
 
 
-def test_C3_lossless_virtual_work(rng, count):
+def test_C3_lossless_virtual_work(claims_ctx):
     """C3: τ_J = Kᵀt, C_m = R_m t; q̇ᵀτ_J = q̇_mᵀC_m to 1e-12, in both directions."""
-    for _ in range(count):
-        tr = random_routing(rng)
-        qd = rng.normal(size=tr.n)
-        qd_m = tr.motor_from_joint(qd)  # same linear map as positions
-        tau = rng.normal(size=tr.n)
-        cm = tr.feedforward(tau, losses=False).torque_motor
-        assert abs(qd @ tau - qd_m @ cm) <= 1e-12 * max(1.0, abs(qd @ tau))
-        cm = rng.normal(size=tr.n)
-        tj = tr.forward(cm, losses=False).torque_joint
-        assert abs(qd @ tj - qd_m @ cm) <= 1e-12 * max(1.0, abs(qd_m @ cm))
-        # the tensions are R_m⁻¹ C_m and τ_J = Kᵀ t
-        t = cm / np.array(tr.model.motor_radius)
-        np.testing.assert_allclose(tj, tr.K.T @ t, atol=1e-12)
+    assert_claim("C3", claims_ctx)
 
 
 def test_two_joint_routing_closed_form():

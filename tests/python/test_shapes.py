@@ -270,10 +270,13 @@ ALLOWED = {
     "report": {"report", "io"},       # turns results into pages: computes nothing, imports no physics
     "transmission": {"transmission", "_core", "device.schema"},
     "capstan": {"capstan"},
+    "coupling": {"coupling"},
+    "interop": {"interop", "coupling", "device", "transmission", "_core"},
     "errors": {"errors"},
+    "progress": {"progress"},
 }
-for _sub in ALLOWED:   # the exceptions a user can cause are a leaf every package may raise
-    ALLOWED[_sub].add("errors")
+for _sub in ALLOWED:   # the exceptions a user can cause, and progress on stderr, are leaves every package may use
+    ALLOWED[_sub] |= {"errors", "progress"}
 
 
 def _tendyn_imports(path: pathlib.Path):

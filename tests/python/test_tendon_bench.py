@@ -10,6 +10,7 @@ import sympy as sp
 
 from tendyn import _core
 from tendyn.analysis import tendon_drive as td
+from tendyn.claims import assert_claim
 from tendyn.device import load_device
 from tendyn.device.schema import DeviceError
 from tendyn.device.tendon_bench import TendonBench, load_tendon_bench
@@ -32,25 +33,14 @@ def frictionless(b: TendonBench, **kw) -> TendonBench:
 # Analytic plant (C13, C14)
 # ---------------------------------------------------------------------------------------------------------
 
-def test_k_e_c13():
-    assert td.k_e(2.566e4, 1.0e5) == pytest.approx(2.566e4 * 1.0e5 / (2.566e4 + 1.0e5), rel=1e-15)
-    assert td.k_e(2.566e4, 1.0e5) == pytest.approx(2.04e4, rel=2e-3)  # DEVICES.md
-    k1, k2 = sp.symbols("k1 k2", positive=True)
-    assert sp.simplify(1 / td.k_e(k1, k2) - (1 / k1 + 1 / k2)) == 0  # springs in series
+def test_k_e_c13(claims_ctx):
+    assert_claim("C13", claims_ctx)
 
 
-def test_derived_plant_matches_printed_eq2_c14():
+def test_derived_plant_matches_printed_eq2_c14(claims_ctx):
+    assert_claim("C14", claims_ctx)
     p = td.derive_plant()
     s, r, I_M, B, ke, I_c, kz = p.s, p.r, p.I_M, p.B, p.k_e, p.I_c, p.k_z
-    # S1 eq. (2) as printed ("k I c" = k_e I_c, ERRATA):
-    printed_num = [ke * I_c, 0, kz * ke]
-    printed_den = [r**2 * I_M * I_c, r**2 * I_c * B, ke * I_c + r**2 * I_M * (kz + ke), r**2 * B * (ke + kz),
-                   kz * ke]
-    den = sp.Poly(p.den, s).all_coeffs()
-    num = sp.Poly(p.num, s).all_coeffs()
-    assert len(den) == 5  # 4th order
-    assert [sp.expand(a - b) for a, b in zip(den, printed_den)] == [0] * 5
-    assert [sp.expand(a - b) for a, b in zip(num, printed_num)] == [0] * 3
     # D − N = r² s (I_M s + B)(I_c s² + k_e + k_z)
     assert sp.expand(p.den - p.num - r**2 * s * (I_M * s + B) * (I_c * s**2 + ke + kz)) == 0
     # stiff-load limit k_z → ∞: k_e / (r² I_M s² + r² B s + k_e)

@@ -166,11 +166,12 @@ def _identify_stream(dev, args) -> int:
 
     if len(args.logs) != 1 or args.logs[0].suffix.lower() != ".parquet":
         raise UsageError("needs exactly one .parquet log (read batch by batch)", "stream")
-    for opt in ("consistent", "essential", "parameters", "velocities"):
+    for opt in ("consistent", "essential", "parameters"):
         if getattr(args, opt):
             raise UsageError(f"--{opt} is not available with --stream", opt)
     est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
-                        decimate=args.decimate, velocity_threshold=args.velocity_threshold).fit(args.logs[0])
+                        decimate=args.decimate, velocity_threshold=args.velocity_threshold,
+                        velocities=args.velocities or "auto").fit(args.logs[0])
     res = est.result_
     doc = _document(res, dev, args.logs)
     record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
@@ -181,4 +182,5 @@ def _identify_stream(dev, args) -> int:
     print(json.dumps(doc, indent=2) if args.json else res.table())
     if args.json:
         _warn(res)
+    print(res.treatment.describe(), file=sys.stderr)
     return 0

@@ -71,8 +71,10 @@ def run(args) -> int:
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(args.params), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
+    from tendyn.progress import Ticker
+
     maps = operational_maps(model, half_width=DEFAULT_HALF_WIDTH if args.half_width is None else args.half_width,
-                            points=points)
+                            points=points, progress=Ticker("maps"))
     doc = maps.to_dict()
     doc["params_file"] = str(args.params)
     return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt", command="maps", device=dev,
@@ -107,7 +109,9 @@ def _run_handle(args, dev) -> int:
         kw["mass_matrix"] = _identified_mass_matrix(dev, args.params, args.force)
         sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
     try:
-        maps = handle_maps(dev, points=args.points, sources=sources, **kw)
+        from tendyn.progress import Ticker
+
+        maps = handle_maps(dev, points=args.points, sources=sources, progress=Ticker("maps"), **kw)
     except ValueError as exc:      # a device whose handle cannot be mapped (no motor per joint, always singular)
         raise UsageError(str(exc), "device") from None
     doc = maps.to_dict()

@@ -7,7 +7,6 @@ module owns the one ``pipeline`` subparser and dispatches its ``NAME`` positiona
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from typing import Callable
 
@@ -43,7 +42,13 @@ def _dispatch(args) -> int:
         from tendyn.cli import _check_out_folder
 
         _check_out_folder(args.report, "report")
-    return p.run(args)
+    try:
+        return p.run(args)
+    finally:
+        global _TICKER
+        if _TICKER is not None:
+            _TICKER.close()
+            _TICKER = None
 
 
 def _load_pipeline_modules() -> None:
@@ -81,5 +86,14 @@ def publish(args, doc: dict, table: str, figures: dict, out, json_name: str, tex
 
 
 def say(msg: str) -> None:
-    """Progress on stderr."""
-    print(f"[pipeline] {msg} …", file=sys.stderr, flush=True)
+    """Progress on stderr: a bar with the step and elapsed time on a terminal, step lines otherwise
+    (:class:`tendyn.progress.Ticker`)."""
+    global _TICKER
+    from tendyn.progress import Ticker
+
+    if _TICKER is None:
+        _TICKER = Ticker("pipeline")
+    _TICKER(msg)
+
+
+_TICKER = None

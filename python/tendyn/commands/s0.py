@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from tendyn.commands import args as conv
-from tendyn.commands import plan_bench
+from tendyn.commands import plan_bench, plan_exciting
 from tendyn.errors import UsageError
 from tendyn.protocols import MIN_SPEEDS
 
@@ -62,7 +62,8 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     from tendyn import protocols as pr
 
     p = subparsers.add_parser("plan", help="write the references of a twin experiment for a real controller")
-    p.add_argument("experiment", choices=PLAN_EXPERIMENTS + plan_bench.KINDS, help="the experiment to plan")
+    p.add_argument("experiment", choices=PLAN_EXPERIMENTS + plan_bench.KINDS + plan_exciting.KINDS,
+                   help="the experiment to plan")
     p.add_argument("device", nargs="?", default=None,
                    help="device file (.toml) or bundled twin name (lexos, …); optional for the bench plans")
     p.add_argument("--transmission", type=conv.number(1, integer=True), default=None,
@@ -89,6 +90,7 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--out", type=conv.out_path(LOG_SUFFIXES), required=True, help="REF.csv or REF.parquet")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
     plan_bench.add_arguments(p)
+    plan_exciting.add_arguments(p)
     p.set_defaults(func=run_plan)
     return p
 
@@ -127,6 +129,8 @@ def run_plan(args) -> int:
 
     if args.experiment in plan_bench.KINDS:
         return plan_bench.run(args, _load_device)
+    if args.experiment in plan_exciting.KINDS:
+        return plan_exciting.run(args, _load_device)
     for name in ("device", "transmission"):
         if getattr(args, name) is None:
             raise UsageError("required for `plan constant-velocity`", name)

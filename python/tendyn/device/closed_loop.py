@@ -23,7 +23,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.linalg
 
 from .base import Device
 from .compiled import CompiledDevice, compile_device
@@ -356,6 +355,8 @@ def base_parameters(device: Device | CompiledDevice, n_samples: int = 100, seed:
     nonzero = norms > tol * norms.max()
     Wn = np.where(nonzero, W / np.where(nonzero, norms, 1.0), 0.0)
     sv = np.linalg.svd(Wn, compute_uv=False)
+    import scipy.linalg     # here only: compiling a device or listing the commands does not load scipy
+
     _, Rp, _ = scipy.linalg.qr(Wn, mode="economic", pivoting=True)
     rank = int(np.sum(np.abs(np.diag(Rp)) > tol * abs(Rp[0, 0])))
     order = _preference_order(std_names, numbers if link_order is None else list(link_order))

@@ -120,6 +120,13 @@ class CompiledDevice:
 
         return rigid_body_model(self._serial("rigid-body tree"), frames=self.joint_frames)
 
+    @cached_property
+    def terms(self) -> Any:
+        """The device's ``[[terms]]`` in active coordinates (:class:`tendyn.device.terms.TermModel`)."""
+        from .terms import TermModel
+
+        return TermModel(self)
+
     # ---- active coordinates -------------------------------------------------------------------
     @cached_property
     def _active(self) -> tuple[list[int], ActiveMap]:

@@ -33,8 +33,10 @@ from .schema import (
     MOTOR_FIELDS,
     SCHEMA_VERSION,
     SENSOR_FIELDS,
+    TERM_FIELDS,
     TOP_FIELDS,
     TRANSMISSION_FIELDS,
+    Term,
     Bearing,
     BranchFriction,
     Constraint,
@@ -166,6 +168,10 @@ class _Parser:
             if not isinstance(v, list):
                 raise self.err(path, f"must be an array of integers (got {_typename(v)})")
             return tuple(self.integer(x, f"{path}[{k + 1}]", spec) for k, x in enumerate(v))
+        if kind == "str_list":
+            if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+                raise self.err(path, f"must be an array of strings (got {_typename(v)})")
+            return tuple(v)
         if kind == "float_list":
             if not isinstance(v, list):
                 raise self.err(path, f"must be an array of numbers (got {_typename(v)})")
@@ -286,9 +292,75 @@ class _Parser:
                     raise self.err(f"device.home_pose[{k + 1}]", f"{q:g} rad is outside joint {k + 1}'s limits "
                                                                  f"[{j.lower:g}, {j.upper:g}]")
             home = tuple(float(q) for q in home)
+        terms = self.terms(top["terms"], kin)
         return SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
                             kinematics=kin, transmissions=trans, drives=drives, actuators=actuators,
-                            bandwidth_hz=dev["bandwidth_hz"], home_pose=home)
+                            bandwidth_hz=dev["bandwidth_hz"], home_pose=home, terms=terms)
+
+    _TERM_NEEDS = {"functions": ("joint", "functions"), "polynomial": ("joint", "degree"),
+                   "table": ("joint", "knots"), "spring": ("link_a", "point_a", "link_b", "point_b"),
+                   "offset": ("joint",), "known": ("joint",)}
+
+    def terms(self, raw: Any, kin: Kinematics) -> tuple[Term, ...]:
+        """[[terms]]: torques beyond the rigid bodies (tendyn.device.terms); each kind's fields, joint numbers
+        of the tree, expressions that parse, increasing knots, one value per column."""
+        import re
+
+        from .terms import check_expression
+
+        out: list[Term] = []
+        names: set[str] = set()
+        n = kin.n_joints
+        tree = [num for num, js in enumerate(kin.joints, start=1) if js.sigma != 2]
+        for i, item in enumerate(raw or ()):
+            path = f"terms[{i + 1}]"
+            f = self.table(item, path, TERM_FIELDS)
+            name, kind = f["name"], f["kind"]
+            if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
+                raise self.err(f"{path}.name", f"{name!r}: letters, digits and _ only, starting with a letter")
+            if name in names:
+                raise self.err(f"{path}.name", f"{name!r} is already the name of another term")
+            names.add(name)
+            for need in self._TERM_NEEDS[kind]:
+                if f[need] in (None, ()):
+                    raise self.err(f"{path}.{need}", f"missing required field for kind = {kind!r}")
+            if kind == "known" and (f["function"] is None) == (not f["knots"]):
+                raise self.err(path, "a known torque is a `function` or a table (`knots`, `torques`), one of them")
+            for key in ("joint", "link_a", "link_b"):
+                num = f[key]
+                if num is None or (num == 0 and key != "joint"):
+                    continue
+                if num > n:
+                    raise self.no_joint(f"{path}.{key}", num, n)
+                if num not in tree:
+                    raise self.err(f"{path}.{key}", f"joint {num} is a cut joint or fixed frame (sigma = 2)")
+            if kind == "spring" and f["link_a"] == f["link_b"]:
+                raise self.err(f"{path}.link_b", "a spring between two points of the same link exerts no torque")
+            exprs = list(f["functions"]) + ([f["function"]] if kind == "known" and f["function"] else [])
+            for k, text in enumerate(exprs):
+                try:
+                    check_expression(text, n)
+                except ValueError as exc:
+                    where = f"{path}.functions[{k + 1}]" if k < len(f["functions"]) else f"{path}.function"
+                    raise self.err(where, f"{text!r}: {exc}") from None
+            knots = f["knots"]
+            if kind in ("table", "known") and knots:
+                if len(knots) < 2 or any(b <= a for a, b in zip(knots, knots[1:])):
+                    raise self.err(f"{path}.knots", "must be at least 2 strictly increasing positions")
+                if kind == "known" and len(f["torques"]) != len(knots):
+                    raise self.err(f"{path}.torques", f"{len(f['torques'])} torques for {len(knots)} knots")
+            term = Term(name=name, kind=kind, joint=f["joint"], functions=f["functions"], degree=f["degree"],
+                        knots=knots, torques=f["torques"], function=f["function"], link_a=f["link_a"],
+                        point_a=f["point_a"], link_b=f["link_b"], point_b=f["point_b"],
+                        rest_length=f["rest_length"], values=f["values"])
+            ncol = len(term.column_names)
+            if kind == "known" and f["values"]:
+                raise self.err(f"{path}.values", "a known torque has no identifiable column, so no values")
+            if f["values"] and len(f["values"]) != ncol:
+                raise self.err(f"{path}.values", f"{len(f['values'])} values for {ncol} columns "
+                                                 f"({', '.join(term.column_names)})")
+            out.append(term)
+        return tuple(out)
 
     def driven_joint(self, f: dict, section: str, what: str, default_prefix: str, i: int, kin: Kinematics,
                      driven_by: dict[int, int], names: dict[str, int]) -> tuple[int, str]:
@@ -364,7 +436,7 @@ class _Parser:
                                 viscous_motor=f["viscous_motor"], coulomb_motor=f["coulomb_motor"],
                                 torque_constant=f["torque_constant"]))
         self.every_joint_driven("actuators", "actuator", kin, driven_by)
-        out = sorted(out, key=lambda a: a.joint)
+        # Motor i is the file's i-th entry (never sorted by joint: a zero-diagonal coupling keeps its numbering).
         active = [num for num, js in enumerate(kin.joints, start=1) if js.actuated and js.sigma != 2]
         col = {num: k for k, num in enumerate(active)}
         G = np.zeros((len(out), len(active)))

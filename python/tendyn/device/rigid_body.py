@@ -140,6 +140,19 @@ def joint_frames(device) -> list[JointFrame]:
     raise NotImplementedError(f"rigid-body model for convention {kin.convention!r} is not built yet")
 
 
+def link_point_in_joint_frame(device, number: int, p) -> np.ndarray:
+    """A point [m] given in the frame of link ``number`` as the device file gives a ``com`` (standard DH: frame
+    i; mdh: frame j; URDF: the child link frame), expressed in the Pinocchio joint frame of that link (the
+    transform :func:`joint_frames` applies to the COM)."""
+    kin = device.kinematics
+    p = np.asarray(p, float)
+    if kin.convention != "dh":
+        return p
+    js = kin.joints[number - 1]
+    link = rot_z(js.theta_offset) @ trans(z=js.d) @ trans(x=js.a) @ rot_x(js.alpha)
+    return link[:3, :3] @ p + link[:3, 3]
+
+
 _AXES = {"X": (1.0, 0.0, 0.0), "Y": (0.0, 1.0, 0.0), "Z": (0.0, 0.0, 1.0)}
 
 

@@ -73,7 +73,7 @@ class FieldSpec:
         Key as written in the file.
     kind : str
         ``"str"``, ``"float"``, ``"int"``, ``"vec3"`` (3 floats), ``"inertia"`` (6 floats),
-        ``"int_list"``, ``"float_list"``, ``"table"`` or ``"table_list"``.
+        ``"int_list"``, ``"float_list"``, ``"str_list"``, ``"table"`` or ``"table_list"``.
         Integers are accepted where floats are expected; booleans never count as numbers.
     unit : str
         SI unit ("-" if dimensionless, "" for strings and tables).
@@ -156,6 +156,9 @@ TOP_FIELDS = (
       "[[transmissions]])", required=False),
     _spec("actuators", "table_list", "", "geared motors, one per actuated joint, with an optional motor-to-joint "
       "coupling (alternative to [[transmissions]] and [[drives]])", required=False),
+    _spec("terms", "table_list", "", "torques beyond the rigid bodies (springs, position-dependent torques, known "
+      "torques, offsets): identifiable columns of the identification model, simulated by the twin",
+      required=False, default=()),
 )
 
 DEVICE_KINDS = ("serial", "tendon_bench_2n")
@@ -333,6 +336,39 @@ ACTUATOR_FIELDS = (
       required=False, default=1.0, lo=0.0, lo_open=True, hi=1e3),
 )
 
+TERM_KINDS = ("functions", "polynomial", "table", "spring", "offset", "known")
+"""Kinds of ``[[terms]]`` entry (docs/device-file.md): τ linear in given functions of q, a polynomial or a
+table in the joint's q, a spring between two points of two links, a constant, or a known torque (no column)."""
+
+TERM_FIELDS = (
+    _spec("name", "str", "", "term name, unique; letters, digits and _ (its columns are named after it: "
+      "<name>_1, <name>_2, ... or <name>_k, <name>_kl0 for a spring, <name> for an offset)"),
+    _spec("kind", "str", "", "what the term is", choices=TERM_KINDS),
+    _spec("joint", "int", "-", "the joint the torque acts on (1-based; not for \"spring\", which acts on every "
+      "joint between its two links)", required=False, lo=1),
+    _spec("functions", "str_list", "", "\"functions\": expressions in q (this joint) and q1, q2, ... (file joint "
+      "numbers) with + - * / ** and sin cos tan exp log sqrt abs tanh sign pi, e.g. [\"cos(q)\", \"sin(q)\"]; "
+      "the torque is sum(value_k * function_k) [N m, N at a prismatic joint]", required=False, default=()),
+    _spec("degree", "int", "-", "\"polynomial\": torque = sum_{k=1..degree} value_k * q^k (the constant is the "
+      "joint's OFFSET)", required=False, lo=1, hi=12),
+    _spec("knots", "float_list", "rad or m", "\"table\" and tabulated \"known\": increasing positions of the "
+      "joint; between knots the torque is linear, beyond the ends constant", required=False, default=()),
+    _spec("torques", "float_list", "N m", "tabulated \"known\": the torque at each knot", required=False,
+      default=()),
+    _spec("function", "str", "", "\"known\": the torque [N m] as an expression (as for functions)",
+      required=False),
+    _spec("link_a", "int", "-", "\"spring\": the link of the first end (its joint number; 0 = the base)",
+      required=False, lo=0),
+    _spec("point_a", "vec3", "m", "\"spring\": the first end in link_a's frame (as `com`)", required=False,
+      abs_max=10.0),
+    _spec("link_b", "int", "-", "\"spring\": the link of the second end", required=False, lo=0),
+    _spec("point_b", "vec3", "m", "\"spring\": the second end in link_b's frame", required=False, abs_max=10.0),
+    _spec("rest_length", "float", "m", "\"spring\": free length l0 when known (one column, the stiffness k "
+      "[N/m]); absent: two columns, k [N/m] and k*l0 [N]", required=False, lo=0.0, hi=10.0),
+    _spec("values", "float_list", "", "the term's coefficients, one per column (units of the columns, "
+      "docs/device-file.md): a prior, and the twin's truth (absent: 0)", required=False, default=()),
+)
+
 ALL_FIELD_TABLES = {
     "": TOP_FIELDS,
     "device": DEVICE_FIELDS,
@@ -349,6 +385,7 @@ ALL_FIELD_TABLES = {
     "drives.motor": MOTOR_FIELDS,
     "drives.sensors": SENSOR_FIELDS,
     "actuators": ACTUATOR_FIELDS,
+    "terms": TERM_FIELDS,
 }
 """Every field table, keyed by the section it describes (used by docs checks)."""
 
@@ -622,6 +659,51 @@ class Actuator:
         return any(c != 0.0 for _, c in self.coupling)
 
 
+@dataclass(frozen=True)
+class Term:
+    """A torque beyond the rigid bodies (``[[terms]]``), linear in its coefficients ``values``.
+
+    name; kind (:data:`TERM_KINDS`); joint [-] 1-based (None for a spring); functions (expressions);
+    degree; knots [rad or m]; torques [N m]; function (expression); link_a, link_b [-] (0 = base);
+    point_a, point_b [m] (3,); rest_length [m] or None; values (one per column, see
+    :func:`tendyn.device.terms.term_columns`).
+    """
+
+    name: str
+    kind: str
+    joint: int | None = None
+    functions: tuple[str, ...] = ()
+    degree: int | None = None
+    knots: tuple[float, ...] = ()
+    torques: tuple[float, ...] = ()
+    function: str | None = None
+    link_a: int | None = None
+    point_a: tuple | None = None
+    link_b: int | None = None
+    point_b: tuple | None = None
+    rest_length: float | None = None
+    values: tuple[float, ...] = ()
+
+    @property
+    def column_suffixes(self) -> tuple[str, ...]:
+        """Suffixes of the term's identifiable columns (``<name>_<suffix>``; "" for an offset)."""
+        if self.kind == "functions":
+            return tuple(str(k + 1) for k in range(len(self.functions)))
+        if self.kind == "polynomial":
+            return tuple(str(k + 1) for k in range(self.degree))
+        if self.kind == "table":
+            return tuple(str(k + 1) for k in range(len(self.knots)))
+        if self.kind == "spring":
+            return ("k",) if self.rest_length is not None else ("k", "kl0")
+        if self.kind == "offset":
+            return ("",)
+        return ()
+
+    @property
+    def column_names(self) -> tuple[str, ...]:
+        return tuple(f"{self.name}_{s}" if s else self.name for s in self.column_suffixes)
+
+
 BEARING_PREFIX = "bearing_"
 """A bearing field ``x`` of the device file is the routing array / core field ``bearing_x``."""
 
@@ -702,6 +784,7 @@ class SerialDevice(Device):
     kinematics : :class:`Kinematics`
     transmissions : tuple of :class:`TransmissionSpec`, sorted by driven joint (empty for a drive device)
     drives : tuple of :class:`Drive`, sorted by driven joint (empty for a transmission device)
+    actuators : tuple of :class:`Actuator` in the file's order: motor i is the i-th ``[[actuators]]`` entry
     kind : "serial" (class attribute; see :class:`tendyn.device.base.Device`)
     experiments : the experiments of a chain twin (class attribute)
     """
@@ -715,6 +798,7 @@ class SerialDevice(Device):
     actuators: tuple[Actuator, ...] = field(default_factory=tuple)
     bandwidth_hz: float | None = None
     home_pose: tuple | None = None
+    terms: tuple[Term, ...] = field(default_factory=tuple)
     kind: ClassVar[str] = "serial"
     experiments: ClassVar[tuple[str, ...]] = ("constant-velocity", "exciting", "blocked-link", "stepped-sine",
                                               "swept-sine")

@@ -16,15 +16,35 @@ truth.
   at the log's time stamps), ``score(log)``.
 """
 
-from tendyn.ident.decomposition import LossDecomposition, decompose, default_shares, kinematic_coefficients
-from tendyn.ident.estimate import IDIM, IdentificationResult, least_squares
-from tendyn.ident.friction import (FrictionFit, IdentificationError, TransmissionFriction,
-                                   residual_error_bound)
-from tendyn.ident.friction_file import FrictionFileError, read_friction, write_friction
-from tendyn.ident.model import IdentModel, khalil_from_pinocchio, pinocchio_from_khalil
-from tendyn.ident.plateaus import Plateau, find_plateaus, windowed_slope
-from tendyn.ident.treatment import (AlignmentError, Treatment, butter_zero_phase, default_treatment,
-                                    parallel_filter_taps)
+# Names resolved on first use (PEP 562): `import tendyn.ident.blockmodel` or a command's registration does not pay
+# for scipy.signal, Pinocchio and the estimators (issue 20 item 6: a quick CLI).
+_LAZY = {
+    "LossDecomposition": "decomposition", "decompose": "decomposition", "default_shares": "decomposition",
+    "kinematic_coefficients": "decomposition",
+    "IDIM": "estimate", "IdentificationResult": "estimate", "least_squares": "estimate",
+    "FrictionFit": "friction", "IdentificationError": "friction", "TransmissionFriction": "friction",
+    "residual_error_bound": "friction",
+    "FrictionFileError": "friction_file", "read_friction": "friction_file", "write_friction": "friction_file",
+    "IdentModel": "model", "khalil_from_pinocchio": "model", "pinocchio_from_khalil": "model",
+    "Plateau": "plateaus", "find_plateaus": "plateaus", "windowed_slope": "plateaus",
+    "AlignmentError": "treatment", "Treatment": "treatment", "butter_zero_phase": "treatment",
+    "default_treatment": "treatment", "parallel_filter_taps": "treatment",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(f"tendyn.ident.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'tendyn.ident' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
+
 
 __all__ = ["IDIM", "AlignmentError", "FrictionFileError", "FrictionFit", "IdentModel", "IdentificationError",
            "IdentificationResult", "LossDecomposition", "Plateau", "Treatment", "TransmissionFriction",

@@ -31,9 +31,16 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
-from scipy import signal
 
 from tendyn.results import Result, format_table
+
+
+def _lfilter(b, a, x):
+    """scipy.signal.lfilter, imported on first use (the command line lists identify-bench without scipy.signal)."""
+    from scipy.signal import lfilter
+
+    return lfilter(b, a, x)
+
 
 __all__ = ["NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity", "Record", "nrms",
            "records_from_logs", "simulate"]
@@ -187,8 +194,8 @@ def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
     """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1)."""
     A = np.concatenate([[1.0], a])
     if structure == "wiener":
-        return nl.f(signal.lfilter(b, A, u), p)
-    return signal.lfilter(b, A, nl.f(u, p))
+        return nl.f(_lfilter(b, A, u), p)
+    return _lfilter(b, A, nl.f(u, p))
 
 
 def _shifted(w, k):
@@ -205,13 +212,13 @@ def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
     res, jacs = [], []
     for r in records:
         v = r.u if structure == "wiener" else nl.f(r.u, p)
-        x = signal.lfilter(b, A, v)
+        x = _lfilter(b, A, v)
         yhat = nl.f(x, p) if structure == "wiener" else x
         res.append((yhat - r.y)[skip:])
         if not want_jac:
             continue
-        wv = signal.lfilter([1.0], A, v)
-        wx = signal.lfilter([1.0], A, x)
+        wv = _lfilter([1.0], A, v)
+        wx = _lfilter([1.0], A, x)
         J = np.empty((r.u.size, theta.size))
         for k in range(n + 1):
             J[:, k] = _shifted(wv, k)
@@ -223,7 +230,7 @@ def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
         else:
             dp = nl.dfdp(r.u, p)
             for j in range(dp.shape[1]):
-                J[:, 2 * n + 1 + j] = signal.lfilter(b, A, dp[:, j])
+                J[:, 2 * n + 1 + j] = _lfilter(b, A, dp[:, j])
         jacs.append(J[skip:])
     r = np.concatenate(res)
     bad = ~np.isfinite(r)
@@ -310,13 +317,13 @@ def _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol):
 def _initial_nonlinear(structure, nl, n, b, a, records, degree_cols):
     """Rescale G and choose p by linear least squares on the basis of the nonlinearity (module docstring)."""
     A = np.concatenate([[1.0], a])
-    z = [signal.lfilter(b, A, r.u) if structure == "wiener" else r.u for r in records]
+    z = [_lfilter(b, A, r.u) if structure == "wiener" else r.u for r in records]
     y = np.concatenate([r.y for r in records])
 
     def design(phis):       # Wiener: Φ(z); Hammerstein: G Φ(u)
         if structure == "wiener":
             return np.column_stack([np.concatenate([phi(zz) for zz in z]) for phi in phis])
-        return np.column_stack([np.concatenate([signal.lfilter(b, A, phi(zz)) for zz in z]) for phi in phis])
+        return np.column_stack([np.concatenate([_lfilter(b, A, phi(zz)) for zz in z]) for phi in phis])
 
     if nl.threshold:
         mag = np.abs(np.concatenate(z))
@@ -377,7 +384,7 @@ def _abs_sign_recovery(records, n, skip, max_nfev, rounds=4):
         signs = [s + (s == 0) for s in signs]
         for _ in range(rounds):
             b, a = _arx([Record(r.u, s * r.y, r.rate_hz) for r, s in zip(records, signs)], n)
-            signs = [np.sign(signal.lfilter(b, np.concatenate([[1.0], a]), r.u)) for r in records]
+            signs = [np.sign(_lfilter(b, np.concatenate([[1.0], a]), r.u)) for r in records]
             signs = [s + (s == 0) for s in signs]
         sol = _solve("wiener", nl, n, np.concatenate([b, a]), records, skip, max_nfev, np.zeros(0))
         if best is None or sol.cost < best.cost:

@@ -18,6 +18,7 @@ import numpy as np
 
 from tendyn.results import Result, format_table, new_figure
 
+from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel, unit_of
 from .treatment import DEFAULT_VELOCITY_FRACTION, Block, default_treatment, drop_stale, stack_blocks, treat
 
@@ -76,18 +77,6 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
     return out
 
 
-def least_squares(W, Y):
-    """OLS with statistics: (x, stderr, sigma2, cov). σ̂² = ‖Y − W x‖² / (r − b)."""
-    r, b = W.shape
-    if r <= b:
-        raise ValueError(f"{r} rows for {b} parameters: not enough samples")
-    x, *_ = np.linalg.lstsq(W, Y, rcond=None)
-    res = Y - W @ x
-    sigma2 = float(res @ res) / (r - b)
-    cov = sigma2 * np.linalg.inv(W.T @ W)
-    return x, np.sqrt(np.diag(cov)), sigma2, cov
-
-
 class IdentificationResult(Result):
     """Identified base parameters with their statistics (S2 Table 4), and measured vs estimated torques."""
 
@@ -107,10 +96,32 @@ class IdentificationResult(Result):
         self.units = list(units) if units is not None else [unit_of(n) for n in self.names]
         self.warnings = implausible(self.names, self.values, self.stderr, self.units)
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
+        self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
+
+    def flag_pseudo_inertia(self, model) -> None:
+        """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
+        file's values, :func:`tendyn.ident.consistent.completed_standard`); a link that fails there is checked
+        again over every completion (:func:`tendyn.ident.consistent.best_min_eigenvalue`), and a warning is
+        added per link whose J cannot be positive (semi)definite: no mass distribution has these parameters."""
+        from .consistent import best_min_eigenvalue, completed_standard, pseudo_inertia_check
+
+        self.pseudo_inertia = pseudo_inertia_check(model, completed_standard(model, self.names, self.values))
+        bad = [p["link"] for p in self.pseudo_inertia if not p["ok"]]
+        if bad:     # the device file's values may be what fails: ask whether any completion is physical (SDP)
+            best = dict(zip(bad, best_min_eigenvalue(model, self.names, self.values, bad)))
+            for p in self.pseudo_inertia:
+                if p["link"] in best:
+                    p["min_eigenvalue"], p["ok"] = best[p["link"]], bool(best[p["link"]] >= 0.0)
+        for p in self.pseudo_inertia:
+            if not p["ok"]:
+                self.warnings.append(
+                    f"link {p['link']}: pseudo-inertia not positive definite for any choice of the parameters the "
+                    f"data cannot separate (smallest eigenvalue reached {p['min_eigenvalue']:.3g} kg·m²): no mass "
+                    "distribution has these parameters; --consistent constrains them")
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
-        return 100.0 * self.stderr / np.maximum(np.abs(self.values), 1e-300)
+        return rel_stderr_pct(self.stderr, self.values)
 
     def to_dict(self) -> dict:
         params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": u,
@@ -121,7 +132,7 @@ class IdentificationResult(Result):
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
-                "warnings": list(self.warnings),
+                "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -317,6 +328,9 @@ class IDIM:
             qd = None if qd is None else qd[sl]
         rate = float(log.meta["rate_hz"])
         time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
+        known = model.known_torque(q)         # [[terms]] of kind "known": subtracted, not identified
+        if known is not None:
+            tau = tau - known
         tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings)
         tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
                                  retimed=retimed)
@@ -326,6 +340,9 @@ class IDIM:
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
         from dask.distributed import Client, LocalCluster, as_completed
 
+        from tendyn.progress import quiet_dask
+
+        quiet_dask()                                    # no nanny/worker warnings unless --debug
         dev = self._model().device
         own = None
         if self.scheduler == "local":
@@ -411,15 +428,12 @@ class IDIM:
             xs = consistent_fit(model, Wstd * weights[:, None], Y * weights)
             self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
             x = (base.combination @ xs)[cols]
-            res = (Y - Wsel @ x) * weights
-            s2 = float(res @ res) / (Y.size - len(cols))
-            Ww = Wsel * weights[:, None]
-            se = np.sqrt(np.diag(s2 * np.linalg.inv(Ww.T @ Ww)))
+            _, se, _, _ = least_squares(Wsel * weights[:, None], Y * weights, at=x)
         y_hat = Wsel @ x
         self.names_ = [base.names[i] for i in cols]
         self.expressions_ = [base.expression(i, model.standard_names) for i in cols]
         self.params_, self.stderr_ = x, se
-        self.rel_stderr_ = 100.0 * se / np.maximum(np.abs(x), 1e-300)
+        self.rel_stderr_ = rel_stderr_pct(se, x)
         Ww = Wsel * weights[:, None]
         self.cond_ = float(np.linalg.cond(Ww))
         self.cond_scaled_ = float(np.linalg.cond(Ww / np.linalg.norm(Ww, axis=0)))
@@ -433,6 +447,7 @@ class IDIM:
                                             model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
+        self.result_.flag_pseudo_inertia(model)
         self._cols = cols
         return self
 
@@ -441,7 +456,7 @@ class IDIM:
         x, se, w = self._solve(Wb, Y, rows, na)
         r0 = np.linalg.norm(Y - Wb @ x) / np.linalg.norm(Y)
         while len(cols) > 1:
-            rel = 100 * se / np.maximum(np.abs(x), 1e-300)
+            rel = rel_stderr_pct(se, x)
             worst = int(np.argmax(rel))
             trial = cols[:worst] + cols[worst + 1:]
             xt, st, wt = self._solve(Wb[:, trial], Y, rows, na)

@@ -45,13 +45,13 @@ from tendyn.ident.plateaus import Plateau, find_plateaus
 from tendyn.protocols import MIN_SPEEDS, PLATEAU
 from tendyn.results import Result
 
+from .lsq import IdentificationError, least_squares as _lsq, rel_stderr_pct  # the one least squares and %σ
+
 GRAVITY_MODES = ("pairs", "model", "both")
 LOAD_MODES = ("auto", "fit", "none")
 STRATEGIES = ("S1", "S2")
 
 
-class IdentificationError(ValueError):
-    """The logs do not allow the fit (too few speeds, no plateau, no pair); the message says which."""
 
 
 @dataclass(eq=False)
@@ -88,7 +88,7 @@ class FrictionFit(Result):
     @property
     def rel_std_pct(self) -> tuple[float, float]:
         """%σ of (C_m0, ν) (S2 eq. 7)."""
-        return (_pct(self.coulomb_motor_std, self.coulomb_motor), _pct(self.viscous_motor_std, self.viscous_motor))
+        return (float(rel_stderr_pct(self.coulomb_motor_std, self.coulomb_motor)), float(rel_stderr_pct(self.viscous_motor_std, self.viscous_motor)))
 
     @property
     def mean_load_motor(self) -> float:
@@ -121,7 +121,7 @@ class FrictionFit(Result):
                 "residual_bound": self.residual_bound,
                 "load_coefficient": self.load_coefficient, "load_coefficient_std": self.load_coefficient_std,
                 "load_coefficient_rel_std_pct": (None if self.load_coefficient_std is None or self.load_coefficient == 0
-                                                 else _pct(self.load_coefficient_std, self.load_coefficient)),
+                                                 else float(rel_stderr_pct(self.load_coefficient_std, self.load_coefficient))),
                 "load_identified": self.load_identified,
                 "load_range_motor": [float(x) for x in self.load_range_motor],
                 "warnings": list(self.warnings)}
@@ -136,7 +136,7 @@ class FrictionFit(Result):
             f"{'C_m0 [N·m]':<22}{self.coulomb_motor:>12.5g}{self.coulomb_motor_std:>12.3g}{rc:>8.2f}",
             f"{'ν [N·m·s/rad]':<22}{self.viscous_motor:>12.5g}{self.viscous_motor_std:>12.3g}{rv:>8.2f}",
             (f"{'c_L [-]':<22}{self.load_coefficient:>12.5g}{self.load_coefficient_std:>12.3g}"
-             f"{_pct(self.load_coefficient_std, self.load_coefficient):>8.2f}" if self.load_identified else
+             f"{float(rel_stderr_pct(self.load_coefficient_std, self.load_coefficient)):>8.2f}" if self.load_identified else
              f"c_L [-] not identified (loads {self.load_range_motor[0]:.3g}…{self.load_range_motor[1]:.3g} N·m)"),
             f"residual σ̂ {self.residual_std:.3g} N·m; residual-error bound (ERRATA eq. 15) {bound} N·m",
         ] + [f"warning: {w}" for w in self.warnings])
@@ -161,30 +161,12 @@ class FrictionFit(Result):
         ax.legend(fontsize=8)
 
 
-def _pct(s, x) -> float:
-    return float(100.0 * s / abs(x)) if x != 0 else math.inf
-
-
 def least_squares(W, y, weights=None):
-    """x̂, Cov, σ̂, cond(W) with σ̂² = ‖y − Wx̂‖²/(r − b) and Cov = σ̂²(WᵀW)⁻¹ (S2 eqs. 4–6, corrected:
-    ERRATA — the square).
-
-    ``weights`` (r,) > 0 make it weighted: every row of W and y is scaled by √w first (w ∝ 1/variance of
-    the observation, e.g. the number of samples a bin averages), so the formulas above hold for the scaled
-    rows; σ̂ is then the standard deviation of an observation of unit weight."""
-    W = np.asarray(W, float)
-    y = np.asarray(y, float)
-    r, b = W.shape
-    if r <= b:
-        raise IdentificationError(f"{r} observations for {b} parameters")
-    if weights is not None:
-        sw = np.sqrt(np.asarray(weights, float))
-        W, y = W * sw[:, None], y * sw
-    x, *_ = np.linalg.lstsq(W, y, rcond=None)
-    res = y - W @ x
-    s2 = float(res @ res) / (r - b)
-    cov = s2 * np.linalg.inv(W.T @ W)
-    return x, cov, math.sqrt(s2), float(np.linalg.cond(W))
+    """x̂, Cov, σ̂, cond(W) of the weighted bins (rows scaled by √w): :func:`tendyn.ident.lsq.least_squares`,
+    the one least squares of identification (S2 eqs. 4–6, corrected: ERRATA — the square)."""
+    x, _, s2, cov = _lsq(W, y, weights)
+    sw = np.sqrt(np.asarray(weights, float)) if weights is not None else np.ones(len(y))
+    return x, cov, math.sqrt(s2), float(np.linalg.cond(np.asarray(W, float) * sw[:, None]))
 
 
 # ---- reading logs -----------------------------------------------------------------------------------
@@ -378,7 +360,7 @@ class TransmissionFriction:
         x, cov = self._nonnegative(points, x, cov, kept, i)
         self.params_ = x
         self.stderr_ = np.sqrt(np.diag(cov))
-        self.rel_stderr_ = np.array([_pct(self.stderr_[k], x[k]) for k in range(x.size)])
+        self.rel_stderr_ = rel_stderr_pct(self.stderr_, x)
         self.cond_ = cond
         self.coulomb_motor_, self.viscous_motor_ = float(x[0]), float(x[1])
         self.load_identified_ = kept
@@ -404,7 +386,14 @@ class TransmissionFriction:
         return self
 
     def predict(self, qd_motor, load_motor=0.0) -> np.ndarray:
+        """Friction torque at the motor [N·m] at motor speeds ``qd_motor`` [rad/s] (and loads [N·m])."""
         return self.result_.predict(qd_motor, load_motor)
+
+    def score(self, qd_motor, torque, load_motor=0.0) -> float:
+        """‖C − Ĉ‖ / ‖C‖ [-]: relative error of :meth:`predict` against friction torques ``torque`` [N·m]
+        measured at ``qd_motor`` (e.g. the plateau bins ``points_[:, :2]`` of another set of logs)."""
+        c = np.asarray(torque, float)
+        return float(np.linalg.norm(c - self.predict(qd_motor, load_motor)) / max(np.linalg.norm(c), 1e-300))
 
     def _fit_law(self, points, i):
         """Weighted least squares of the law (module docstring) on the bins: (x, Cov, σ̂, cond, load kept,

@@ -200,6 +200,9 @@ class IdentifiedModel:
             n = qf[sl].shape[0]
             out.append((m.regressor(qf[sl], qd[sl], qdd[sl]) @ x).reshape(na, n).T)
         joint = np.vstack(out)
+        known = m.known_torque(qf)          # [[terms]] of kind "known": part of the model, not identified
+        if known is not None:
+            joint = joint + known
         measured = butter_zero_phase(tau_t, tr.cutoff_hz, rate, tr.order)
         if retimed:     # back onto the log's own time stamps
             joint, measured = ([np.column_stack([np.interp(time, t, x[:, j]) for j in range(na)])

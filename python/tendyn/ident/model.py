@@ -106,7 +106,9 @@ class IdentModel:
         self.n_motors = self.G.shape[0]
         self.motor_joints = self._motor_joints()
         self.prismatic_numbers = frozenset(num for num, f in zip(numbers, joint_frames(self.device)) if f.prismatic)
+        self.terms = self.compiled.terms
         self.raw_names, self.standard_columns, self.standard_names = self._columns()
+        self.n_rigid = len(self.standard_columns)
 
     # -- columns --------------------------------------------------------------------------------------
     def _motor_joints(self) -> list[int]:
@@ -140,7 +142,11 @@ class IdentModel:
             if num in coupled:
                 std += [f"{p}{num}" for p in ("IAm", "FVm", "FSm")]
         assert 10 * nt + 4 * self.n_active + 3 * self.n_motors == len(raw)
-        return raw, np.array([idx[n] for n in std]), tuple(std)
+        clash = set(self.terms.names) & set(std)
+        if clash:
+            raise ValueError(f"{self.device.name}: term column {sorted(clash)[0]!r} has the name of a standard "
+                             "parameter: rename the term")
+        return raw, np.array([idx[n] for n in std]), tuple(std) + self.terms.names
 
     def prior(self) -> np.ndarray:
         """Standard parameters of the device file (URDF inertias, motor priors) in :attr:`standard_names` order."""
@@ -163,11 +169,16 @@ class IdentModel:
             else:
                 n = g[np.flatnonzero(np.abs(g) > 1e-12)[0]]
                 val.update({f"IA{j}": n * n * ir, f"FV{j}": n * n * fv, f"FS{j}": abs(n) * fs})
+        val.update(zip(self.terms.names, self.terms.values))
         return np.array([val.get(n, 0.0) for n in self.standard_names])
 
     def unit(self, name: str) -> str:
         """The unit of a standard or base parameter of this device: :func:`unit_of`, or for the joint and motor
-        terms of a prismatic joint :data:`PRISMATIC_UNITS` (``FV1`` of a linear axis → N·s/m)."""
+        terms of a prismatic joint :data:`PRISMATIC_UNITS` (``FV1`` of a linear axis → N·s/m); a term's
+        column (``[[terms]]``) the unit of :class:`tendyn.device.terms.TermModel`."""
+        for key in (name, name[:-1] if name.endswith("R") else None):
+            if key in self.terms.names:
+                return self.terms.units[self.terms.names.index(key)]
         stem = name.rstrip("R").rstrip("0123456789")
         num = name.rstrip("R")[len(stem):]
         if num and int(num) in self.prismatic_numbers and stem in PRISMATIC_UNITS:
@@ -201,7 +212,8 @@ class IdentModel:
         ----------
         q, qd, qdd : (n, n_active) active positions [rad], velocities [rad/s], accelerations [rad/s²].
         taps : symmetric FIR of odd length (the parallel filter; (1,) = none); K : decimation factor.
-        columns : None for the standard parameters (:attr:`standard_names`), or indices into them.
+        columns : None for the standard parameters (:attr:`standard_names`, the ``[[terms]]`` columns last), or
+            indices into them.
         threads : core threads (None: the CPUs this process may use); the result does not depend on it.
 
         Returns
@@ -214,8 +226,34 @@ class IdentModel:
         W = _core.identification_regressor(self.rigid_body, self._data, self.L, self.c, self.G, f(q), f(qd),
                                            f(qdd), np.asarray(taps, float), int(K),
                                            int(threads or len(os.sched_getaffinity(0))))
-        cols = self.standard_columns if columns is None else self.standard_columns[np.asarray(columns)]
-        return W[:, cols]
+        if not len(self.terms):
+            cols = self.standard_columns if columns is None else self.standard_columns[np.asarray(columns)]
+            return W[:, cols]
+        W = np.hstack([W[:, self.standard_columns], self.term_rows(q, taps, K)])
+        return W if columns is None else W[:, np.asarray(columns)]
+
+    def term_rows(self, q, taps=(1.0,), K: int = 1) -> np.ndarray:
+        """The ``[[terms]]`` columns of the regressor (n_active * n_out, n_terms), joint-major rows, through
+        the same parallel filter and decimation as the rigid-body columns (S2 eq. 4 extended: τ = W X + Φ θ)."""
+        from tendyn import _core
+
+        Phi = self.terms.columns(q)                    # (n, na, c)
+        n, na, c = Phi.shape
+        dec = _core.fir_decimate(np.asarray(taps, float), int(K), np.ascontiguousarray(Phi.reshape(n, na * c)))
+        n_out = dec.shape[0]
+        return dec.reshape(n_out, na, c).transpose(1, 0, 2).reshape(na * n_out, c)
+
+    def known_torque(self, q) -> np.ndarray | None:
+        """Joint torques (n, n_active) of the ``known`` terms at active positions q, to subtract from the
+        measured ones; None when the device has none."""
+        return self.terms.known(q) if self.terms.has_known else None
+
+    def _ranges(self):
+        """Active joint limits (lo, hi) [rad or m] (±π where the file gives none)."""
+        js = [self.device.kinematics.joints[num - 1] for num in self.active_numbers]
+        lo = np.array([j.lower if j.lower is not None else -np.pi for j in js])
+        hi = np.array([j.upper if j.upper is not None else np.pi for j in js])
+        return lo, hi
 
     # -- base parameters ------------------------------------------------------------------------------
     def _preference(self) -> list[int]:
@@ -226,7 +264,7 @@ class IdentModel:
                       ("IA",), ("FV", "FS", "OFFSET")):
             for num in self.tree_numbers:
                 order += [idx[f"{p}{num}"] for p in group if f"{p}{num}" in idx]
-        return order
+        return order + [idx[n] for n in self.terms.names]   # a term regrouped into a link's parameter, not back
 
     @cached_property
     def base(self) -> BaseSet:
@@ -235,6 +273,10 @@ class IdentModel:
         n, na = 60, self.n_active
         W = self.regressor(rng.uniform(-np.pi, np.pi, (n, na)), rng.normal(size=(n, na)),
                            rng.normal(size=(n, na)))
+        if len(self.terms):    # tables and polynomials are exercised inside the joint ranges too
+            lo, hi = self._ranges()
+            W = np.vstack([W, self.regressor(rng.uniform(lo, hi, (n, na)), rng.normal(size=(n, na)),
+                                             rng.normal(size=(n, na)))])
         tol = 1e-8
         norms = np.linalg.norm(W, axis=0)
         nonzero = norms > tol * norms.max()
@@ -285,7 +327,7 @@ class IdentModel:
         """Mask over :attr:`standard_names` of the inertial parameters (links, IA, IAm): not FV, FS, OFFSET,
         FVm, FSm."""
         return np.array([n.rstrip("0123456789") not in ("FV", "FS", "OFFSET", "FVm", "FSm")
-                         for n in self.standard_names])
+                         and n not in self.terms.names for n in self.standard_names])
 
     def mass_matrix(self, q, x) -> np.ndarray:
         """A(q) [kg·m²] (n_active × n_active, rotors included) of the standard-order parameters x: column i is

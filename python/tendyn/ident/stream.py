@@ -17,6 +17,7 @@ import numpy as np
 from .estimate import IDIM
 from tendyn.io.files import parse_json
 
+from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel
 from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
                         parallel_filter_taps)
@@ -45,24 +46,25 @@ class NormalEquations:
 
 
 def solve_normal(ne: NormalEquations, method: str = "ols"):
-    """(x, stderr, cond, residual_rel, per_joint_residual_rel) from the accumulated sums."""
+    """(x, stderr, cond, residual_rel, per_joint_residual_rel) from the accumulated sums, by the one least
+    squares (:func:`tendyn.ident.lsq.least_squares` on the normal equations); WLS weights each joint by
+    1/σ̂ⱼ of its own OLS residual, as in memory."""
     def ls(weights):
-        A = np.tensordot(weights ** 2, ne.A, 1)
-        B = np.tensordot(weights ** 2, ne.B, 1)
-        x = np.linalg.solve(A, B)
+        w2 = weights ** 2
+        A = np.tensordot(w2, ne.A, 1)
+        B = np.tensordot(w2, ne.B, 1)
+        x, se, _, _ = least_squares(normal=(A, B, float(w2 @ ne.C), r))
         rss_j = ne.C - 2 * ne.B @ x + np.einsum("i,jik,k->j", x, ne.A, x)
-        return x, A, np.maximum(rss_j, 0.0)
+        return x, se, A, np.maximum(rss_j, 0.0)
 
     nj, b = ne.B.shape
     r = int(ne.r.sum())
     w = np.ones(nj)
-    x, A, rss = ls(w)
+    x, se, A, rss = ls(w)
     if method == "wls":
         s2j = rss / np.maximum(ne.r - b * ne.r / r, 1.0)
         w = 1.0 / np.sqrt(s2j)
-        x, A, rss = ls(w)
-    sigma2 = float((w ** 2 * rss).sum()) / (r - b)
-    se = np.sqrt(np.diag(sigma2 * np.linalg.inv(A)))
+        x, se, A, rss = ls(w)
     ev = np.linalg.eigvalsh(A)
     cond = float(np.sqrt(ev[-1] / ev[0]))
     per = np.sqrt(rss / ne.C)
@@ -96,18 +98,20 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
     thr = None if velocity_threshold is None else np.broadcast_to(np.asarray(velocity_threshold, float),
                                                                    (model.n_active,))
     dt = 1.0 / tr.rate_hz
-    buf_t = buf_q = buf_tau = None
+    buf_t = buf_q = buf_tau = buf_qd = None
     start = 0                   # global index of buf[0]
     next_k = 0                  # next global output index to produce
     done = False
     it = iter(chunks)
     while not done:
         try:
-            t, q, tau = next(it)
+            t, q, tau, *rest = next(it)
+            qd_in = rest[0] if rest else None        # logged joint velocities [rad/s], or None
             if buf_t is None:
-                buf_t, buf_q, buf_tau = t, q, tau
+                buf_t, buf_q, buf_tau, buf_qd = t, q, tau, qd_in
             else:
                 buf_t = np.concatenate([buf_t, t]); buf_q = np.vstack([buf_q, q]); buf_tau = np.vstack([buf_tau, tau])
+                buf_qd = None if qd_in is None else np.vstack([buf_qd, qd_in])
         except StopIteration:
             done = True
         if buf_t is None:
@@ -119,7 +123,8 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
         k_hi = (right_ok - 1 - h - h) // K if right_ok - 1 - 2 * h >= 0 else -1     # window [c-h, c+h] < right_ok
         if k_hi >= next_k:
             qf = butter_zero_phase(buf_q, tr.cutoff_hz, tr.rate_hz, tr.order)
-            qd = central_differences(qf, dt)
+            qd = central_differences(qf, dt) if buf_qd is None else \
+                butter_zero_phase(buf_qd, tr.cutoff_hz, tr.rate_hz, tr.order)    # as in memory (treat)
             qdd = central_differences(qd, dt)
             lo = next_k * K - start               # local index of the first window start
             hi = k_hi * K + 2 * h + 1 - start     # local exclusive end of the last window
@@ -146,21 +151,35 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
         keep_from = max(0, min(next_k * K - start - overlap, n))
         if keep_from > 0:
             buf_t, buf_q, buf_tau = buf_t[keep_from:], buf_q[keep_from:], buf_tau[keep_from:]
+            buf_qd = None if buf_qd is None else buf_qd[keep_from:]
             start += keep_from
     return (peak if peak_only else (ne, ne_b) if split_at is not None else ne), tr
 
 
-def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: bool = True):
-    """(time, q, tau) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
+def velocity_columns(model: IdentModel, names) -> list[str] | None:
+    """The logged-velocity columns of a log with columns ``names``, as :meth:`IdentModel.joint_velocities`
+    reads them: ``qd_motor_<i>`` of every motor, else ``qd_joint_<j>`` of every active joint; None: none."""
+    names = set(names)
+    motor = [f"qd_motor_{i + 1}" for i in range(model.n_motors)]
+    if all(n in names for n in motor):
+        return motor
+    joint = [f"qd_joint_{n}" for n in model.active_numbers]
+    return joint if all(n in names for n in joint) else None
+
+
+def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: bool = True, velocities=None):
+    """(time, q, tau, qd) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
     :meth:`IdentModel.joint_signals`; ``torques=False`` reads no torque column (tau has no column: the
-    pass that only looks at the speeds)."""
+    pass that only looks at the speeds); ``velocities``: the columns of :func:`velocity_columns` to read as
+    the joint velocities qd [rad/s] (None: qd is None)."""
     import pyarrow.parquet as pq
 
     nm = model.n_motors
     f = pq.ParquetFile(str(path))
     names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + \
-        ([f"torque_motor_{i + 1}" for i in range(nm)] if torques else [])
+        ([f"torque_motor_{i + 1}" for i in range(nm)] if torques else []) + list(velocities or [])
     Ginv = np.linalg.inv(model.G)
+    nt = nm if torques else 0
     # row group by row group: a reader over the whole file pre-buffers ahead and holds memory in proportion
     # to the file (measured: all of a 3 M-sample log); one group at a time holds at most one group
     batches = (b for g in range(f.num_row_groups)
@@ -169,8 +188,87 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: b
         cols = [batch.column(k).to_numpy() for k in range(len(names))]
         t = cols[0]
         qm = np.column_stack(cols[1:1 + nm])
-        y = np.column_stack(cols[1 + nm:]) @ model.G if torques else np.empty((t.size, 0))
-        yield t, qm @ Ginv.T + model.joint_offsets, y
+        y = np.column_stack(cols[1 + nm:1 + nm + nt]) @ model.G if torques else np.empty((t.size, 0))
+        qd = None
+        if velocities:
+            v = np.column_stack(cols[1 + nm + nt:])
+            qd = v @ Ginv.T if velocities[0].startswith("qd_motor_") else v
+        yield t, qm @ Ginv.T + model.joint_offsets, y, qd
+
+
+def scan_stale(chunks, rate_hz: float):
+    """One pass over (time, q, tau, …) chunks: (stale rows, samples, first and last time [s], on the uniform
+    grid) with the definitions of :func:`tendyn.ident.treatment.drop_stale` (a row whose q and τ equal the
+    previous row's; stamps within RETIME_TOLERANCE of t₀ + k / rate)."""
+    from .treatment import RETIME_TOLERANCE
+
+    n_stale = n = 0
+    t0 = t_last = None
+    prev = None
+    worst = 0.0
+    for t, q, tau, *_ in chunks:
+        if t.size == 0:
+            continue
+        if t0 is None:
+            t0 = float(t[0])
+        qq = q if prev is None else np.vstack([prev[0], q])
+        tt = tau if prev is None else np.vstack([prev[1], tau])
+        n_stale += int(np.sum(np.all(qq[1:] == qq[:-1], axis=1) & np.all(tt[1:] == tt[:-1], axis=1)))
+        worst = max(worst, float(np.max(np.abs(t - (t0 + (1.0 / rate_hz) * (n + np.arange(t.size)))))))
+        n += t.size
+        t_last = float(t[-1])
+        prev = (q[-1:], tau[-1:])
+    if t0 is None:
+        return 0, 0, 0.0, 0.0, True
+    n_grid = int(np.round((t_last - t0) * rate_hz)) + 1
+    on_grid = n_grid == n and worst <= RETIME_TOLERANCE / rate_hz
+    return n_stale, n, t0, t_last, on_grid
+
+
+def retime_chunks(chunks, rate_hz: float, t0: float, t_last: float):
+    """The chunks with their stale rows dropped and the rest interpolated onto t₀ + k / rate, k = 0 …
+    round((t_last − t₀) rate): chunk by chunk, carrying the last kept row across chunk borders, so the result
+    equals :func:`tendyn.ident.treatment.drop_stale` on the whole log."""
+    n_grid = int(np.round((t_last - t0) * rate_hz)) + 1
+    k = 0
+    last = None                                   # last kept row: (t, q, tau, qd)
+
+    def interp(g, tk, x):
+        return None if x is None else np.column_stack([np.interp(g, tk, x[:, j]) for j in range(x.shape[1])])
+
+    for t, q, tau, *rest in chunks:
+        qd = rest[0] if rest else None
+        if t.size == 0:
+            continue
+        qq = q if last is None else np.vstack([last[1], q])
+        tt = tau if last is None else np.vstack([last[2], tau])
+        stale = np.all(qq[1:] == qq[:-1], axis=1) & np.all(tt[1:] == tt[:-1], axis=1)
+        keep = ~stale if last is not None else np.concatenate([[True], ~stale])
+        kt, kq, ktau = t[keep], q[keep], tau[keep]
+        kqd = None if qd is None else qd[keep]
+        if last is not None:
+            kt = np.concatenate([last[0], kt]); kq = np.vstack([last[1], kq]); ktau = np.vstack([last[2], ktau])
+            kqd = None if kqd is None else np.vstack([last[3], kqd])
+        if kt.size == 0:
+            continue
+        last = (kt[-1:], kq[-1:], ktau[-1:], None if kqd is None else kqd[-1:])
+        hi = min(n_grid, int(np.floor((kt[-1] - t0) * rate_hz + 1e-9)) + 1)     # grid points ≤ last kept
+        if hi > k:
+            g = t0 + (1.0 / rate_hz) * np.arange(k, hi)       # the grid of drop_stale, to the bit
+            yield g, interp(g, kt, kq), interp(g, kt, ktau), interp(g, kt, kqd)
+            k = hi
+    if last is not None and k < n_grid:           # beyond the last kept stamp: held (np.interp clamps)
+        g = t0 + (1.0 / rate_hz) * np.arange(k, n_grid)
+        m = g.size
+        yield g, np.repeat(last[1], m, 0), np.repeat(last[2], m, 0), \
+            None if last[3] is None else np.repeat(last[3], m, 0)
+
+
+def subtract_known(model: IdentModel, chunks):
+    """The chunks with the ``known`` terms' torques subtracted from τ (after re-timing, as in memory)."""
+    for t, q, tau, *rest in chunks:
+        known = model.known_torque(q) if tau.shape[1] else None
+        yield (t, q, tau if known is None else tau - known, *rest)
 
 
 def prefetch(chunks, depth: int = 1):
@@ -218,25 +316,26 @@ def prefetch(chunks, depth: int = 1):
 
 
 class StreamingIDIM:
-    """OLS/WLS identification of a Parquet log too large for memory (scikit-learn shape).
+    """OLS/WLS identification of a Parquet log too large for memory (the contract of :class:`IDIM`).
 
     Parameters
     ----------
     device : Device or CompiledDevice
     method : "ols" or "wls"
-    cutoff_hz, decimate, order, velocity_threshold : as for :class:`tendyn.ident.IDIM` (defaults from the rate
-        and bandwidth; the default threshold, a fraction of each joint's peak speed, costs a first pass that
-        reads the positions only)
+    cutoff_hz, decimate, order, velocity_threshold, velocities : the treatment options of
+        :class:`tendyn.ident.IDIM`, honoured the same way (defaults from the rate and bandwidth; the default
+        threshold, a fraction of each joint's peak speed, costs a pass that reads the positions only; stale
+        rows are dropped and the log re-timed as in memory, which costs a first pass when the log has them)
     chunk_rows : int
         Samples read per Parquet batch.
 
     ``fit(path)`` reads the log batch by batch, accumulates the per-joint normal equations and solves them;
-    learned: ``params_``, ``stderr_``, ``rel_stderr_``, ``cond_``, ``names_``, ``result_``. The
-    cross-validation fits the first half of the samples and predicts the second (two accumulations).
+    learned: ``params_``, ``stderr_``, ``rel_stderr_``, ``cond_``, ``names_``, ``treatment_``, ``result_``.
+    The cross-validation fits the first half of the samples and predicts the second (two accumulations).
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, chunk_rows=500_000,
-                 velocity_threshold=None):
+                 velocity_threshold=None, velocities="auto"):
         self.device = device
         self.velocity_threshold = velocity_threshold
         self.method = method
@@ -244,6 +343,7 @@ class StreamingIDIM:
         self.decimate = decimate
         self.order = order
         self.chunk_rows = chunk_rows
+        self.velocities = velocities
 
     # the IDIM's contract: hyper-parameters, prediction and score of a log with the fitted parameters
     get_params, set_params, predict, score = IDIM.get_params, IDIM.set_params, IDIM.predict, IDIM.score
@@ -256,33 +356,59 @@ class StreamingIDIM:
         d = self.result_.to_dict()
         return IdentifiedModel(cached_model(self.device).device, d["params"], d["method"], d["treatment"])
 
+    def _chunks(self, model, path, torques=True):
+        """The treated input stream: Parquet batches (prefetched), stale rows dropped and re-timed when the
+        log needs it, known torques subtracted."""
+        chunks = prefetch(iter_parquet_chunks(model, path, self.chunk_rows,
+                                              torques=torques or self._retime is not None,
+                                              velocities=self._vel_cols))
+        if self._retime is not None:
+            chunks = retime_chunks(chunks, self._rate, *self._retime)
+        if not torques:
+            return chunks
+        return subtract_known(model, chunks)
+
     def fit(self, path):
         import pyarrow.parquet as pq
 
-        from .estimate import IdentificationResult, cached_model
+        from .estimate import VELOCITIES, IdentificationResult, cached_model
+        from tendyn.io.logs import LogError
 
         model = cached_model(self.device)
+        if self.velocities not in VELOCITIES:
+            raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
         pf = pq.ParquetFile(str(path))
         meta = parse_json(pf.schema_arrow.metadata[b"tendyn"].decode())
         # the units of the file's columns (a prismatic joint's in m, N), checked as in memory
         schema = pf.schema_arrow
         model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})
-        rate = float(meta["rate_hz"])
+        rate = self._rate = float(meta["rate_hz"])
+        vel = None if self.velocities == "differentiate" else velocity_columns(model, schema.names)
+        if self.velocities == "logged" and vel is None:
+            raise LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{model.n_motors} "
+                           f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
+        self._vel_cols = vel
+        # stale rows and time stamps: a pass over time, q and τ, then the same re-timing as in memory
+        self._retime = None
+        n_stale, n, t0, t_last, on_grid = scan_stale(iter_parquet_chunks(model, path, self.chunk_rows), rate)
+        if n_stale or not on_grid:
+            self._retime = (t0, t_last)
+            n = int(np.round((t_last - t0) * rate)) + 1
         tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
-                               self.order)
-        n = pf.metadata.num_rows
+                               self.order, self.velocity_threshold)
+        tr = dataclasses.replace(tr, velocities="logged" if vel else "differentiate", stale_dropped=n_stale,
+                                 retimed=self._retime is not None)
         from tendyn import _core
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
         if self.velocity_threshold is None:
-            peak, _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows, torques=False)),
-                                 rate, tr, peak_only=True)
+            peak, _ = accumulate(model, self._chunks(model, path, torques=False), rate, tr, peak_only=True)
             thr = DEFAULT_VELOCITY_FRACTION * peak
         else:
             thr = np.full(model.n_active, float(self.velocity_threshold))
         tr = dataclasses.replace(tr, velocity_threshold=tuple(float(v) for v in thr))
-        (ne_a, ne_b), _ = accumulate(model, prefetch(iter_parquet_chunks(model, path, self.chunk_rows)), rate, tr,
-                                     split_at=n_out // 2, velocity_threshold=thr)
+        (ne_a, ne_b), _ = accumulate(model, self._chunks(model, path), rate, tr, split_at=n_out // 2,
+                                     velocity_threshold=thr)
         ne = NormalEquations(*ne_a.B.shape).merge(ne_a).merge(ne_b)   # the whole log, as in memory
         x, se, cond, resid, per = solve_normal(ne, self.method)
         xa, _, _, _, _ = solve_normal(ne_a, self.method)
@@ -294,7 +420,7 @@ class StreamingIDIM:
         base = model.base
         self.names_ = list(base.names)
         self.params_, self.stderr_, self.cond_ = x, se, cond
-        self.rel_stderr_ = 100 * se / np.maximum(np.abs(x), 1e-300)
+        self.rel_stderr_ = rel_stderr_pct(se, x)
         self.treatment_ = tr
         empty = np.zeros(0)
         self.result_ = IdentificationResult(
@@ -302,4 +428,5 @@ class StreamingIDIM:
             [base.expression(i, model.standard_names) for i in range(len(base.names))], x, se, cond,
             int(ne.r.sum()), resid, per, tr, empty, empty, empty, np.zeros(0, int), model.active_numbers, cv,
             units=[model.unit(n) for n in self.names_])
+        self.result_.flag_pseudo_inertia(model)
         return self

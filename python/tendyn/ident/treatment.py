@@ -26,7 +26,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.signal
+
+from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
            "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION"]
@@ -57,8 +58,8 @@ def butter_zero_phase(x, cutoff_hz: float, rate_hz: float, order: int = 4, axis:
     warped = np.tan(np.pi * cutoff_hz / rate_hz) / (np.sqrt(2.0) - 1.0) ** (1.0 / (2 * order))
     fd = np.arctan(warped) * rate_hz / np.pi
     fd = min(fd, 0.499 * rate_hz)
-    sos = scipy.signal.butter(order, fd, fs=rate_hz, output="sos")
-    return scipy.signal.sosfiltfilt(sos, np.asarray(x, float), axis=axis)
+    sos = butter_lowpass_sos(order, fd, rate_hz)                 # scipy.signal's design, without its import
+    return sosfiltfilt(sos, np.asarray(x, float), axis=axis)
 
 
 def central_differences(x, dt: float) -> np.ndarray:
@@ -71,7 +72,7 @@ def parallel_filter_taps(K: int) -> np.ndarray:
     0.8 × the decimated Nyquist frequency, unit DC gain. K = 1: no filter ([1])."""
     if K <= 1:
         return np.ones(1)
-    taps = scipy.signal.firwin(10 * K + 1, 0.8 / K)
+    taps = firwin_lowpass(10 * K + 1, 0.8 / K)
     return taps / taps.sum()
 
 

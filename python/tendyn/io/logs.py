@@ -518,6 +518,9 @@ def _validate(columns, meta, source, line_of_row: int | None = None) -> None:
 class Log:
     """One experiment log: float64 columns on one time grid, and its meta record.
 
+    Build one with :func:`make_log` (converts and validates) or :func:`read_log`. Equality (``==``) is
+    bit-exact on the values, and compares column order and meta.
+
     Parameters
     ----------
     columns : dict[str, numpy.ndarray]
@@ -526,9 +529,6 @@ class Log:
     meta : dict
         ``schema``, ``device``, ``rate_hz`` [Hz], ``seed``, ``experiment``, ``options``, ``created_by``
         (see :data:`META_KEYS`), and ``run_id`` when written by :func:`write_run`.
-
-    Build one with :func:`make_log` (converts and validates) or :func:`read_log`. Equality (``==``) is
-    bit-exact on the values, and compares column order and meta.
     """
 
     columns: dict[str, np.ndarray]

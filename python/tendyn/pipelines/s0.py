@@ -8,8 +8,6 @@ command's report (:func:`tendyn.report.publish`: pipelines write no files).
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 
 from tendyn.device import compile_device
@@ -77,9 +75,12 @@ def run_s0(device, *, quick: bool = False) -> dict:
     from .s0_compensation import _device
 
     compiled = compile_device(_device(device))
-    print(f"[pipeline s0] identification on the {compiled.name} twin …", file=sys.stderr)
+    from tendyn.progress import Ticker
+
+    step = Ticker("pipeline s0", expected=3)          # a bar on a terminal, step lines otherwise
+    step(f"identification on the {compiled.name} twin")
     ident = identification_parts(compiled)
-    print("[pipeline s0] Fig. 7: free motion with gravity only / with friction compensation …", file=sys.stderr)
+    step("Fig. 7: free motion with gravity only / with friction compensation")
     # k as with the twin's own losses: the identification carries the load term (c_L), so τ̂0 no longer absorbs
     # the test's load; k = 0.9 gives 72 % and stays passive on L-EXOS (seed 7), where the load-free law needed 0.7.
     # `tendyn export compensator` keeps the safer 0.7 for a lab's device (control.IDENTIFIED_UNDERESTIMATION).
@@ -93,7 +94,7 @@ def run_s0(device, *, quick: bool = False) -> dict:
     if not quick:       # C12 on the twin's own losses, so that only the hypotheses differ
         from .s0_hypotheses import hypotheses_experiment
 
-        print("[pipeline s0] S0's hypotheses switched one at a time (C12) …", file=sys.stderr)
+        step("S0's hypotheses switched one at a time (C12)")
         hyp = hypotheses_experiment(compiled)
         doc["hypotheses"] = hyp.to_dict()
     if "identification" in ident:

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from tendyn.ident.friction import TransmissionFriction
+from tendyn.ident.lsq import rel_stderr_pct
 from tendyn.results import Result, format_table, new_figure
 
 __all__ = ["FRICTION_TESTS", "FrictionProtocol", "Z_DECISION", "joint_friction", "passive_friction_test",
@@ -53,8 +54,8 @@ def joint_friction(est: TransmissionFriction, ratio: float) -> dict:
     pts = est.points_
     w = np.sqrt(pts[:, 2] / pts[:, 2].mean())
     W = np.column_stack([np.sign(pts[:, 0]), pts[:, 0] / n]) * w[:, None]
-    return {"FV": float(fv), "FV_stderr": float(sv), "FV_rel_stderr_pct": float(100 * sv / max(abs(fv), 1e-300)),
-            "FC": float(fc), "FC_stderr": float(sc), "FC_rel_stderr_pct": float(100 * sc / max(abs(fc), 1e-300)),
+    return {"FV": float(fv), "FV_stderr": float(sv), "FV_rel_stderr_pct": float(rel_stderr_pct(sv, fv)),
+            "FC": float(fc), "FC_stderr": float(sc), "FC_rel_stderr_pct": float(rel_stderr_pct(sc, fc)),
             "cond": float(np.linalg.cond(W)), "speeds_joint": [float(v / n) for v in est.speeds_],
             "n_points": int(pts.shape[0])}
 

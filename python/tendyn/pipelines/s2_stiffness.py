@@ -25,11 +25,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from tendyn.ident.estimate import least_squares
-from tendyn.ident.treatment import butter_zero_phase, central_differences
+from tendyn.ident.lsq import least_squares, rel_stderr_pct
+from tendyn.ident.treatment import Treatment, butter_zero_phase, central_differences
 from tendyn.results import Result, format_table
 
-__all__ = ["StiffnessFit", "fit_capstan_stiffness", "capstan_bandwidth", "identification_band",
+__all__ = ["CapstanStiffness", "StiffnessFit", "fit_capstan_stiffness", "capstan_bandwidth", "identification_band",
            "BAND_DECADE", "BAND_LOW_HZ"]
 
 BAND_DECADE = 10.0
@@ -58,8 +58,7 @@ class StiffnessFit(Result):
 
     @property
     def rel_stderr_pct(self) -> np.ndarray:
-        x = np.array([self.K, self.B, self.offset])
-        return 100.0 * self.stderr / np.maximum(np.abs(x), 1e-300)
+        return rel_stderr_pct(self.stderr, [self.K, self.B, self.offset])
 
     def hysteresis_width(self) -> float:
         """Median gap [N·m] between the loading and unloading branches at the same motor angle (≈ 2 × the
@@ -104,13 +103,11 @@ class StiffnessFit(Result):
         ax.legend(loc="best", fontsize=7)
 
 
-def fit_capstan_stiffness(log, motor: int, drive: int | None = None, cutoff_hz: float = 50.0) -> StiffnessFit:
-    """Fit S2 eq. (14) to one blocked-link log (links blocked, triangular torque on motor ``motor``).
+class CapstanStiffness:
+    """S2 eq. (14) on blocked-link logs as an estimator (the contract of :class:`tendyn.ident.IDIM`).
 
     Parameters
     ----------
-    log : tendyn.io.Log
-        Reads only ``time``, ``q_motor_<motor>`` [rad] and ``torque_motor_<motor>`` [N·m] (measured).
     motor : int
         1-based motor (column) number.
     drive : int, optional
@@ -119,23 +116,58 @@ def fit_capstan_stiffness(log, motor: int, drive: int | None = None, cutoff_hz: 
         −3 dB cut-off [Hz] of the zero-phase Butterworth on the encoder before differentiating (dq̇_m); the
         torque is filtered the same way (parallel filtering, so W and Y keep the same phase).
 
-    Returns
-    -------
-    StiffnessFit
-        K, B, offset motor side with their statistics (S2 eqs. 4–7, ERRATA eq. 5).
+    ``fit(log)`` returns self; learned: ``params_`` (K [N·m/rad], B [N·m·s/rad], offset [N·m], motor side),
+    ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``treatment_`` (:class:`tendyn.ident.treatment.Treatment`:
+    the filter, no decimation), ``result_`` (:class:`StiffnessFit`). ``predict(log)`` the motor torque [N·m]
+    at the log's samples, ``score(log)`` its relative error [-].
     """
-    rate = float(log.meta["rate_hz"])
-    q = np.asarray(log[f"q_motor_{motor}"], float)
-    y = np.asarray(log[f"torque_motor_{motor}"], float)
-    dq = q - q[0]
-    dqf = butter_zero_phase(dq, cutoff_hz, rate)
-    yf = butter_zero_phase(y, cutoff_hz, rate)
-    dqd = central_differences(dqf, 1.0 / rate)
-    W = np.column_stack([dqf, dqd, np.ones_like(dqf)])
-    x, se, s2, _ = least_squares(W, yf)
-    return StiffnessFit(drive=motor if drive is None else drive, K=float(x[0]), B=float(x[1]), offset=float(x[2]),
-                        stderr=se, cond=float(np.linalg.cond(W)), residual_std=math.sqrt(s2), n_rows=int(y.size),
-                        dq=dqf, torque=y)
+
+    def __init__(self, motor: int, drive: int | None = None, cutoff_hz: float = 50.0):
+        self.motor = motor
+        self.drive = drive
+        self.cutoff_hz = cutoff_hz
+
+    def _rows(self, log):
+        rate = float(log.meta["rate_hz"])
+        q = np.asarray(log[f"q_motor_{self.motor}"], float)
+        y = np.asarray(log[f"torque_motor_{self.motor}"], float)
+        dqf = butter_zero_phase(q - q[0], self.cutoff_hz, rate)
+        yf = butter_zero_phase(y, self.cutoff_hz, rate)
+        dqd = central_differences(dqf, 1.0 / rate)
+        return np.column_stack([dqf, dqd, np.ones_like(dqf)]), yf, y, dqf, rate
+
+    def fit(self, log) -> "CapstanStiffness":
+        W, yf, y, dqf, rate = self._rows(log)
+        x, se, s2, _ = least_squares(W, yf)
+        self.params_, self.stderr_, self.rel_stderr_ = x, se, rel_stderr_pct(se, x)
+        self.cond_ = float(np.linalg.cond(W))
+        self.treatment_ = Treatment(float(self.cutoff_hz), 4, 1, None, rate, float("nan"), why=(
+            "cut-off given (the blocked motor's spring motion)", "no decimation: the rows are the samples"))
+        self.result_ = StiffnessFit(drive=self.motor if self.drive is None else self.drive, K=float(x[0]),
+                                    B=float(x[1]), offset=float(x[2]), stderr=se, cond=self.cond_,
+                                    residual_std=math.sqrt(s2), n_rows=int(y.size), dq=dqf, torque=y)
+        return self
+
+    def predict(self, log) -> np.ndarray:
+        """Motor torque [N·m] of S2 eq. (13) at the log's samples (filtered encoder)."""
+        W, *_ = self._rows(log)
+        return W @ self.params_
+
+    def score(self, log) -> float:
+        """‖Γ_m − Γ̂_m‖ / ‖Γ_m‖ [-] against the log's filtered torque."""
+        W, yf, *_ = self._rows(log)
+        return float(np.linalg.norm(yf - W @ self.params_) / max(np.linalg.norm(yf), 1e-300))
+
+    def get_params(self, deep: bool = True) -> dict:
+        return {"motor": self.motor, "drive": self.drive, "cutoff_hz": self.cutoff_hz}
+
+
+def fit_capstan_stiffness(log, motor: int, drive: int | None = None, cutoff_hz: float = 50.0) -> StiffnessFit:
+    """Fit S2 eq. (14) to one blocked-link log (links blocked, triangular torque on motor ``motor``): the
+    :class:`StiffnessFit` of :class:`CapstanStiffness` (reads only ``time``, ``q_motor_<motor>`` [rad] and
+    ``torque_motor_<motor>`` [N·m]); K, B, offset motor side with their statistics (S2 eqs. 4–7, ERRATA eq. 5).
+    """
+    return CapstanStiffness(motor, drive, cutoff_hz).fit(log).result_
 
 
 def capstan_bandwidth(device, stiffness_motor, poses=None, n_poses: int = 60, seed: int = 0) -> dict:

@@ -202,6 +202,9 @@ def local_cluster(n_workers: int = 2):
     import dask
     from dask.distributed import LocalCluster
 
+    from tendyn.progress import quiet_dask
+
+    quiet_dask()                                                   # no nanny/worker warnings unless --debug
     quiet = {"distributed.worker.profile.enabled": False,          # read by the spawned workers
              "distributed.admin.tick.interval": "1000ms",           # event-loop blocking probe (default 20 ms)
              "distributed.admin.system-monitor.interval": "5000ms"}  # psutil sampling (default 500 ms)
@@ -223,6 +226,9 @@ def dask_client(scheduler: str | None = None, n_workers: int = 2, client=None):
     cluster = None
     if scheduler:
         from tendyn.ident.cluster import connect_scheduler
+        from tendyn.progress import quiet_dask
+
+        quiet_dask()
 
         client = connect_scheduler(scheduler)
     else:

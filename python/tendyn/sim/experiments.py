@@ -52,6 +52,9 @@ def device_truth(device) -> dict:
         out["drives"] = [{k: getattr(d, k) for k in ("joint", "ratio", "stiffness_motor", "damping_motor",
                                                     "coulomb_motor", "viscous_motor", "offset_joint")}
                          for d in drives]
+    terms = getattr(device, "terms", ())
+    if terms:
+        out["terms"] = {n: v for t in terms for n, v in zip(t.column_names, t.values or [0.0] * len(t.column_names))}
     return to_jsonable(out)
 
 
@@ -436,26 +439,27 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
                         f_sin=(0.5, 1.1, 1.7), a_sin: float = 0.05, rate_hz: float = 5_000.0,
                         control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
                         bandwidth_hz: float = 8.0, design: "ExcitingDesign | str | None" = None,
-                        progress=None) -> SimRun:
+                        progress=None, friction: bool = True) -> SimRun:
     """Triangular + sinusoidal joint trajectories (S2 §VI) tracked by a joint-space PID.
 
-    design : ExcitingDesign, "band", "classic" or None
+    design : ExcitingDesign, FourierDesign (:func:`tendyn.ident.exciting.plan_exciting`), "band", "classic" or None
         "classic": one triangle per joint (``amplitude`` [rad], ``f_tri`` [Hz]) plus the sines ``f_sin`` [Hz]
         of ``a_sin`` [rad] shared by all joints, clipped inside the active joint limits. "band": the design of
         :func:`design_exciting` inside the device's identification band (0.1 Hz … ``device.bandwidth_hz``),
         passive joints kept inside their limits, distinct frequencies per joint (``q0``, ``amplitude``,
         ``f_tri``, ``f_sin``, ``a_sin`` unused). None: "band" when the device file gives ``bandwidth_hz``
         (its motion bandwidth, e.g. the CEA branch's 2 Hz), else "classic".
+    friction : False runs the twin without its friction sources (a rigid-body-plus-terms truth).
     """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction)
     na = m.na
     dev_bw = getattr(device.device, "bandwidth_hz", None)
     if design is None:
         design = "band" if dev_bw else "classic"
     if isinstance(design, str) and design == "band":
         design = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
-    if isinstance(design, ExcitingDesign):
+    if not isinstance(design, str) and hasattr(design, "references"):   # ExcitingDesign, ident.exciting.FourierDesign
         ref_q, ref_qd, _ = design.references(duration, m.dt)
         q0 = design.center
         opts = dict(duration=duration, design=design.to_dict(), rate_hz=rate_hz, control_hz=control_hz)

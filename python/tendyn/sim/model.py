@@ -70,6 +70,9 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
     m.rotor_inertia = np.array([mo.rotor_inertia for mo in motors], float)
     m.torque_constant = np.array([mo.torque_constant for mo in motors], float)
     m.peak_torque = np.array([mo.peak_torque for mo in motors], float)
+    tables = compiled.terms.joint_tables() if getattr(device, "terms", ()) else None
+    if tables is not None:             # [[terms]]: the twin's truth is the file's values
+        m.term_lo, m.term_step, m.term_torque = tables
     if sensors:
         m.encoder_counts = np.array([s.encoder_counts for s in sens], float)
         m.current_noise = np.array([s.current_noise for s in sens], float)

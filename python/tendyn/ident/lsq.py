@@ -1,0 +1,65 @@
+"""The one least squares of identification and its statistics (S2 eqs. 4–7; ERRATA eq. 5: the squared norm).
+
+X̂ = argmin ‖√w (Y − W X)‖ (w = 1: OLS), σ̂² = ‖√w (Y − W X̂)‖² / (r − b), C = σ̂² (Wᵀ w W)⁻¹, σ = √diag C and
+%σ = 100 σ / |X̂|. Every estimator uses these: the IDIM in memory (W given), the streaming IDIM (only the
+normal equations WᵀW, WᵀY, YᵀY and r are held: :func:`least_squares` takes them as ``normal=``), the S0
+transmission friction (weighted bins) and the capstan stiffness of S2 §V-B.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["IdentificationError", "least_squares", "rel_stderr_pct"]
+
+
+class IdentificationError(ValueError):
+    """The data do not allow the fit (too few observations, no plateau, no pair); the message says which."""
+
+
+def least_squares(W=None, y=None, weights=None, *, normal=None, at=None):
+    """Least squares with statistics: (x, stderr, sigma2, cov).
+
+    Parameters
+    ----------
+    W, y : (r, b), (r,) the observation matrix and vector (solved by an orthogonal factorisation, lstsq).
+    weights : (r,) > 0, optional: every row of W and y is scaled by √w first (w ∝ 1/variance of the
+        observation); σ̂² is then the variance of an observation of unit weight.
+    normal : (A, B, C, r) instead of W, y: A = WᵀW (b, b), B = WᵀY (b,), C = YᵀY, r rows (already weighted):
+        the sums a streaming pass keeps; x solves A x = B and ‖Y − W x‖² = C − 2 Bᵀx + xᵀA x.
+    at : (b,) optional: no solve, the statistics of this estimate (a constrained one: ``--consistent``).
+
+    Raises :class:`IdentificationError` when r ≤ b.
+    """
+    if normal is not None:
+        A, B, C, r = normal
+        b = B.size
+        if r <= b:
+            raise IdentificationError(f"{r} rows for {b} parameters: not enough samples")
+        x = np.linalg.solve(A, B) if at is None else np.asarray(at, float)
+        rss = max(float(C - 2 * B @ x + x @ A @ x), 0.0)
+        WtW = A
+    else:
+        W = np.asarray(W, float)
+        y = np.asarray(y, float)
+        if weights is not None:
+            sw = np.sqrt(np.asarray(weights, float))
+            W, y = W * sw[:, None], y * sw
+        r, b = W.shape
+        if r <= b:
+            raise IdentificationError(f"{r} rows for {b} parameters: not enough samples")
+        x = np.linalg.lstsq(W, y, rcond=None)[0] if at is None else np.asarray(at, float)
+        res = y - W @ x
+        rss = float(res @ res)
+        WtW = W.T @ W
+    sigma2 = rss / (r - b)
+    cov = sigma2 * np.linalg.inv(WtW)
+    return x, np.sqrt(np.diag(cov)), sigma2, cov
+
+
+def rel_stderr_pct(stderr, x) -> np.ndarray:
+    """%σ = 100 σ / |x| [%] (S2 eq. 7), elementwise; a value of exactly 0 has an infinite %σ."""
+    s = np.asarray(stderr, float)
+    a = np.abs(np.asarray(x, float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(a > 0, 100.0 * s / np.where(a > 0, a, 1.0), np.inf)
