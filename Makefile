@@ -5,7 +5,7 @@ VPY      := $(VENV)/bin/python
 PIP      := $(VPY) -m pip
 STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
-SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' \) 2>/dev/null) CMakeLists.txt pyproject.toml
+SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
 .PHONY: install test test-python test-cpp tools demo bench mutants docs clean
 
@@ -25,11 +25,15 @@ install: $(STAMP)
 test: install tools test-cpp
 	TENDYN_REQUIRE_EXAMPLES=1 $(VPY) -m pytest tests/python -q
 
-# pkg-config for tests/python/test_examples.py; installed with apt when missing (root only).
+# pkg-config for tests/python/test_examples.py, headless chromium for tests/python/test_reports.py (the HTML
+# reports opened in a browser); installed with apt when missing (root only).
 tools:
 	@command -v pkg-config >/dev/null || { [ "$$(id -u)" = 0 ] && { apt-get install -y -q pkg-config || \
 	  { apt-get update -q && apt-get install -y -q pkg-config; }; } >/dev/null; } \
 	  || echo "[tools] pkg-config is missing and cannot be installed without root: the pkg-config builds fail"
+	@command -v chromium >/dev/null || { [ "$$(id -u)" = 0 ] && { apt-get install -y -q chromium || \
+	  { apt-get update -q && apt-get install -y -q chromium; }; } >/dev/null; } \
+	  || echo "[tools] chromium is missing and cannot be installed without root: the report browser tests skip"
 
 test-python: install
 	$(VPY) -m pytest tests/python -q

@@ -415,12 +415,20 @@ def cmd_demo(args) -> int:
     else:
         job = _demo_cables
     with all_or_none(out) as stage:       # every file of the demo, or none of them
-        doc, lines = job(dev, _Outputs(stage, out))
+        outputs = _Outputs(stage, out)
+        doc, lines = job(dev, outputs)
+        warnings = outputs.report(dev, args, doc)
     _DEMO_STEP.close()
+    doc["report"] = str(out / "report.html")
+    lines.append(f"report: {doc['report']}")
     if args.json:
         _print_json(doc)
     else:
         print("\n".join(lines))
+    sys.stdout.flush()
+    from tendyn.report import warn
+
+    warn("demo", warnings)
     return 0
 
 
@@ -431,14 +439,25 @@ class _Outputs:
     """Writes a result's figure (PNG) and data (JSON) into the staging folder; names their final paths."""
 
     def __init__(self, stage: Path, final: Path):
-        self.stage, self.final = stage, final
+        self.stage, self.final, self.results = stage, final, []
 
     def save(self, result, stem: str) -> tuple[Path, Path]:
-        from tendyn.io import atomic_write_text, save_png, to_jsonable
+        """The result's data now; its figure (PNG, and SVG in the page) with :meth:`report`."""
+        from tendyn.io import atomic_write_text, to_jsonable
 
-        save_png(result.plot(), self.stage / f"{stem}.png")
         atomic_write_text(self.stage / f"{stem}.json", json.dumps(to_jsonable(result.to_dict())))
+        self.results.append((stem, result))
         return self.final / f"{stem}.png", self.final / f"{stem}.json"
+
+    def report(self, dev, args, doc) -> list:
+        """report.html (and each figure as STEM.png) for the saved results; returns its warnings."""
+        from tendyn.report import run_info, section_of, write_html_report
+
+        sections = [section_of(stem.replace("_", " "), r, name=stem) for stem, r in self.results]
+        _, warnings = write_html_report(self.stage, f"Demo of {dev.name}", run_info("demo", device=dev, options=args),
+                                        sections, data=doc, json_name="demo.json", pngs=True,
+                                        extra_files=[f"{stem}.json" for stem, _ in self.results])
+        return warnings
 
 
 def _demo_cables(dev, outputs: _Outputs):

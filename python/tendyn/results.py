@@ -64,6 +64,8 @@ class Result:
 
     _panels: int = 1
     _figsize: tuple[float, float] = (6.0, 4.2)
+    reading: str = ""
+    """One sentence on how to read the figure (the caption of the figure in an HTML report, ``tendyn.report``)."""
 
     def plot(self, ax=None):
         """Draw into ``ax`` (an Axes, or a sequence of ``_panels`` Axes) or a new figure; return the figure.
@@ -141,6 +143,8 @@ class FrequencyResponse(Result):
 
     _panels = 2
     _figsize = (6.0, 3.4)
+    reading = ("Left: the gain |output/input| on a log scale against frequency; right: the phase; a peak of the "
+               "gain is a resonance, and curves that part show the response depends on the input amplitude.")
 
     def __post_init__(self):
         self.omega = np.asarray(self.omega, float).ravel()

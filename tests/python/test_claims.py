@@ -104,7 +104,7 @@ def test_command_table_json_and_report(tmp_path, capsys):
     assert code == 0 and doc["counts"]["holds"] == 1 and doc["claims"][0]["claim"] == "C6"
     row = doc["claims"][0]
     assert {"claim", "paper_value", "tendyn_value", "band", "status", "reason"} <= set(row)
-    assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == ["claims.json", "claims.txt"]
+    assert sorted(p.name for p in (tmp_path / "rep").iterdir()) == ["claims.json", "claims.txt", "report.html"]
     assert json.loads((tmp_path / "rep" / "claims.json").read_text(encoding="utf-8"))["claims"] == doc["claims"]
 
 

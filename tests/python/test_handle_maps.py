@@ -268,7 +268,8 @@ def test_cli_maps_on_a_cable_device(tmp_path, capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     doc = json.loads(out.out)
-    assert {f.name for f in (tmp_path / "rep").iterdir()} == {"handle_maps.png", "maps.json", "maps.txt"}
+    assert {f.name for f in (tmp_path / "rep").iterdir()} == {"handle_maps.png", "maps.json", "maps.txt",
+                                                              "report.html"}
     assert doc["task_dimension"] == 2 and doc["stiffness"] is None
     assert 0 < doc["min_apparent_mass_kg"] <= doc["max_apparent_mass_kg"]
     assert 0 < doc["min_dry_friction_N"] <= doc["max_dry_friction_N"]

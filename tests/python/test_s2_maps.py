@@ -242,7 +242,8 @@ def test_cli_maps_json_and_report(tmp_path, capsys):
     assert {"max_apparent_mass_kg", "stiffness_range_N_per_m", "max_dry_friction_N", "natural_pose",
             "workspace"} <= set(doc)
     assert len(doc["stiffness_range_N_per_m"]) == 2 and doc["workspace"]["reachable_cube_edge_m"] > 0.2
-    assert {f.name for f in (tmp_path / "rep").iterdir()} == {"fig8.png", "fig9.png", "maps.json", "maps.txt"}
+    assert {f.name for f in (tmp_path / "rep").iterdir()} == {"fig8.png", "fig9.png", "maps.json", "maps.txt",
+                                                              "report.html"}
 
 
 def test_cli_maps_bad_inputs_are_one_line(tmp_path, capsys):

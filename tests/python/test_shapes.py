@@ -267,6 +267,7 @@ ALLOWED = {
     "pipelines": {"pipelines", "sim", "analysis", "control", "ident", "device", "io", "results", "transmission",
                   "protocols", "_core"},
     "results": {"results"},
+    "report": {"report", "io"},       # turns results into pages: computes nothing, imports no physics
     "transmission": {"transmission", "_core", "device.schema"},
     "capstan": {"capstan"},
     "coupling": {"coupling"},

@@ -409,6 +409,9 @@ class HandleMaps(Result):
         a, b = sorted(np.argsort(ext)[::-1][:2])
         return int(a), int(b)
 
+    reading = ('Each dot is one reachable handle pose seen from above or aside (axes in mm); its colour is the '
+               "quantity in the colour bar's label, so hot spots are where the operator feels most.")
+
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         a, b = self._plane()

@@ -416,17 +416,20 @@ class MapFigure(Result):
     _panels = 2
     _figsize = (5.5, 4.0)
 
+    reading = ("Each curve is one quantity along a line through the natural pose (solid: x, dashed: y, dotted: z "
+               "offset of the handle); the colour names the component, the zero offset is the natural pose.")
+
     def _draw(self, ax) -> None:
         m = self.maps
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         if self.kind == "mass_stiffness":
             quantities = ((m.mass_sv, ("M_xx", "M_yy", "M_zz"), 1e3, "apparent mass (singular values) [g]"),
                           (m.stiffness_diag, ("K_xx", "K_yy", "K_zz"), 1.0, "operational stiffness (diagonal) [N/m]"))
-            title = "Fig. 8: apparent mass and operational stiffness"
+            title = ("Fig. 8 (S2): " if m.paper else "") + "apparent mass and operational stiffness"
         else:
             quantities = ((m.coulomb_sv, ("F_c,xx", "F_c,yy", "F_c,zz"), 1.0, "Coulomb friction (singular values) [N]"),
                           (m.viscous_diag, ("B_xx", "B_yy", "B_zz"), 1.0, "viscous friction (diagonal) [N·s/m]"))
-            title = "Fig. 9: operational Coulomb and viscous friction"
+            title = ("Fig. 9 (S2): " if m.paper else "") + "operational Coulomb and viscous friction"
         styles = ("-", "--", ":")
         for a, (values, labels, scale, ylabel) in zip(axes, quantities):
             for axis, ls in enumerate(styles):
@@ -489,6 +492,7 @@ class OperationalMaps(Result):
     neighbourhood: list
     stiffness_motor: list
     params_source: str = "identified"
+    paper: bool = False          # the device is S2's twin (cea_branch): the table shows S2's printed values
     _panels = 4
     _figsize = (5.0, 4.0)
 
@@ -496,6 +500,9 @@ class OperationalMaps(Result):
     def figures(self) -> dict:
         """{"fig8": MapFigure (mass, stiffness), "fig9": MapFigure (friction)}."""
         return {"fig8": MapFigure(self, "mass_stiffness"), "fig9": MapFigure(self, "friction")}
+
+    reading = ('Each curve is one quantity along a line through the natural pose (solid: x, dashed: y, dotted: z '
+               'offset of the handle); the colour names the component.')
 
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
@@ -554,7 +561,9 @@ class OperationalMaps(Result):
              "> 200 (full device)"),
             ("reachable extents x, y, z [mm]", " × ".join(f"{1e3 * v:.0f}" for v in self.workspace["extents_m"]), "–"),
         ]
-        text = format_table(("quantity", "twin", "S2"), rows,
+        headers = ("quantity", self.device, "S2 (paper)") if self.paper else ("quantity", self.device)
+        rows = rows if self.paper else [r[:2] for r in rows]
+        text = format_table(headers, rows,
                             title=f"{self.device}: operational maps ({self.params_source} parameters), grid "
                                   f"±{1e3 * self.half_width:g} mm, {self.points}³ points, "
                                   f"{int(self.reachable.sum())} reachable")
@@ -702,9 +711,11 @@ def operational_maps(device, params=None, *, stiffness_motor=None, q_natural=Non
         progress(f"maps: reachable cube edge {1e3 * ws['reachable_cube_edge_m']:.0f} mm")
     prof = _neighbourhood((mass_sv, stiff, coul), offsets, reach, [h for h in neighbourhoods if h <= half_width + 1e-12])
     source = "true" if params is None and not isinstance(device, OperationalModel) else "identified"
+    from tendyn.devices import is_twin_of
+
     return OperationalMaps(model.device.name, float(half_width), int(points), float(speed), offsets, reach, Q,
                            mass_sv, stiff, coul, visc, vertex, fd_s, fd_d, pd, nat, ws, prof,
-                           [float(v) for v in model.stiffness_motor], source)
+                           [float(v) for v in model.stiffness_motor], source, is_twin_of(model.device, "cea_branch"))
 
 
 def maps_summary(maps: OperationalMaps) -> dict:

@@ -312,6 +312,9 @@ class SensitivityStudy(Result):
 
     _figsize = (4.2, 3.6)
 
+    reading = ('One panel per parameter value: the plant gain |G| (black), the first-order gains G(1 ± S) of a ±100 % '
+               'change of the parameter (dashed), and the sensitivity |S| (dots) against frequency.')
+
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         f = self.omega / (2 * math.pi)
@@ -323,6 +326,7 @@ class SensitivityStudy(Result):
             a.loglog(f, np.abs(s), "o", ms=2, color="g", label=f"|S_{self.name}|")
             a.set_title(f"{self.name} = {self.values[k]:.4g}")
             a.set_xlabel("frequency [Hz]")
+            a.set_ylabel("|G| [-], |S| [-]")
             a.grid(alpha=0.3, which="both")
         axes[0].legend(fontsize=7)
 
@@ -408,22 +412,29 @@ class RatioTradeoff(Result):
         over = np.nonzero(self.torque_Nm[k0:] > self.torque_max_Nm)[0]
         return float(self.r[k0 + over[0]]) if over.size else float("nan")
 
+    reading = ('Each panel is one consequence of the pulley ratio r (horizontal): friction rejection, peak force, '
+               'motor torque against its limit, and the inertia felt at the load.')
+
     def _draw(self, ax) -> None:
         a = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         a[0].semilogy(self.r, self.snr, "k-")
         a[0].set_title(f"effort / friction at {self.freq_hz:g} Hz")
+        a[0].set_ylabel("effort / friction [-]")
         if len(a) > 1:
             a[1].plot(self.r, self.peak_force_N, "b-")
-            a[1].set_title("peak force r τ_max |G(0)| [N]")
+            a[1].set_title("peak force r τ_max |G(0)|")
+            a[1].set_ylabel("peak force [N]")
         if len(a) > 2:
             a[2].semilogy(self.r, self.torque_Nm, "r-", label="needed")
             a[2].axhline(self.torque_max_Nm, color="0.4", ls="--", label="τ_max (saturation)")
-            a[2].set_title(f"motor torque, band ≤ {self.freq_hz:g} Hz [N·m]")
+            a[2].set_title(f"motor torque, band ≤ {self.freq_hz:g} Hz")
+            a[2].set_ylabel("motor torque [N·m]")
             a[2].legend(fontsize=7)
         if len(a) > 3:
             a[3].semilogy(self.r, self.backdriven_mass_kg, "g-", label="open loop r² I_M")
             a[3].semilogy(self.r, self.backdriven_mass_closed_kg, "g--", label=f"÷ (1 + K), K = {self.loop_gain:g}")
-            a[3].set_title("back-driven inertia [kg]")
+            a[3].set_title("back-driven inertia")
+            a[3].set_ylabel("back-driven mass [kg]")
             a[3].legend(fontsize=7)
         for x in a:
             x.set_xlabel("ratio r [-]")

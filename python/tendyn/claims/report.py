@@ -1,7 +1,7 @@
-"""The claims' report: ``claims.json`` and ``claims.txt`` into a folder, all files or none.
+"""The claims' report: ``report.html``, ``claims.json`` and ``claims.txt`` into a folder, all files or none.
 
-:func:`write_report` is the one function ``tendyn claims --report`` calls: the HTML report writer of the
-project (issue 20 item 1) replaces its body without changing its signature."""
+:func:`write_report` is the one function ``tendyn claims --report`` calls; the page is the project's HTML report
+(:func:`tendyn.report.write_html_report`, docs/reports.md): one row per check, the failures as warnings."""
 
 from __future__ import annotations
 
@@ -38,11 +38,22 @@ def write_report(out: Path, doc: dict) -> list[Path]:
     from tendyn.io import atomic_write_text
     from tendyn.io.files import all_or_none
 
+    from tendyn.report import HTML_NAME, Section, Table, run_info, write_html_report
+
     out = Path(out)
+    rows = doc["claims"]
+    bad = [f"{r['claim']} {r['status']}: " + ("; ".join(r["failed_conditions"]) or r["reason"] or "")
+           for r in rows if r["status"] in ("FAILS", "ERROR", "XPASS")]
+    section = Section("Claims", text=summary_line(doc), warnings=bad, tables=[Table(
+        ("claim", "paper", "statement", "paper value", "tendyn value", "band", "status", "reason"),
+        [(r["claim"], r["paper"], r["statement"], r["paper_value"], r["tendyn_value"] or "—", r["band"], r["status"],
+          r["reason"] or "") for r in rows], title=f"{len(rows)} checks ({doc['mode']} mode)")])
     with all_or_none(out) as stage:
-        atomic_write_text(stage / "claims.json", json.dumps(doc, indent=2, ensure_ascii=False) + "\n")
-        atomic_write_text(stage / "claims.txt", table(doc["claims"]) + "\n\n" + summary_line(doc) + "\n")
-    return [out / "claims.json", out / "claims.txt"]
+        atomic_write_text(stage / "claims.txt", table(rows) + "\n\n" + summary_line(doc) + "\n")
+        write_html_report(stage, "tendyn claims: the papers' results today",
+                          run_info("claims", options={"mode": doc["mode"]}), [section], data=doc,
+                          json_name="claims.json", extra_files=["claims.txt"])
+    return [out / "claims.json", out / "claims.txt", out / HTML_NAME]
 
 
 def summary_line(doc: dict) -> str:

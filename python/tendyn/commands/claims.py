@@ -20,7 +20,7 @@ def register(subparsers) -> None:
     p.add_argument("--only", default=None, metavar="C1,C22,…",
                    help="run only these claims (ids; a claim's parts, e.g. C42:natural, come with it)")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
-    p.add_argument("--report", default=None, metavar="DIR", help="write claims.json and claims.txt into DIR")
+    p.add_argument("--report", default=None, metavar="DIR", help="write report.html, claims.json and claims.txt into DIR")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.set_defaults(func=run)
 

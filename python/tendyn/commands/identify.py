@@ -39,7 +39,7 @@ def register(subparsers) -> None:
                    help="identify a Parquet log too large for memory chunk by chunk (normal equations, no W held)")
     p.add_argument("--force", action="store_true", help="use logs whose meta names another device")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--report", help="folder for the table and the measured-vs-estimated figure")
+    p.add_argument("--report", help="folder for report.html, the table, params.json and the measured-vs-estimated figure")
     p.add_argument("--json", action="store_true", help="print the parameters as one JSON document on stdout")
     add_record_arguments(p)
     p.set_defaults(func=cmd_identify)
@@ -79,7 +79,7 @@ def _parameters(text, model):
 def cmd_identify(args) -> int:
     from tendyn.device import compile_device
     from tendyn.ident import IDIM
-    from tendyn.io import atomic_write_text, read_log, save_png
+    from tendyn.io import atomic_write_text, read_log
 
     dev = _device(args.device)
     if dev.kind != "serial":
@@ -125,10 +125,7 @@ def cmd_identify(args) -> int:
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
     if args.report:
-        out = Path(args.report)
-        out.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out / "table.txt", res.table() + "\n")
-        save_png(res.plot(), out / "torques.png")
+        _write_report(args, dev, res, doc)
     if args.json:
         print(json.dumps(doc, indent=2))
         _warn(res)
@@ -136,6 +133,15 @@ def cmd_identify(args) -> int:
         print(res.table())
     print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
     return 0
+
+
+def _write_report(args, dev, res, doc) -> None:
+    """report.html (docs/reports.md), params.json, table.txt and torques.png into ``--report``, all or none."""
+    from tendyn.report import section_of, write_report
+
+    write_report(args.report, "identify", args, doc, "params.json",
+                 [section_of("Base parameters and measured vs estimated torques", res, name="torques")],
+                 texts={"table.txt": res.table()}, device=dev, logs=args.logs, title=f"Identification of {dev.name}")
 
 
 def _document(res, dev, logs) -> dict:
@@ -171,6 +177,8 @@ def _identify_stream(dev, args) -> int:
     record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
+    if args.report:                         # a streamed fit keeps no samples: the figure is the %σ per parameter
+        _write_report(args, dev, res, doc)
     print(json.dumps(doc, indent=2) if args.json else res.table())
     if args.json:
         _warn(res)

@@ -32,7 +32,8 @@ def register(subparsers) -> None:
                    help="capstan drives: Cartesian grid points per axis, odd [default: 11]; cable and geared: grid "
                         "points per active joint [default: ⌊2000^(1/n)⌋ within 2–21]")
     p.add_argument("--report", default=None, metavar="DIR",
-                   help="write the figures (fig8.png, fig9.png; handle_maps.png), maps.json and maps.txt into DIR")
+                   help="write report.html, the figures (fig8.png, fig9.png; handle_maps.png), maps.json and maps.txt "
+                        "into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     p.add_argument("--force", action="store_true", help="use a PARAMS.json whose document names another device")
     p.set_defaults(func=run)
@@ -42,7 +43,7 @@ def run(args) -> int:
     from tendyn.analysis.operational import (DEFAULT_HALF_WIDTH, DEFAULT_POINTS, OperationalModel, ParamsError,
                                              operational_maps)
     from tendyn.cli import _check_out_folder, _load
-    from tendyn.commands.pipeline import publish
+    from tendyn.report import publish
 
     dev = _load(args.device)
     if dev.kind == "serial" and not dev.drives and (dev.transmissions or dev.actuators):
@@ -76,14 +77,16 @@ def run(args) -> int:
                             points=points, progress=Ticker("maps"))
     doc = maps.to_dict()
     doc["params_file"] = str(args.params)
-    return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")
+    return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt", command="maps", device=dev,
+                   logs=[p for p in (args.params, args.friction) if p is not None],
+                   title=f"Maps of {dev.name} at the handle")
 
 
 def _run_handle(args, dev) -> int:
     """Cable transmissions or geared actuators: the maps of :mod:`tendyn.analysis.handle_maps`."""
     from tendyn.analysis.handle_maps import handle_maps
     from tendyn.cli import _check_out_folder
-    from tendyn.commands.pipeline import publish
+    from tendyn.report import publish
 
     for opt in ("stiffness", "half_width"):
         if getattr(args, opt) is not None:
@@ -114,7 +117,9 @@ def _run_handle(args, dev) -> int:
     doc = maps.to_dict()
     doc["params_file"] = None if args.params is None else str(args.params)
     doc["friction_file"] = None if args.friction is None else str(args.friction)
-    return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt")
+    return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt", command="maps", device=dev,
+                   logs=[p for p in (args.params, args.friction) if p is not None],
+                   title=f"Maps of {dev.name} at the handle")
 
 
 def _identified_mass_matrix(dev, path, force=False):

@@ -70,38 +70,19 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("pipeline", help="run one paper's workflow end to end", epilog=f"pipelines: {names}")
     p.add_argument("name", metavar="NAME", help=f"pipeline name: {', '.join(sorted(PIPELINES))}")
     p.add_argument("device", nargs="?", default=None, help="device file or bundled twin [default: the pipeline's]")
-    p.add_argument("--report", default=None, metavar="DIR", help="write figures (PNG) and data (JSON) into DIR")
+    p.add_argument("--report", default=None, metavar="DIR", help="write report.html (figures, tables, warnings), the data (JSON) and PNGs into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     p.add_argument("--quick", action="store_true", help="coarser grids and shorter runs (tests)")
     p.set_defaults(func=_dispatch)
 
 
-def publish(args, doc: dict, table: str, figures: dict, out, json_name: str, text_name: str | None = None) -> int:
-    """Write a command's report into ``out`` (figures as PNG, ``doc`` as ``json_name``, the table as ``text_name``;
-    all files or none) when ``out`` is given, then print ``doc`` (``--json``) or the table. Returns 0.
+def publish(args, doc: dict, table: str, figures: dict, out, json_name: str, text_name: str | None = None,
+            **kw) -> int:
+    """:func:`tendyn.report.publish` (the one path of every ``--report``), for ``tendyn pipeline NAME``."""
+    from tendyn.report import publish as _publish
 
-    ``figures``: name → a :class:`tendyn.results.Result` (``NAME.png``)."""
-    import json
-
-    from tendyn.cli import _print_json
-    from tendyn.io import atomic_write_text, save_png, to_jsonable
-    from tendyn.io.files import all_or_none
-
-    if out is not None:
-        with all_or_none(out) as stage:
-            for name, res in figures.items():
-                save_png(res.plot(), stage / f"{name}.png")
-            atomic_write_text(stage / json_name, json.dumps(to_jsonable(doc), indent=2) + "\n")
-            if text_name:
-                atomic_write_text(stage / text_name, table + "\n")
-        doc["report"] = str(out)
-    if args.json:
-        _print_json(doc)
-    else:
-        print(table)
-        if out is not None:
-            print(f"report: {out}")
-    return 0
+    kw.setdefault("command", f"pipeline {getattr(args, 'name', '')}".strip())
+    return _publish(args, doc, table, figures, out, json_name, text_name, **kw)
 
 
 def say(msg: str) -> None:

@@ -2,32 +2,27 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
-from tendyn.commands.pipeline import Pipeline, register_pipeline
+from tendyn.commands.pipeline import Pipeline, publish, register_pipeline
 
 
 def run_pipeline_s0(args) -> int:
     from tendyn.cli import _load
     from tendyn.errors import CheckFailed, UsageError
-    from tendyn.io import to_jsonable
     from tendyn.pipelines.s0 import run_s0
 
     dev = _load(args.device)
     if dev.kind != "serial" or not dev.transmissions:
         raise UsageError(f"{dev.name} has no cable transmissions (pipeline s0 needs a cable-driven chain)", "device")
-    doc = run_s0(dev, report=args.report, quick=args.quick)
-    table = doc.pop("_table")
-    if args.json:
-        print(json.dumps(to_jsonable(doc), indent=2))
-    else:
+    doc = run_s0(dev, quick=args.quick)
+    table, figures = doc.pop("_table"), doc.pop("_figures")
+    comp = doc["compensation"]
+    if not args.json:
         print(table)
-        comp = doc["compensation"]
         print(f"\nC11: joint-1 torque reduction {100 * comp['reduction_joint1']:.1f} % (claim > 50 %)")
-        if "report" in doc:
-            print(f"report: {doc['report']['figure']}, {doc['report']['data']}")
-    sys.stdout.flush()
+    publish(args, doc, table, figures, args.report, "s0.json", device=dev, title=f"S0 pipeline on {dev.name}",
+            quiet_table=True)
     if not doc["compensation"]["reduction_joint1"] > 0.5:
         raise CheckFailed(f"C11: reduction {doc['compensation']['reduction_joint1']:.3f} is not > 0.5")
     return 0

@@ -21,7 +21,8 @@ def run(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind} device; pipeline s1 needs a tendon bench", "device")
     out = _check_out_folder(args.report, "report") if args.report else None
     report = run_s1(dev, quick=args.quick, progress=say)
-    return publish(args, dict(report.summary), report.table(), {"s1_frf": report, **report.figures}, out, "s1.json")
+    return publish(args, dict(report.summary), report.table(), {"s1_frf": report, **report.figures}, out, "s1.json",
+                   device=dev, title=f"S1 pipeline on {dev.name}")
 
 
 register_pipeline(Pipeline("s1", run, "mcgill_bench", "S1 McGill bench: sensitivities, loops, loop shaping"))

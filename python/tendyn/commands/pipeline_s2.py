@@ -16,7 +16,8 @@ def run(args) -> int:
         raise UsageError(f"{dev.name} has no capstan [[drives]]; pipeline s2 needs a device like cea_branch", "device")
     out = _check_out_folder(args.report, "report") if args.report else None
     report = run_s2(dev, quick=args.quick, progress=say)
-    return publish(args, dict(report.summary), report.table(), report.figures, out, "s2.json", "s2.txt")
+    return publish(args, dict(report.summary), report.table(), report.figures, out, "s2.json", "s2.txt",
+                   device=dev, title=f"S2 pipeline on {dev.name}")
 
 
 register_pipeline(Pipeline("s2", run, "cea_branch", "S2 CEA branch: capstan stiffness, friction, Table 4"))

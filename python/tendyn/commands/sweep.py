@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from pathlib import Path
 
 from tendyn.commands.args import number, numbers
@@ -30,7 +31,7 @@ def register(subparsers) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler [default: a local cluster]")
     p.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
                    help=f"workers of the local cluster, 1 … {MAX_WORKERS} (4 per CPU) [default: 2]")
-    p.add_argument("--out", required=True, help="table (.parquet); the figure goes beside it (.png)")
+    p.add_argument("--out", required=True, help="table (.parquet); the figure (.png), the report (.html) and its JSON (.json) go beside it")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     p.set_defaults(func=run)
@@ -38,7 +39,8 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from tendyn.cli import _load, _print_json
-    from tendyn.pipelines.sweep import MAX_DESIGNS, parse_param, run_sweep, write_outputs
+    from tendyn.pipelines.sweep import MAX_DESIGNS, parse_param, run_sweep
+    from tendyn.report import warn
     from tendyn.sim.tendon_bench import bench_model
 
     dev = _load(args.device)
@@ -77,11 +79,30 @@ def run(args) -> int:
                         scheduler=args.scheduler, n_workers=args.workers, progress=not args.quiet)
     except ConnectionError as exc:
         raise UsageError(str(exc), "scheduler") from None
-    out, fig_path = write_outputs(res, out)
-    doc = res.to_dict() | {"table": str(out), "figure": str(fig_path)}
+    fig_path, html_path = out.with_suffix(".png"), out.with_suffix(".html")
+    doc = res.to_dict() | {"table": str(out), "figure": str(fig_path), "report": str(html_path)}
+    _write(res, doc, args, dev, out)
     if args.json:
         _print_json(doc)
     else:
         print(res.table())
-        print(f"table: {out}\nfigure: {fig_path}")
+        print(f"table: {out}\nfigure: {fig_path}\nreport: {html_path}")
+    sys.stdout.flush()
+    warn("sweep", res.warnings)
     return 0
+
+
+def _write(res, doc, args, dev, out: Path) -> None:
+    """The table (Parquet), its figure (PNG), the page (HTML) and the document (JSON) beside each other, all or
+    none (:mod:`tendyn.report`)."""
+    from tendyn.io.files import all_or_none
+    from tendyn.pipelines.sweep import write_table
+    from tendyn.report import Figure, Section, run_info, write_html_report
+
+    with all_or_none(out.parent) as stage:
+        write_table(res, stage / out.name)
+        sections = [Section("Design sweep", text=f"{len(res.rows)} designs of {dev.name}, metric {res.metric}.",
+                            tables=[res.table()], figures=[Figure(res, name=out.stem)], warnings=res.warnings)]
+        write_html_report(stage, f"Design sweep of {dev.name}", run_info("sweep", device=dev, options=args), sections,
+                          data=doc, json_name=out.with_suffix(".json").name, html_name=out.with_suffix(".html").name,
+                          pngs=True, extra_files=[out.name])

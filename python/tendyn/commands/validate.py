@@ -18,7 +18,7 @@ def register(subparsers) -> None:
     p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
     p.add_argument("params", type=existing_file, metavar="PARAMS.json", help="parameters of `tendyn identify --out`")
     p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
-    p.add_argument("--report", help="folder for the table and one figure per log (one panel per joint)")
+    p.add_argument("--report", help="folder for report.html, the table, validate.json and one figure per log (one panel per joint)")
     p.add_argument("--json", action="store_true", help="print the errors as one JSON document on stdout")
     add_record_arguments(p)
     p.set_defaults(func=cmd_validate)
@@ -41,7 +41,7 @@ def cmd_validate(args) -> int:
     from tendyn.io.params import ParamsError
     from tendyn.cli import _check_out_folder, _load
     from tendyn.ident.identified import IdentifiedModel
-    from tendyn.io import atomic_write_text, read_log, save_png
+    from tendyn.io import read_log
     from tendyn.io.logs import LogError
 
     dev = _load(args.device)
@@ -64,10 +64,12 @@ def cmd_validate(args) -> int:
            "logs": [{"log": str(p), **r.to_dict()} for p, r in zip(args.logs, results)], "metrics": metrics(results)}
     text = "\n\n".join(f"{p.name}:\n{r.table()}" for p, r in zip(args.logs, results))
     if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out / "table.txt", text + "\n")
-        for p, r in zip(args.logs, results):
-            save_png(r.plot(), out / f"{p.stem}.png")
+        from tendyn.report import section_of, write_report
+
+        sections = [section_of(f"{p.name}: predicted vs measured torques", r, name=p.stem)
+                    for p, r in zip(args.logs, results)]
+        write_report(out, "validate", args, doc, "validate.json", sections, texts={"table.txt": text}, device=dev,
+                     logs=[args.params, *args.logs], title=f"Validation of {args.params.name} on {dev.name}")
     record_result(args, dev, "validate", doc, source=", ".join(str(p) for p in args.logs))
     print(json.dumps(doc, indent=2) if args.json else text)
     return 0

@@ -126,12 +126,15 @@ class PlantFit(Result):
         """max |P̂ − H|/|H| over the fitted points."""
         return float(np.max(np.abs(self.response(omega=self.omega) - self.measured) / np.abs(self.measured)))
 
+    reading = ("Dots: the measured gain of the twin's stepped sine; line: the fitted second-order plant P̂ whose "
+               'resonance and damping the legend gives.')
+
     def _draw(self, ax) -> None:
         f = self.omega / (2 * math.pi)
         ax.semilogy(f, np.abs(self.measured), "o", ms=3, label="measured (twin)")
         ax.semilogy(f, np.abs(self.response(omega=self.omega)), "k-", label=f"P̂: {self.freq_hz:.1f} Hz, ζ={self.zeta:.3f}")
         ax.set_xlabel("frequency [Hz]")
-        ax.set_ylabel("|F_m/F_τ|")
+        ax.set_ylabel("|F_m / F_τ| [-]")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3, which="both")
 
@@ -230,6 +233,9 @@ class RobustPerformance(Result):
     def peak_hz(self) -> float:
         return float(self.omega[int(np.argmax(self.curve))] / (2 * math.pi))
 
+    reading = ('The black curve must stay below 1 (grey line) at every frequency for robust performance; the dashed '
+               'curves are the sensitivity |S| and complementary sensitivity |T|.')
+
     def _draw(self, ax) -> None:
         f = self.omega / (2 * math.pi)
         ax.loglog(f, self.curve, "k-", label=f"|W1 S| + |W2 T| ({self.label}), max {self.value:.3f}")
@@ -237,6 +243,7 @@ class RobustPerformance(Result):
         ax.loglog(f, np.abs(self.T), "r--", lw=0.8, label="|T|")
         ax.axhline(1.0, color="0.5", lw=0.8)
         ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel("gain [-]")
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3, which="both")
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..device.schema import DeviceError
 
-__all__ = ["available", "bundled"]
+__all__ = ["available", "bundled", "is_twin_of"]
 
 _HERE = Path(__file__).resolve().parent
 
@@ -48,3 +48,15 @@ def bundled(name: str) -> Path:
     if stem not in names:
         raise DeviceError(f"no bundled device named {name!r}; available: {', '.join(names) or '(none)'}")
     return _HERE / f"{stem}.toml"
+
+
+def is_twin_of(device, name: str) -> bool:
+    """Whether ``device`` (a Device or CompiledDevice) is the bundled twin ``name`` itself: its file has the same
+    bytes as the bundled file. Only then may a result be compared with that paper's printed values (a user's
+    device, or a twin edited by hand, is another device)."""
+    dev = getattr(device, "device", device)
+    path = getattr(dev, "path", None)
+    try:
+        return path is not None and Path(path).read_bytes() == bundled(name).read_bytes()
+    except (OSError, DeviceError):
+        return False

@@ -454,6 +454,9 @@ class BlockModelFit(Result):
         return simulate(self.structure, nonlinearity(self.nonlinearity, len(self.params) + 1), self.b, self.a,
                         np.array(list(self.params.values()), float), np.asarray(u, float))
 
+    reading = ('The measured output and the fitted block model simulated from rest over the same input; where the '
+               'dashed curve leaves the measured one, the model misses the dynamics.')
+
     def _draw(self, ax) -> None:
         if self.example is None:
             ax.text(0.5, 0.5, "no validation record", ha="center")

@@ -138,6 +138,9 @@ class LossDecomposition(Result):
         lines.append(f"global values reproduced within {self.max_mismatch():.1e} (relative)")
         return "\n".join(lines)
 
+    reading = ('For each transmission, the identified Coulomb force τ̂_0 on each branch of its route (0 = base); a '
+               'branch whose value stands out carries most of the losses.')
+
     def _draw(self, ax) -> None:
         """τ̂_0 per branch (markers and lines, one per transmission) against the branch number."""
         for i, nb in enumerate(self.branches):

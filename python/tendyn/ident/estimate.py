@@ -156,24 +156,50 @@ class IdentificationResult(Result):
         tail += [f"warning: {w}" for w in self.warnings]
         return text + "\n" + "\n".join(tail)
 
+    @property
+    def reading(self) -> str:
+        """How to read :meth:`plot` (the caption in a report)."""
+        if self.y is None or len(self.y) == 0:
+            return ("One bar per base parameter: its relative standard deviation %σ on a log scale; a bar above "
+                    "100 % is a parameter the data do not determine.")
+        return ("One panel per joint: the measured torque (colour) and the torque of the identified model W X "
+                "(black dashes) at the same decimated samples; where they part, the model misses that joint's "
+                "motion.")
+
     def _draw(self, ax):
         n = len(self.joint_numbers)
         if self.y is None or len(self.y) == 0:    # a streamed fit keeps no samples: draw the %σ instead
+            ax = ax[0] if isinstance(ax, (list, tuple)) else ax
             ax.bar(range(len(self.names)), self.rel_stderr_pct, color="C0")
             ax.set_xticks(range(len(self.names)), self.names, rotation=90, fontsize=6)
             ax.set_yscale("log")
             ax.set_ylabel("relative deviation %σ [%]")
+            ax.set_xlabel("base parameter (its unit in the table)")
             ax.set_title(f"{self.device}: base parameters ({self.method})")
             return
-        for j, num in enumerate(self.joint_numbers):
-            sel = self.rows == j
+        axes = ax if isinstance(ax, (list, tuple)) else [ax]
+        for j, num in enumerate(self.joint_numbers[:len(axes)]):
+            a, sel = axes[j], self.rows == j
             t = self.time[sel]
-            ax.plot(t, self.y[sel], lw=0.8, label=f"measured, joint {num}", color=f"C{j}")
-            ax.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated" if j == 0 else None)
-        ax.set_xlabel("time [s] (decimated samples)")
-        ax.set_ylabel("joint torque [N·m] (force [N] at a prismatic joint)")
-        ax.set_title(f"{self.device}: measured vs estimated torque, {n} joints")
-        ax.legend(loc="best", fontsize=7)
+            a.plot(t, self.y[sel], lw=0.8, color=f"C{j}", label="measured")
+            a.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated (W X)")
+            a.set_ylabel(f"joint {num} torque\n[N·m] (N if prismatic)", fontsize=8)
+            a.legend(loc="upper right", fontsize=7)
+            a.grid(alpha=0.3)
+        axes[-1].set_xlabel("time [s] (decimated samples)")
+        axes[0].set_title(f"{self.device}: measured vs estimated joint torques, {n} joints")
+
+    def plot(self, ax=None):
+        """One panel per joint (measured and estimated torque over time), or the %σ bars of a streamed fit."""
+        if ax is None:
+            from tendyn.results import new_figure
+
+            streamed = self.y is None or len(self.y) == 0
+            n = 1 if streamed else len(self.joint_numbers)
+            _, axes = new_figure(n, 1, figsize=(8.0, 6.0 if streamed else max(2.0 * n, 3.0)), sharex=True)
+            ax = axes if n == 1 else list(np.ravel(axes))
+        self._draw(ax)
+        return (ax[0] if isinstance(ax, (list, tuple)) else ax).figure
 
 
 class IDIM:

@@ -221,6 +221,9 @@ class MeasuredFRF(Result):
 
         return control.frd(self.ratio, self.omega)
 
+    reading = ('Gain (with its confidence band), phase and coherence of the measured frequency response against '
+               'frequency; read the gain only where the coherence is close to 1.')
+
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         lo, hi, dph = self.band()

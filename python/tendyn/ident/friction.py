@@ -141,6 +141,9 @@ class FrictionFit(Result):
             f"residual σ̂ {self.residual_std:.3g} N·m; residual-error bound (ERRATA eq. 15) {bound} N·m",
         ] + [f"warning: {w}" for w in self.warnings])
 
+    reading = ('Friction torque at the motor of each speed bin of the constant-velocity test (dots) and the fitted '
+               'law (line): the jump at zero speed is the Coulomb friction, the slope the viscous one.')
+
     def _draw(self, ax) -> None:
         """Observations and the fitted law C_m0 sgn(v) + νv."""
         v, c = self.points[:, 0], self.points[:, 1]

@@ -161,6 +161,9 @@ class History(Result):
     def drifts(self) -> list[dict]:
         return [r for r in self.rows if r["drift"]]
 
+    reading = ('Each identified parameter over the records, divided by its first value (bars: 3σ); a red cross marks '
+               'a drift beyond 3σ, a change of the device.')
+
     def _draw(self, ax) -> None:
         for name in self.names():
             rows = [r for r in self.rows if r["name"] == name]

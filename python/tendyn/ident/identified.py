@@ -80,6 +80,9 @@ class TorquePrediction(Result):
         return format_table(("Joint", "Unit", "Relative error %"), rows,
                             title=f"{self.device}: predicted vs measured joint torques, {self.time.size} samples")
 
+    reading = ("One panel per joint: the log's torque (colour, low-passed like the identification) and the torque "
+               'the identified model predicts (black dashes) over the same time.')
+
     def plot(self, ax=None):
         if ax is None:
             n = self._panels

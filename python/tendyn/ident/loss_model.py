@@ -110,6 +110,9 @@ class IdentifiedLosses(Result):
         return (f"{self.device}: identified loss model from {self.origin}\n{head}\nsources: "
                 + ", ".join(f"{k} {v}" for k, v in self.sources.items()))
 
+    reading = ('For each transmission, the Coulomb force summed over the branches of its route: the taller the bar, '
+               'the more that cable loses.')
+
     def _draw(self, ax) -> None:
         """Σ τ0 per transmission [N] (bars)."""
         x = np.arange(self.n) + 1

@@ -41,11 +41,14 @@ class BenchFRF(Result):
         """Input amplitude [N] → grid frequency [Hz] of the largest measured |F_m/F_τ|."""
         return {a: r.peak_hz() for a, r in self.measured.items()}
 
+    reading = ('The dashed black curve is the analytic linear plant; each coloured curve a stepped sine at one input '
+               'amplitude: the peak moves with the amplitude where friction matters.')
+
     def _draw(self, ax) -> None:
         self.analytic.plot(ax)
         for r in self.measured.values():
             r.plot(ax)
-        ax.set_ylabel("|F_m / F_τ| (first harmonic)")
+        ax.set_ylabel("|F_m / F_τ| [-] (first harmonic)")
         ax.set_title(f"{self.device}: open loop, very stiff load")
 
     def to_dict(self) -> dict:

@@ -30,11 +30,15 @@ class BlockedLinkDemo:
                 "torque_motor_Nm": {k: v.tolist() for k, v in self.torque.items()}}
 
     def table(self) -> str:
-        rows = [f"{'drive':<10} {'slope [N·m/rad] (motor side)':>30}"]
-        rows += [f"{name:<10} {k:>30.3f}" for name, k in self.stiffness_motor.items()]
-        return "\n".join(rows)
+        from tendyn.results import format_table
+
+        return format_table(("drive", "slope [N·m/rad] (motor side)"),
+                            [(name, f"{k:.3f}") for name, k in self.stiffness_motor.items()])
 
     __str__ = table
+
+    reading = ('Motor torque against motor angle with the links blocked: the slope of each loop is the capstan '
+               'stiffness (legend), its width the friction hysteresis.')
 
     def plot(self, ax=None):
         """Torque vs angle per drive into ``ax`` (or a new figure); returns the figure."""

@@ -33,6 +33,9 @@ class FrictionSweep(Result):
                 "points": {k: {"speed_motor_rad_s": v[0].tolist(), "torque_motor_Nm": v[1].tolist()}
                            for k, v in self.points.items()}}
 
+    reading = ('Each marker is the mean motor torque of one constant-velocity test; the jump at zero speed is the '
+               'Coulomb friction, the slope the viscous friction, per identification strategy.')
+
     def _draw(self, ax) -> None:
         for (name, (v, c)), marker in zip(self.points.items(), "os"):
             ax.plot(v, c, marker, ms=6, label=f"strategy {name}")

@@ -2,14 +2,11 @@
 8), loss decomposition, and the compensation of Fig. 7 with passivity (item 7).
 
 :func:`run_s0` returns one JSON-able document with the keys ``transmissions``, ``decomposition`` and
-``compensation`` (and ``hypotheses``, C12, unless quick); with ``report`` it also writes the figures and the
-document into that folder (all files or none).
+``compensation`` (and ``hypotheses``, C12, unless quick), with the result objects under ``_figures`` for the
+command's report (:func:`tendyn.report.publish`: pipelines write no files).
 """
 
 from __future__ import annotations
-
-import json
-from pathlib import Path
 
 import numpy as np
 
@@ -60,19 +57,20 @@ def identification_parts(device) -> dict:
                                "decomposition_max_relative_mismatch": dec.max_mismatch()}}
 
 
-def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> dict:
+def run_s0(device, *, quick: bool = False) -> dict:
     """Run the S0 pipeline on ``device`` (a Device, CompiledDevice or bundled name).
 
     Parameters
     ----------
-    report : folder for ``fig7_compensation.png``, ``fig7_compensation.json`` and ``s0.json`` (None: none)
     quick : fewer runs (no wall, no over-compensation) — for tests
 
     Returns
     -------
     dict
         ``device``, ``transmissions``, ``decomposition``, ``compensation`` (``reduction_joint1`` (0–1),
-        ``rms_joint1_gravity_only``, ``rms_joint1_compensated`` [N·m], ``energy_to_hand_per_cycle`` [J], …).
+        ``rms_joint1_gravity_only``, ``rms_joint1_compensated`` [N·m], ``energy_to_hand_per_cycle`` [J], …);
+        ``_table`` (the printed text) and ``_figures`` (name → result object) for the report
+        (``tendyn pipeline s0 --report``, :func:`tendyn.report.publish`).
     """
     from .s0_compensation import _device
 
@@ -101,16 +99,6 @@ def run_s0(device, report: str | Path | None = None, *, quick: bool = False) -> 
         doc["hypotheses"] = hyp.to_dict()
     if "identification" in ident:
         doc["identification"] = ident["identification"]
-    if report is not None:
-        from tendyn.io import all_or_none, atomic_write_text, save_png, to_jsonable
-
-        out = Path(report)
-        with all_or_none(out) as stage:
-            save_png(fig7.plot(), stage / "fig7_compensation.png")
-            if hyp is not None:
-                save_png(hyp.plot(), stage / "s0_hypotheses.png")
-            atomic_write_text(stage / "fig7_compensation.json", json.dumps(to_jsonable(fig7.to_dict()), indent=2))
-            atomic_write_text(stage / "s0.json", json.dumps(to_jsonable(doc), indent=2))
-        doc["report"] = {"figure": str(out / "fig7_compensation.png"), "data": str(out / "s0.json")}
     doc["_table"] = fig7.table() + ("\n\n" + hyp.table() if hyp is not None else "")
+    doc["_figures"] = {"fig7_compensation": fig7, **({"s0_hypotheses": hyp} if hyp is not None else {})}
     return doc

@@ -399,6 +399,9 @@ class Fig7Result(Result):
         """1 − RMS(compensated) / RMS(gravity only) [-] (C11: > 0.5)."""
         return 1.0 - self.compensated.rms_joint1 / self.gravity_only.rms_joint1
 
+    reading = ('The joint-1 torque the hand applies in free motion over time, with gravity compensation only and '
+               'with friction compensation too (S0 Fig. 7): the smaller the curve, the lighter the device feels.')
+
     def _draw(self, ax) -> None:
         for run, color, label in ((self.gravity_only, "tab:red", "gravity compensation only"),
                                   (self.compensated, "tab:blue",

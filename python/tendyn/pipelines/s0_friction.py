@@ -252,6 +252,9 @@ class StrategyComparison(Result):
         lines.append("S2 smaller error: " + ", ".join(f"t{t} {'yes' if v else 'NO'}" for t, v in better.items()))
         return "\n".join(lines)
 
+    reading = ('For each transmission, the rms error of the friction identified by strategy S1 and by S2 against the '
+               "twin's truth (bars), with the 1σ of the fit (black ticks): the lower bar is the better strategy.")
+
     def _draw(self, ax) -> None:
         """RMS torque error of S1 and S2 per transmission (bars)."""
         ts = self.transmissions

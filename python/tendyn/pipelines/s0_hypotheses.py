@@ -109,6 +109,9 @@ class HypothesesResult(Result):
         """The run with switch ``name`` flipped from the paper's setting ("" = the paper's setting)."""
         return next(r for _, flipped, r in self.runs if flipped == name)
 
+    reading = ("Each bar is the reduction of the joint-1 hand torque with one of S0's hypotheses switched off (blue: "
+               'all on); bars left of the red line at 50 % miss claim C11.')
+
     def _draw(self, ax) -> None:
         names = ["S0 hypotheses"] + [f"{n}: {h.__dict__[n]}" for h, n, _ in self.runs if n]
         red = [100 * self.reduction(r) for _, _, r in self.runs]

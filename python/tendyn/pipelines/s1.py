@@ -133,18 +133,25 @@ class S1Report(Result):
     _panels = 3
     _figsize = (5.0, 3.8)
 
+    reading = ("Gain against frequency at each input amplitude: open loop (left), with S1's loop-shaping controller "
+               '(middle), and the Wiener model (right); curves that coincide mean the loop removed the amplitude '
+               'dependence.')
+
     def _draw(self, ax) -> None:
         a = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         for amp, r in self.open_loop.items():
-            a[0].semilogy(r.freq_hz, r.magnitude, "o-", ms=2, label=f"{amp:g} N")
+            a[0].semilogy(r.freq_hz, r.magnitude, "o-", ms=2, label=f"input {amp:g} N")
+        a[0].set_ylabel("|F_m / F_τ| [-]")
         a[0].set_title(f"open loop (spread {self.summary['open_loop_spread_db']:.1f} dB < 30 Hz)")
         if len(a) > 1:
             for amp, r in self.closed_loop.items():
-                a[1].semilogy(r.freq_hz, r.magnitude, "o-", ms=2, label=f"{amp:g} N")
+                a[1].semilogy(r.freq_hz, r.magnitude, "o-", ms=2, label=f"input {amp:g} N")
+            a[1].set_ylabel("|F_m / (T(0) r)| [-]")
             a[1].set_title(f"C = L/P̂, F_m/(T(0) r) (spread {self.summary['closed_loop_spread_db']:.2f} dB)")
         if len(a) > 2:
             for amp, r in self.wiener.items():
-                a[2].semilogy(r.freq_hz, r.magnitude, "--", label=f"Wiener {amp:g} N")
+                a[2].semilogy(r.freq_hz, r.magnitude, "--", label=f"Wiener model, input {amp:g} N")
+            a[2].set_ylabel("|F_m / F_τ| [-]")
             a[2].set_title("Wiener model: the peak does not move")
         for x in a:
             x.set_xlabel("frequency [Hz]")
@@ -425,6 +432,9 @@ class _IOLoops(Result):
 
     loops: dict
     T0: float
+
+    reading = ('Output force against input force over one cycle; the area of each loop (legend) measures the '
+               'hysteresis the loop leaves.')
 
     def _draw(self, ax) -> None:
         for name, lp in self.loops.items():

@@ -328,6 +328,9 @@ class CompensationResult(Result):
                           title="handle released at rest")
         return t1 + "\n\n" + t2
 
+    reading = ('Left: the hand force while dragging the handle at constant speed, one curve per under-estimation '
+               'factor k; right: the friction left against k, felt on the twin and predicted.')
+
     def _draw(self, ax) -> None:
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]
         for i, s in enumerate(self.strokes):

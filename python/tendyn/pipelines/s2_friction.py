@@ -83,6 +83,7 @@ class FrictionProtocol(Result):
     decision: dict
     conds: dict
     points: dict = field(default_factory=dict, repr=False)
+    paper: bool = True      # S2's twin: the table shows S2's printed values beside (tendyn.devices.is_twin_of)
 
     def to_dict(self) -> dict:
         return {"table3": [dict(name=k, **v) for k, v in self.rows.items()], "passive_joints": self.decision,
@@ -91,13 +92,19 @@ class FrictionProtocol(Result):
     def table(self) -> str:
         rows = [(k, f"{v['value']:.4g}", v["unit"], f"{v['rel_stderr_pct']:.3g}", f"{v['paper'][0]:g}",
                  f"{v['paper'][1]:g}") for k, v in self.rows.items()]
-        text = format_table(("Parameter", "Value", "Unit", "Rel. dev. %", "S2 value", "S2 rel. dev. %"), rows,
+        headers = ("Parameter", "Value", "Unit", "Rel. dev. %", "S2 value", "S2 rel. dev. %")
+        if not self.paper:                       # another device: S2's numbers are not its numbers
+            headers, rows = headers[:4], [r[:4] for r in rows]
+        text = format_table(headers, rows,
                             title="Friction of the arm (S2 Table 3), joint side")
         dec = self.decision
         zs = ", ".join(f"{k}: z = {v['z']:+.2f}" for k, v in dec["differences"].items())
         return (text + f"\ncond(W) of the friction fits: " + ", ".join(f"{k} {c:.3g}" for k, c in self.conds.items())
                 + f"\npassive-joint friction (C34): {zs} -> "
                 + ("negligible" if dec["passive_friction_negligible"] else "NOT negligible") + f" (|z| < {dec['z_max']:g})")
+
+    reading = ('Friction torque of each constant-velocity test (half-difference of a pair of opposite speeds) '
+               'against speed, per joint: the level at low speed is the Coulomb friction, the slope the viscous one.')
 
     def _draw(self, ax) -> None:
         for k, (v, y) in self.points.items():

@@ -90,6 +90,9 @@ class StiffnessFit(Result):
         return format_table(("Parameter", "Value", "Unit", "Relative deviation %"), rows,
                             title=f"blocked link, drive of joint {self.drive}: cond(W) = {self.cond:.3g}")
 
+    reading = ('Torque against angle with the links blocked, with the fitted line whose slope is the capstan '
+               'stiffness; the loop width is friction.')
+
     def _draw(self, ax) -> None:
         ax.plot(self.dq, self.torque, lw=0.6, label="measured")
         g = np.linspace(self.dq.min(), self.dq.max(), 2)

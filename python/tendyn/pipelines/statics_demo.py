@@ -51,6 +51,9 @@ class StaticsDemo(Result):
             })
         return out
 
+    reading = ('For each transmission: the motor torque needed (vertical) to deliver a joint torque (horizontal), '
+               'lossless (dashed) and with the losses at either speed; the gap is the friction.')
+
     def _draw(self, ax) -> None:
         """One panel per swept joint: ``ax`` is one Axes per sweep (or one Axes for a single sweep)."""
         axes = list(np.ravel(np.asarray(ax, dtype=object))) if isinstance(ax, (list, tuple, np.ndarray)) else [ax]

@@ -42,9 +42,21 @@ METRIC_LABELS = {"peak_shift_hz": "open-loop peak shift [Hz]", "open_loop_spread
                  "robust_performance": "|| |W1 S| + |W2 T| ||_inf [-]"}
 
 
+SPREAD_BOUND_DB = 120.0
+"""A spread of |H| across amplitudes above this [dB] (a ratio of 10⁶) is no response of a moving bench: one of the
+responses sits at the 1e-12 floor of :func:`tendyn.pipelines.s1.spread_db` (the output did not move, or the
+loop went unstable). Flagged, not dropped."""
+
 MAX_DESIGNS = 10_000
 """Most designs a sweep evaluates (each is several twin runs: 10 000 is hours on a laptop); checked before the
 grid is built, so `N = 10**9` is one line, not a MemoryError after minutes."""
+
+
+def field_label(name: str) -> str:
+    """An axis label of a bench field: its name and unit from the device schema (``name [unit]``)."""
+    from tendyn.device.tendon_bench import BENCH_FIELDS
+
+    return f"{name} [{BENCH_FIELDS[name][0] if name in BENCH_FIELDS else '-'}]"
 
 
 def parse_param(text: str) -> tuple[str, np.ndarray]:
@@ -121,9 +133,37 @@ class SweepResult(Result):
     rows: list
     metric: str
     scheduler: str = "local"
+    freqs_hz: Sequence[float] | None = None     # the stepped-sine grid [Hz] the peaks are picked on
+
+    reading = ("Each point is one design of the grid; the vertical axis (or the colour) is the metric named in "
+               "its label, computed from stepped sines on the twin at every input amplitude.")
 
     def column(self, name: str) -> np.ndarray:
         return np.array([r[name] for r in self.rows], float)
+
+    @property
+    def warnings(self) -> list[str]:
+        """Peaks on the first or last frequency of the grid (the true peak may lie beyond it) and spreads beyond
+        :data:`SPREAD_BOUND_DB`, one sentence per column."""
+        out = []
+        if self.freqs_hz is not None and len(self.freqs_hz) > 1 and self.rows:
+            lo, hi = float(min(self.freqs_hz)), float(max(self.freqs_hz))
+            for col in [c for c in self.rows[0] if "peak_hz" in c]:
+                v = self.column(col)
+                for edge, name in ((lo, "lowest"), (hi, "highest")):
+                    n = int(np.sum(np.isclose(v, edge)))
+                    if n:
+                        out.append(f"{col}: {n} of {v.size} designs peak at {edge:g} Hz, the {name} frequency of "
+                                   f"the grid ({lo:g}–{hi:g} Hz): the true peak may lie outside it")
+        for col in ("open_loop_spread_db", "closed_loop_spread_db"):
+            if self.rows and col in self.rows[0]:
+                v = self.column(col)
+                big = v[np.isfinite(v) & (v > SPREAD_BOUND_DB)]
+                if big.size:
+                    out.append(f"{col}: {big.size} of {v.size} designs spread {big.max():.4g} dB > "
+                               f"{SPREAD_BOUND_DB:g} dB: one response is at the numerical floor (no motion, or an "
+                               "unstable loop), not a measurable spread")
+        return out
 
     def _draw(self, ax) -> None:
         names = list(self.params)
@@ -132,7 +172,7 @@ class SweepResult(Result):
             x = self.column(names[0])
             order = np.argsort(x)
             ax.plot(x[order], z[order], "o-")
-            ax.set_xlabel(names[0])
+            ax.set_xlabel(field_label(names[0]))
             ax.set_ylabel(METRIC_LABELS.get(self.metric, self.metric))
             if x.min() > 0 and x.max() / x.min() > 10:
                 ax.set_xscale("log")
@@ -140,14 +180,16 @@ class SweepResult(Result):
             a, b = names[:2]
             sc = ax.scatter(self.column(a), self.column(b), c=z, s=60, cmap="viridis")
             ax.figure.colorbar(sc, ax=ax, label=METRIC_LABELS.get(self.metric, self.metric))
-            ax.set_xlabel(a)
-            ax.set_ylabel(b)
+            ax.set_xlabel(field_label(a))
+            ax.set_ylabel(field_label(b))
         ax.set_title(f"{self.device}: {self.metric}")
         ax.grid(alpha=0.3)
 
     def to_dict(self) -> dict:
         return {"device": self.device, "params": {k: list(map(float, v)) for k, v in self.params.items()},
-                "metric": self.metric, "scheduler": self.scheduler, "rows": self.rows}
+                "metric": self.metric, "scheduler": self.scheduler, "rows": self.rows,
+                "freqs_hz": None if self.freqs_hz is None else [float(f) for f in self.freqs_hz],
+                "warnings": self.warnings}
 
     def table(self) -> str:
         cols = list(self.params) + [self.metric]
@@ -240,7 +282,8 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
         futures = client.map(evaluate_design, [fields] * len(grid), grid, [list(amplitudes)] * len(grid),
                              [freqs_hz] * len(grid), loop=loop, pure=False)
         rows = gather_in_order(futures, f"{bench.name}: sweep", "design", progress)
-    return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)")
+    return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)",
+                       [float(f) for f in freqs_hz])
 
 
 def _parquet_bytes(result: SweepResult) -> bytes:

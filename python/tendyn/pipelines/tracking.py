@@ -80,6 +80,10 @@ class TrackingRun(Result):
         return np.maximum(np.abs(self.scale_constant[keep] / t - 1).max(axis=0),
                           np.abs(self.scale_viscous[keep] / t - 1).max(axis=0))
 
+    reading = ('The friction scales tracked online (one colour per transmission, solid Coulomb, dashed viscous) '
+               "against the twin's drifting friction factor (black): the closer they follow it, the better the "
+               'tracking.')
+
     def _draw(self, ax) -> None:
         ax.plot(self.time, self.truth, color="k", lw=2.0, label="twin's friction factor")
         for i in range(self.scale_constant.shape[1]):

@@ -218,6 +218,9 @@ class ZWidthResult(Result):
     def __post_init__(self):
         self._panels = len(self.modes)      # one panel per mode (Result.plot)
 
+    reading = ('Each point is one rendered wall (stiffness K, damping B): green stable, red crosses unstable; the '
+               'black line is the Colgate passivity bound, and the stable region is the Z-width of the device.')
+
     def _draw(self, ax) -> None:
         axes = list(ax) if isinstance(ax, (list, tuple)) else [ax]
         for ax_, mode in zip(axes, self.modes):

@@ -204,6 +204,9 @@ class PeakSearch(Result):
     coarse: FrequencyResponse
     fine: FrequencyResponse | None
 
+    reading = ('A coarse stepped sine, then a fine one around its largest gain; the dotted vertical line marks the '
+               'resonance found.')
+
     def _draw(self, ax) -> None:
         self.coarse.plot(ax)
         if self.fine is not None:
@@ -284,6 +287,9 @@ class LowSpeedLoop(Result):
     freq_hz: float
     amplitude_N: float
     device: str = ""
+
+    reading = ('The sensed force against the commanded force over a slow cycle: a flat stretch around zero is the '
+               'dead band, the dashed diagonal a perfect transmission.')
 
     def _draw(self, ax) -> None:
         ax.plot(self.u, self.force, lw=1.2, label=f"{self.freq_hz:g} Hz, {self.amplitude_N:.2f} N")
