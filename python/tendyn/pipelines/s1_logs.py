@@ -29,6 +29,7 @@ import numpy as np
 from tendyn.ident.blockmodel import BlockModel, records_from_logs
 from tendyn.ident.frf import frf_from_logs
 from tendyn.sim import excitation
+from tendyn.sim.catalogue import PRBS_CLOCK_HZ
 from tendyn.sim.tendon_bench import bench_log, simulate
 
 __all__ = ["LOG_RATE_HZ", "PRBS_AMPLITUDES", "bench_records", "prbs_logs", "record_log", "s1_from_logs",
@@ -42,9 +43,6 @@ PRBS_AMPLITUDES = (0.5, 1.0, 2.0)
 """PRBS levels ±A [N] of the estimation logs (the dead-band ≈ 0.25 N to well above it)."""
 VALIDATION_AMPLITUDES = (0.4, 1.5)
 """PRBS levels [N] of the validation logs."""
-PRBS_CLOCK_HZ = 50.0
-"""PRBS clock [Hz]: a level lasts 20 ms; power flat to ≈ 22 Hz. Chosen on the McGill twin, where it gives the
-dead-band 2 F_c (a 100 Hz clock gives 0.40 N there); on other benches it does not (docs/bench-identification.md)."""
 PRBS_DURATION_S = 12.0
 BAND_HZ = (2.0, 20.0)
 """Band [Hz] in which the identified linear block is compared with G(s) (inside the PRBS's flat power)."""

@@ -33,6 +33,10 @@ BENCH_RATE_HZ = (1_000.0, 1_000_000.0)
 MEMORY_SHARE = 0.8
 """A run may use at most this share of the memory available when it starts."""
 
+PRBS_CLOCK_HZ = 50.0
+"""Default PRBS clock of a tendon bench [Hz] (`simulate … prbs`, `pipeline s1`): a level lasts 20 ms; power flat
+to ≈ 22 Hz. Chosen on the McGill twin, where it gives the dead-band 2 F_c (a 100 Hz clock gives 0.40 N there); on other benches it does not (docs/bench-identification.md)."""
+
 
 @dataclass(frozen=True)
 class Option:
@@ -329,8 +333,6 @@ def _check_bench(device, exp: Experiment, o: dict) -> None:
     _check_signal(o, o["rate"])
     if "clock" in o:
         if o["clock"] is None:
-            from tendyn.pipelines.s1_logs import PRBS_CLOCK_HZ
-
             o["clock"] = PRBS_CLOCK_HZ
         if o["clock"] > o["log_rate"] / 2:
             raise UsageError(f"must be at most half of --log-rate, {o['log_rate'] / 2:g} Hz (got {o['clock']:g})",
