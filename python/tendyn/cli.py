@@ -235,12 +235,15 @@ def cmd_simulate(args) -> int:
         bar.close()
     wall = time.perf_counter() - t0
 
+    from tendyn.io.files import interrupts_deferred
+
     written = []
-    for k, run in enumerate(runs):
-        path = out if len(runs) == 1 else out.with_name(f"{out.stem}_{k + 1:02d}{out.suffix}")
-        log_path, truth_path = _write_run(run.log, run.truth, path)
-        written.append({"log": str(log_path), "truth": str(truth_path), "n_samples": run.log.n_samples,
-                        "duration_s": float(run.log.time[-1] - run.log.time[0])})
+    with interrupts_deferred():     # a Ctrl-C while writing: every run's pair written, then exit 130
+        for k, run in enumerate(runs):
+            path = out if len(runs) == 1 else out.with_name(f"{out.stem}_{k + 1:02d}{out.suffix}")
+            log_path, truth_path = _write_run(run.log, run.truth, path)
+            written.append({"log": str(log_path), "truth": str(truth_path), "n_samples": run.log.n_samples,
+                            "duration_s": float(run.log.time[-1] - run.log.time[0])})
     simulated = sum(w["duration_s"] for w in written)
     summary = {"device": dev.name, "experiment": args.experiment, "seed": opts["seed"],
                "options": {k: v for k, v in opts.items() if v is not None},
@@ -395,6 +398,40 @@ def _config_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _interrupt_is_exit_130(run):
+    """Ctrl-C is exit 130 wherever it lands: also while an error is being reported and, for the process's own
+    command line (``argv`` None), after the command has returned until the process exits — there the
+    interpreter would otherwise die of the signal (status -2, not 130)."""
+    import functools
+
+    @functools.wraps(run)
+    def guarded(argv: list[str] | None = None) -> int:
+        try:
+            code = run(argv)
+        except KeyboardInterrupt:
+            print("tendyn: interrupted", file=sys.stderr)
+            code = 130
+        if argv is None:
+            import signal
+
+            try:
+                signal.signal(signal.SIGINT, _exit_130)
+            except ValueError:      # not the main thread: nothing to guard
+                pass
+        return code
+    return guarded
+
+
+def _exit_130(signum, frame) -> None:
+    """SIGINT after the command returned: every output is already whole; flush and exit 130 at once."""
+    try:
+        sys.stdout.flush()
+        print("tendyn: interrupted", file=sys.stderr, flush=True)
+    finally:
+        os._exit(130)
+
+
+@_interrupt_is_exit_130
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv

@@ -15,8 +15,6 @@ import dataclasses
 import numpy as np
 
 from .estimate import IDIM
-from tendyn.io.files import parse_json
-
 from .model import IdentModel
 from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
                         parallel_filter_taps)
@@ -257,13 +255,19 @@ class StreamingIDIM:
         return IdentifiedModel(cached_model(self.device).device, d["params"], d["method"], d["treatment"])
 
     def fit(self, path):
+        import pyarrow as pa
         import pyarrow.parquet as pq
+
+        from tendyn.io.logs import LogError, read_meta
 
         from .estimate import IdentificationResult, cached_model
 
         model = cached_model(self.device)
-        pf = pq.ParquetFile(str(path))
-        meta = parse_json(pf.schema_arrow.metadata[b"tendyn"].decode())
+        meta = read_meta(path)                  # a LogError naming the file, not a KeyError
+        try:
+            pf = pq.ParquetFile(str(path))
+        except (pa.ArrowException, OSError) as exc:
+            raise LogError(f"not a readable Parquet file: {exc}", file=str(path)) from None
         # the units of the file's columns (a prismatic joint's in m, N), checked as in memory
         schema = pf.schema_arrow
         model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})
