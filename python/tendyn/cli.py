@@ -400,8 +400,9 @@ def _config_parser() -> argparse.ArgumentParser:
 
 def _interrupt_is_exit_130(run):
     """Ctrl-C is exit 130 wherever it lands: also while an error is being reported and, for the process's own
-    command line (``argv`` None), after the command has returned until the process exits — there the
-    interpreter would otherwise die of the signal (status -2, not 130)."""
+    command line (``argv`` None), after the command has returned. There the process ends itself: exit handlers
+    run with Ctrl-C meaning exit 130, then ``os._exit`` — the interpreter's own teardown would restore the default
+    SIGINT action first, and a Ctrl-C in it killed the process by the signal (status -2, not 130)."""
     import functools
 
     @functools.wraps(run)
@@ -411,14 +412,23 @@ def _interrupt_is_exit_130(run):
         except KeyboardInterrupt:
             print("tendyn: interrupted", file=sys.stderr)
             code = 130
-        if argv is None:
-            import signal
+        if argv is not None:
+            return code
+        import atexit
+        import signal
+        import threading
 
-            try:
-                signal.signal(signal.SIGINT, _exit_130)
-            except ValueError:      # not the main thread: nothing to guard
-                pass
-        return code
+        if threading.current_thread() is not threading.main_thread():
+            return code
+        signal.signal(signal.SIGINT, _exit_130)
+        try:
+            atexit._run_exitfuncs()             # what the interpreter's exit would run (finalizers, flushes)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except BrokenPipeError:
+            pass
+        finally:
+            os._exit(code)
     return guarded
 
 

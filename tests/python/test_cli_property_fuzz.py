@@ -77,9 +77,29 @@ DEVICES = ["lexos", "cea_branch", "mcgill_bench", "tx40", "nope", "{in}/dev3.tom
 OUTPUT_NAMES = ("out", "report", "figure", "csv", "parquet", "plot", "db")
 
 
+def _import_everything() -> None:
+    """Every tendyn module and the heavy libraries they import lazily, before the first case: an interrupt that
+    lands in a first import leaves that library half-imported in this process (a real run would have ended)."""
+    import importlib
+    import pkgutil
+
+    import tendyn
+
+    for name in ("scipy.signal", "scipy.linalg", "scipy.optimize", "scipy.stats", "scipy.interpolate", "sympy",
+                 "control", "cvxpy", "matplotlib.pyplot", "pyarrow.parquet", "pyarrow.csv", "dask.distributed",
+                 "tqdm"):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
+    for info in pkgutil.walk_packages(tendyn.__path__, "tendyn."):
+        importlib.import_module(info.name)
+
+
 @pytest.fixture(scope="module")
 def pool(tmp_path_factory):
     """Good input files of every kind (made by the commands themselves) and bad ones, in ``{in}``."""
+    _import_everything()
     from tendyn.analysis.operational import true_params
     from tendyn.device import load_device
     from tendyn.devices import bundled
@@ -282,6 +302,7 @@ def _fuzz(pool, tmp_path, capsys, monkeypatch, budget_s: float, max_examples: in
         seen.add(tuple(argv[:2]))
 
     check()
+    print(f"exit codes {counts}; commands reached: {len({s[0] for s in seen})}")
     return counts, seen
 
 

@@ -70,15 +70,16 @@ def multisine(amplitude: float, duration_s: float, rate_hz: float, *, band_hz=(1
         raise ValueError(f"band_hz must satisfy 0 <= lo < hi < rate_hz/2 (got {band_hz!r})")
     if not (math.isfinite(period_s) and period_s * rate_hz >= 2):
         raise ValueError(f"period_s must hold at least 2 samples (got {period_s!r})")
-    ks = np.arange(max(1, math.ceil(lo * period_s)), math.floor(hi * period_s) + 1)
-    if ks.size == 0:
+    k0, k1 = max(1, math.ceil(lo * period_s)), math.floor(hi * period_s)
+    if k1 < k0:
         raise ValueError(f"no multiple of 1/period_s = {1 / period_s:g} Hz inside band_hz {band_hz!r}")
+    m = int(round(period_s * rate_hz))             # the lines x samples table, sized before anything is built
+    _require_memory(16.0 * m * (k1 - k0 + 1), f"a multisine of {k1 - k0 + 1} lines over {m} samples per period")
+    ks = np.arange(k0, k1 + 1)
     if seed is None:
         phases = -math.pi * ks * (ks - 1) / ks.size                 # Schroeder
     else:
         phases = np.random.default_rng(seed).uniform(0, 2 * math.pi, ks.size)
-    m = int(round(period_s * rate_hz))
-    _require_memory(16.0 * m * ks.size, f"a multisine of {ks.size} lines over {m} samples per period")
     t = np.arange(m) / rate_hz
     one = np.sin(2 * math.pi * np.outer(t, ks / period_s) + phases).sum(axis=1)
     one *= amplitude / np.max(np.abs(one))
