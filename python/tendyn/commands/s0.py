@@ -240,7 +240,7 @@ def run_identify_friction(args) -> int:
     check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
-                            load=args.load, force=args.force)
+                            load=args.load, force=getattr(args, "force", False))
     write_friction(doc, args.out)
     record_result(args, dev, "identify-friction", doc, source=", ".join(str(p) for p in args.logs))
     if args.json:
@@ -295,7 +295,7 @@ def run_decompose(args) -> int:
 
     dev = cable_device(args.device, "to decompose friction into")
     try:
-        doc = read_friction(args.friction, device=dev, physical=True, force=args.force)
+        doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
         p = pp = None
         if args.shares is not None:
             p, pp = read_shares(args.shares, dev)
