@@ -479,6 +479,9 @@ def main(argv: list[str] | None = None) -> int:
         _quiet_stdout()
         return 0
     except Exception as exc:  # noqa: BLE001 — the one place that turns a bug into one clear line
+        if _name_too_long(exc):                 # a path argument longer than the file system allows: input
+            print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
         if debug:
             import traceback
 
@@ -487,6 +490,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"tendyn: internal error in `{command}`: {type(exc).__name__}: {_one_line(exc)}{hint}",
               file=sys.stderr)
         return 3
+
+
+def _name_too_long(exc: BaseException) -> bool:
+    """An OSError of a path given on the command line (or a file inside it) that is longer than the file system
+    allows (ENAMETOOLONG): wherever it is first touched (an existence check, a read, a write probe), it is the
+    user's input, not a bug."""
+    import errno
+
+    return isinstance(exc, OSError) and exc.errno == errno.ENAMETOOLONG
 
 
 def _one_line(exc: BaseException) -> str:

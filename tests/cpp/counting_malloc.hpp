@@ -20,7 +20,9 @@ inline long count = 0;
 }  // namespace counting
 
 #ifdef TENDYN_COUNTING_WITH_ASAN
-#include <sanitizer/allocator_interface.h>
+// <sanitizer/allocator_interface.h> is not installed with every compiler: the one declaration needed
+extern "C" int __sanitizer_install_malloc_and_free_hooks(void (*malloc_hook)(const volatile void*, std::size_t),
+                                                         void (*free_hook)(const volatile void*));
 
 namespace counting {
 inline void on_malloc(const volatile void*, std::size_t) {

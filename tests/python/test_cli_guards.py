@@ -170,6 +170,18 @@ def test_an_error_in_imported_data_names_the_raw_file_not_memory(tmp_path, capsy
     assert "<memory>" not in err[0]
 
 
+@pytest.mark.parametrize("argv", [["simulate", "a" * 300, "exciting", "--out", "{tmp}/x.csv"],
+                                  ["decompose", "lexos", "b" * 300],
+                                  ["plan", "prbs", "--amplitude", "1", "--duration", "1", "--name", "v", "--unit", "V",
+                                   "--out", "{tmp}/" + "c" * 300 + ".csv"]])
+def test_a_path_longer_than_the_file_system_allows_is_an_input_error(tmp_path, capsys, argv):
+    """ENAMETOOLONG from an existence check was an internal error (exit 3)."""
+    code = main([a.replace("{tmp}", str(tmp_path)) for a in argv])
+    err = _err(capsys)
+    assert code == 2 and len(err) == 1 and err[0].startswith("tendyn: error: ") and "too long" in err[0], err
+    assert list(tmp_path.iterdir()) == []
+
+
 # ---- Ctrl-C --------------------------------------------------------------------------------------------------
 
 def test_a_ctrl_c_while_files_are_put_in_place_is_held_until_the_set_is_whole():
