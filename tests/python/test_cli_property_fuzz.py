@@ -5,7 +5,7 @@ For each example, Hypothesis draws a command, then for each of its arguments whe
 a choice of the option (mostly) or a strange token, a good or corrupted input file of every kind, an output
 path (missing folder, a folder, /proc, an input file, a wrong suffix). The command runs in process
 (``tendyn.cli.main``) with a per-case budget: a case still working when it runs out is interrupted as by
-Ctrl-C (SIGALRM raising KeyboardInterrupt), which must then end as exit 130. The properties:
+Ctrl-C (SIGALRM sending SIGINT), which must then end as exit 130. The properties:
 
 * exit 0, 1, 2 or 130 only (never 3, an internal error; never a traceback);
 * exit 2: exactly one line on stderr, ``tendyn: error: …``; nothing written (the case's folder, which is the
@@ -222,7 +222,7 @@ def invocation(draw) -> list[str]:
 # ---- one case ------------------------------------------------------------------------------------------------
 
 class _Budget:
-    """SIGALRM after ``seconds`` raises KeyboardInterrupt in the command, as Ctrl-C would."""
+    """SIGALRM after ``seconds`` sends the process SIGINT, as Ctrl-C would (KeyboardInterrupt in the command)."""
 
     def __init__(self, seconds: float):
         self.seconds = seconds
@@ -232,7 +232,7 @@ class _Budget:
             # not inside the harness's own hooks (Hypothesis' gc callback, pytest's unraisable hook): there the
             # interrupt would be swallowed or printed as theirs; the timer rings again a second later
             if not any(h in frame.f_code.co_filename for h in ("hypothesis", "_pytest", "pluggy")):
-                raise KeyboardInterrupt
+                signal.raise_signal(signal.SIGINT)      # as Ctrl-C: held where the command holds it
 
         self.old = signal.signal(signal.SIGALRM, ring)
         signal.setitimer(signal.ITIMER_REAL, self.seconds, 1.0)   # again each second: one may land in a gc hook
