@@ -43,7 +43,8 @@ test-cpp: install
 	ctest --test-dir build/cpp --output-on-failure
 
 # The C++ tests and the C loaders' fuzz under AddressSanitizer + UndefinedBehaviorSanitizer (leaks included):
-# any finding fails the test (exit status). ~3 min on 2 cores the first time (not part of `make test`: docs/testing.md).
+# any finding fails the test (exit status). Not part of `make test`: the C ABI alone is ~3 min of CPU to build under
+# the sanitizers, the Pinocchio tests far more (docs/c-package.md).
 ASAN_ENV := ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1 \
             UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 test-asan: install
