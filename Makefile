@@ -7,7 +7,7 @@ STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-python test-cpp tools demo bench mutants docs clean
+.PHONY: install test test-python test-cpp test-asan tools demo bench mutants docs clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -45,6 +45,18 @@ test-cpp: install
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	ctest --test-dir build/cpp --output-on-failure
+
+# The C++ tests and the C loaders' fuzz under AddressSanitizer + UndefinedBehaviorSanitizer (leaks included):
+# any finding fails the test (exit status). Not part of `make test`: the C ABI alone is ~3 min of CPU to build under
+# the sanitizers, the Pinocchio tests far more (docs/c-package.md).
+ASAN_ENV := ASAN_OPTIONS=detect_leaks=1:abort_on_error=0:strict_string_checks=1:detect_stack_use_after_return=1 \
+            UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+test-asan: install
+	mkdir -p build
+	cmake -S . -B build/asan -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_TESTS=ON -DTENDYN_SANITIZE=ON \
+	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=RelWithDebInfo > build/asan.log 2>&1 || (cat build/asan.log; exit 1)
+	cmake --build build/asan -j 2 >> build/asan.log 2>&1 || (cat build/asan.log; exit 1)
+	$(ASAN_ENV) ctest --test-dir build/asan --output-on-failure
 
 # Plant each bug of tests/mutants/mutants.toml in a scratch copy (/tmp), rebuild, run its tests, print the
 # kill rate (~20 min on 2 cores). MUTANTS_ARGS="--tests-from main" measures another ref's tests.

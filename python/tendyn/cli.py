@@ -346,12 +346,15 @@ def cmd_simulate(args) -> int:
         bar.close()
     wall = time.perf_counter() - t0
 
+    from tendyn.io.files import interrupts_deferred
+
     written = []
-    for k, run in enumerate(runs):
-        path = out if len(runs) == 1 else out.with_name(f"{out.stem}_{k + 1:02d}{out.suffix}")
-        log_path, truth_path = _write_run(run.log, run.truth, path)
-        written.append({"log": str(log_path), "truth": str(truth_path), "n_samples": run.log.n_samples,
-                        "duration_s": float(run.log.time[-1] - run.log.time[0])})
+    with interrupts_deferred():     # a Ctrl-C while writing: every run's pair written, then exit 130
+        for k, run in enumerate(runs):
+            path = out if len(runs) == 1 else out.with_name(f"{out.stem}_{k + 1:02d}{out.suffix}")
+            log_path, truth_path = _write_run(run.log, run.truth, path)
+            written.append({"log": str(log_path), "truth": str(truth_path), "n_samples": run.log.n_samples,
+                            "duration_s": float(run.log.time[-1] - run.log.time[0])})
     simulated = sum(w["duration_s"] for w in written)
     summary = {"device": dev.name, "experiment": args.experiment, "seed": opts["seed"],
                "options": {k: v for k, v in opts.items() if v is not None},
@@ -548,6 +551,51 @@ def _error_kind(exc: BaseException) -> str | None:
     return None
 
 
+
+def _interrupt_is_exit_130(run):
+    """Ctrl-C is exit 130 wherever it lands: also while an error is being reported and, for the process's own
+    command line (``argv`` None), after the command has returned. There the process ends itself: exit handlers
+    run with Ctrl-C meaning exit 130, then ``os._exit`` — the interpreter's own teardown would restore the default
+    SIGINT action first, and a Ctrl-C in it killed the process by the signal (status -2, not 130)."""
+    import functools
+
+    @functools.wraps(run)
+    def guarded(argv: list[str] | None = None) -> int:
+        try:
+            code = run(argv)
+        except KeyboardInterrupt:
+            print("tendyn: interrupted", file=sys.stderr)
+            code = 130
+        if argv is not None:
+            return code
+        import atexit
+        import signal
+        import threading
+
+        if threading.current_thread() is not threading.main_thread():
+            return code
+        signal.signal(signal.SIGINT, _exit_130)
+        try:
+            atexit._run_exitfuncs()             # what the interpreter's exit would run (finalizers, flushes)
+            sys.stdout.flush()
+            sys.stderr.flush()
+        except BrokenPipeError:
+            pass
+        finally:
+            os._exit(code)
+    return guarded
+
+
+def _exit_130(signum, frame) -> None:
+    """SIGINT after the command returned: every output is already whole; flush and exit 130 at once."""
+    try:
+        sys.stdout.flush()
+        print("tendyn: interrupted", file=sys.stderr, flush=True)
+    finally:
+        os._exit(130)
+
+
+@_interrupt_is_exit_130
 def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
@@ -574,6 +622,9 @@ def main(argv: list[str] | None = None) -> int:
         _quiet_stdout()
         return 0
     except Exception as exc:  # noqa: BLE001 — the one place that turns a bug into one clear line
+        if _name_too_long(exc):                 # a path argument longer than the file system allows: input
+            print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
+            return 2
         kind = _error_kind(exc)
         if kind == "input":
             print(f"tendyn: error: {_one_line(exc)}", file=sys.stderr)
@@ -589,6 +640,15 @@ def main(argv: list[str] | None = None) -> int:
         print(f"tendyn: internal error in `{command}`: {type(exc).__name__}: {_one_line(exc)}{hint}",
               file=sys.stderr)
         return 3
+
+
+def _name_too_long(exc: BaseException) -> bool:
+    """An OSError of a path given on the command line (or a file inside it) that is longer than the file system
+    allows (ENAMETOOLONG): wherever it is first touched (an existence check, a read, a write probe), it is the
+    user's input, not a bug."""
+    import errno
+
+    return isinstance(exc, OSError) and exc.errno == errno.ENAMETOOLONG
 
 
 def _one_line(exc: BaseException) -> str:

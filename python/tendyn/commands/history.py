@@ -22,10 +22,10 @@ def check_record(args) -> None:
         if getattr(args, "db", None):
             raise UsageError("--db needs --record", "db")
         return
-    from tendyn.ident.history import connect
+    from tendyn.ident.history import check_db
 
     try:
-        connect(args.db).close()
+        check_db(args.db)                       # creates nothing: a refusal later leaves no empty database
     except (ValueError, OSError) as exc:
         raise UsageError(str(exc), "db") from None
 
@@ -55,12 +55,14 @@ def register(subparsers) -> None:
 def _check_out(path: str | None, suffix: str, option: str) -> Path | None:
     if path is None:
         return None
-    out = Path(path)
-    if out.suffix.lower() != suffix:
-        raise UsageError(f"{out}: must end in {suffix}", option)
-    if not out.parent.is_dir():
-        raise UsageError(f"{out.parent}: folder not found", option)
-    return out
+    import argparse
+
+    from tendyn.commands.args import out_path
+
+    try:                                        # suffix, an existing folder, not a folder itself, writable
+        return out_path((suffix,))(path)
+    except argparse.ArgumentTypeError as exc:
+        raise UsageError(str(exc), option) from None
 
 
 def run(args) -> int:

@@ -169,6 +169,9 @@ def _identify_stream(dev, args) -> int:
     for opt in ("consistent", "essential", "parameters"):
         if getattr(args, opt):
             raise UsageError(f"--{opt} is not available with --stream", opt)
+    from tendyn.io.logs import read_meta
+
+    refuse_other_device(args.logs[0].name, read_meta(args.logs[0])["device"], dev, args.force)   # as in memory
     est = StreamingIDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
                         decimate=args.decimate, velocity_threshold=args.velocity_threshold,
                         velocities=args.velocities or "auto").fit(args.logs[0])

@@ -35,7 +35,7 @@ def register(subparsers) -> None:
                    help="write report.html, the figures (fig8.png, fig9.png; handle_maps.png), maps.json and maps.txt "
                         "into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
-    p.add_argument("--force", action="store_true", help="use a PARAMS.json whose document names another device")
+    p.add_argument("--force", action="store_true", help="use a PARAMS.json or FRICTION.json whose document names another device")
     p.set_defaults(func=run)
 
 
@@ -100,7 +100,7 @@ def _run_handle(args, dev) -> int:
         if not dev.transmissions:
             raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
         try:
-            doc = read_friction(args.friction, device=dev, physical=True)
+            doc = read_friction(args.friction, device=dev, physical=True, force=args.force)
         except FrictionFileError as exc:
             raise UsageError(str(exc)) from None
         kw.update(coulomb_motor=doc["coulomb_motor"], viscous_motor=doc["viscous_motor"])

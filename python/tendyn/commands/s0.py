@@ -113,10 +113,14 @@ def plan_constant_velocity(device, test, rate_hz: float):
     (at ``rate_hz``)."""
     from tendyn.device import compile_device
     from tendyn.io import make_log
-    from tendyn.protocols import references
+    from tendyn.protocols import duration_s, references
+    from tendyn.sim.catalogue import require_memory
 
     Gm = compile_device(device).transmission.matrices()["motor_from_joint_position"]
     n = Gm.shape[0]
+    samples = duration_s(Gm, test) * rate_hz      # checked before the references are built (plan --accel 1e-6)
+    require_memory(8.0 * samples * (2 * n + 1) * 4, "fewer speeds or loads, a shorter --travel, a larger --accel "
+                   "or a lower --rate", f"a plan of {samples:.3g} samples")
     ref_q, ref_v, space = references(Gm, test, 1.0 / rate_hz)
     cols = {"time": np.arange(ref_q.shape[0]) / rate_hz}
     prefix, vprefix = ("q_motor_ref_", "qd_motor_ref_") if space == "motor" else ("q_ref_", "qd_ref_")
@@ -184,6 +188,7 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--load", choices=("auto", "fit", "none"), default="auto",
                    help="load-dependent term c_L |C_0|: fit it when the logs determine it (auto, default), always, "
                         "or never (S0's law)")
+    p.add_argument("--force", action="store_true", help="use logs whose meta names another device")
     p.add_argument("--json", action="store_true", help="print FRICTION.json on stdout too")
     from tendyn.commands.history import add_record_arguments
 
@@ -193,10 +198,11 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
 
 
 def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | None = None, names=None,
-                      load: str = "auto") -> dict:
+                      load: str = "auto", force: bool = False) -> dict:
     """Fit every transmission from ``logs`` (:class:`tendyn.io.Log`), attach the residual-error bounds
     computed from the identified values themselves (decomposed with the default shares) and return the
-    FRICTION.json document. Raises UsageError naming the log or transmission when something is missing."""
+    FRICTION.json document. Raises UsageError naming the log or transmission when something is missing, or a log
+    whose meta names another device (unless ``force``)."""
     from tendyn.ident.decomposition import decompose
     from tendyn.ident.friction import (IdentificationError, TransmissionFriction, log_strategy,
                                        log_transmission, residual_error_bound)
@@ -206,8 +212,7 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
     n = device.n_transmissions
     groups: dict[int, list] = {}
     for name, log in zip(names, logs):
-        if not device.is_named(log.meta.get("device")):
-            raise UsageError(f"{name}: the log is about {log.meta.get('device')!r}, not {device.name!r}")
+        conv.refuse_other_device(name, log.meta.get("device"), device, force)
         t = log_transmission(log)
         if not 1 <= t <= n:
             raise UsageError(f"{name}: transmission {t}, the device has 1…{n}")
@@ -251,7 +256,7 @@ def run_identify_friction(args) -> int:
     check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
-                            load=args.load)
+                            load=args.load, force=getattr(args, "force", False))
     write_friction(doc, args.out)
     record_result(args, dev, "identify-friction", doc, source=", ".join(str(p) for p in args.logs))
     if args.json:
@@ -294,6 +299,7 @@ def add_decompose_arguments(subparsers) -> argparse.ArgumentParser:
     p.add_argument("--shares", type=conv.existing_file, default=None,
                    help="loss shares p, p' per branch (JSON, tendyn.shares/1); default: from the device's "
                         "construction (pulleys and bearings per link)")
+    p.add_argument("--force", action="store_true", help="use a FRICTION.json whose document names another device")
     p.add_argument("--json", action="store_true", help="print the decomposition as JSON on stdout")
     p.set_defaults(func=run_decompose)
     return p
@@ -306,7 +312,7 @@ def run_decompose(args) -> int:
     dev = cable_device(args.device, "to decompose friction into")
     _separable(dev, "the loss decomposition")
     try:
-        doc = read_friction(args.friction, device=dev, physical=True)
+        doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
         p = pp = None
         if args.shares is not None:
             p, pp = read_shares(args.shares, dev)

@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import number, numbers
+from tendyn.commands.args import number, numbers, out_path
 from tendyn.errors import UsageError
 
 MAX_WORKERS = 4 * (os.cpu_count() or 1)
@@ -31,7 +31,8 @@ def register(subparsers) -> None:
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler [default: a local cluster]")
     p.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
                    help=f"workers of the local cluster, 1 … {MAX_WORKERS} (4 per CPU) [default: 2]")
-    p.add_argument("--out", required=True, help="table (.parquet); the figure (.png), the report (.html) and its JSON (.json) go beside it")
+    p.add_argument("--out", type=out_path((".parquet",)), required=True,
+                   help="table (.parquet); the figure (.png), the report (.html) and its JSON (.json) go beside it")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     p.set_defaults(func=run)
@@ -66,11 +67,7 @@ def run(args) -> int:
     designs = math.prod(len(g) for g in params.values())
     if designs > MAX_DESIGNS:
         raise UsageError(f"{designs} designs: at most {MAX_DESIGNS} per sweep (MAX_DESIGNS)", "param")
-    out = Path(args.out)
-    if out.suffix.lower() != ".parquet":
-        raise UsageError(f"{out}: the table must be a .parquet file", "out")
-    if not out.parent.exists() or not out.parent.is_dir():
-        raise UsageError(f"{out.parent}: folder not found", "out")
+    out = Path(args.out)                            # suffix, folder and writable checked by out_path
     metric = args.metric or ("closed_loop_spread_db" if args.loop == "closed" else "peak_shift_hz")
     if metric == "closed_loop_spread_db" and args.loop != "closed":
         raise UsageError("closed_loop_spread_db needs --loop closed", "metric")

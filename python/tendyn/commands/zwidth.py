@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tendyn.commands.args import number
+from tendyn.commands.args import number, out_path
 from tendyn.errors import UsageError
 
 
@@ -32,8 +32,11 @@ def register(subparsers) -> None:
                    help="peak-to-peak height of a limit cycle [m] [default: 1e-4]")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
                    help="Dask scheduler [default: a local cluster; 'none': in process]")
-    p.add_argument("--workers", type=int, default=2, help="workers of the local cluster [default: 2]")
-    p.add_argument("--out", default=None, metavar="TABLE.parquet",
+    from tendyn.commands.sweep import MAX_WORKERS
+
+    p.add_argument("--workers", type=number(1, MAX_WORKERS, integer=True), default=2,
+                   help=f"workers of the local cluster, 1 … {MAX_WORKERS} (4 per CPU) [default: 2]")
+    p.add_argument("--out", type=out_path((".parquet",)), default=None, metavar="TABLE.parquet",
                    help="write the table (.parquet) and the figure beside it (.png)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
@@ -77,14 +80,13 @@ def run(args) -> int:
                              "compensator") from None
         except ValueError as exc:
             raise UsageError(str(exc), "compensator") from None
-    out = Path(args.out) if args.out else None
-    if out is not None:
-        if out.suffix.lower() != ".parquet":
-            raise UsageError(f"{out}: the table must be a .parquet file", "out")
-        if not out.parent.is_dir():
-            raise UsageError(f"{out.parent}: folder not found", "out")
-    if args.workers < 1:
-        raise UsageError(f"must be >= 1 (got {args.workers})", "workers")
+    out = Path(args.out) if args.out else None     # suffix, folder and writable checked by out_path
+    from tendyn.pipelines.sweep import MAX_DESIGNS
+
+    designs = len(stiffness) * len(damping) * len(modes)
+    if designs > MAX_DESIGNS:
+        raise UsageError(f"{designs} wall designs (stiffness x damping x modes): at most {MAX_DESIGNS} (MAX_DESIGNS)",
+                         "stiffness")
     scheduler = None if args.scheduler is None else args.scheduler
     try:
         res = run_zwidth(dev, stiffness=stiffness, damping=damping, modes=modes, compensator_text=text,

@@ -62,9 +62,9 @@ def write_friction(doc: dict, path) -> Path:
     return path
 
 
-def read_friction(path, device=None, physical: bool = False) -> dict:
-    """Read and validate a FRICTION.json; with ``device`` also check it is about that device and has
-    exactly its transmissions; ``physical``: no negative friction (:func:`validate_friction`)."""
+def read_friction(path, device=None, physical: bool = False, force: bool | None = None) -> dict:
+    """Read and validate a FRICTION.json; with ``device`` also check it is about that device (unless ``force``)
+    and has exactly its transmissions; ``physical``: no negative friction (:func:`validate_friction`)."""
     path = Path(path)
     try:
         doc = read_json(path, parse_constant=lambda c: float(c))
@@ -72,7 +72,7 @@ def read_friction(path, device=None, physical: bool = False) -> dict:
         raise FrictionFileError(f"cannot read: {e.strerror or e}", file=path) from None
     except json.JSONDecodeError as e:
         raise FrictionFileError(f"not JSON: {e.msg} (line {e.lineno})", file=path) from None
-    validate_friction(doc, device=device, source=path, physical=physical)
+    validate_friction(doc, device=device, source=path, physical=physical, force=force)
     return doc
 
 
@@ -80,10 +80,12 @@ def _finite(x) -> bool:
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
-def validate_friction(doc, device=None, source=None, physical: bool = False) -> dict:
+def validate_friction(doc, device=None, source=None, physical: bool = False, force: bool | None = None) -> dict:
     """Check a friction document; raise :class:`FrictionFileError` naming the first bad field. ``physical``: also
     refuse a negative ``coulomb_motor`` or ``viscous_motor`` (a fit may come out negative; a model that uses it
-    must not: a negative τ0 or ν would push the motion)."""
+    must not: a negative τ0 or ν would push the motion). ``force``: accept a file that names another device
+    (its transmission count must still match); False (a command with ``--force``) or None (without) only
+    changes the message."""
     def bad(field, problem):
         raise FrictionFileError(problem, file=source, field=field)
 
@@ -100,8 +102,9 @@ def validate_friction(doc, device=None, source=None, physical: bool = False) -> 
     if not isinstance(n, int) or isinstance(n, bool) or n < 1:
         bad("n_transmissions", f"must be an integer >= 1 (got {n!r})")
     if device is not None:
-        if doc["device"] != device.name:
-            bad("device", f"the file is about {doc['device']!r}, not {device.name!r}")
+        if not force and not device.is_named(doc["device"]):
+            hint = " (or --force to use it anyway)" if force is False else ""
+            bad("device", f"the file is about {doc['device']!r}, not {device.name!r}{hint}")
         if n != device.n_transmissions:
             bad("n_transmissions", f"{n} in the file, the device {device.name!r} has {device.n_transmissions}")
     for key in ("coulomb_motor", "viscous_motor"):

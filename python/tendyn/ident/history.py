@@ -25,7 +25,7 @@ import numpy as np
 
 from tendyn.results import Result, format_table
 
-__all__ = ["SCHEMA_VERSION", "MIGRATIONS", "KINDS", "default_db", "device_hash", "connect", "record",
+__all__ = ["SCHEMA_VERSION", "MIGRATIONS", "KINDS", "default_db", "device_hash", "check_db", "connect", "record",
            "parameters_of", "history", "History", "DRIFT_SIGMAS"]
 
 KINDS = ("identify", "identify-friction", "validate")
@@ -62,6 +62,40 @@ def default_db() -> Path:
 def device_hash(device) -> str:
     """SHA-256 (hex) of the device file's bytes."""
     return hashlib.sha256(Path(device.path).read_bytes()).hexdigest()
+
+
+def check_db(path=None) -> Path:
+    """Before any work: the database at ``path`` (default :func:`default_db`) can be recorded into — an existing
+    tendyn history database of this or an older schema that this user can write, or a file that can be created.
+    Reads only, creates nothing (a command refused later leaves no empty database behind). Raises ValueError."""
+    from tendyn.io.files import creatable
+
+    path = Path(path) if path is not None else default_db()
+    if not path.exists():
+        parent, problem = creatable(path)
+        if problem:
+            raise ValueError(f"{path}: cannot create: {parent} is {problem}")
+        return path
+    if not path.is_file():
+        raise ValueError(f"{path}: not a file")
+    if not os.access(path, os.R_OK | os.W_OK):
+        raise ValueError(f"{path}: permission denied")
+    try:
+        con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+    except sqlite3.Error as exc:
+        raise ValueError(f"{path}: cannot open ({exc})") from None
+    try:
+        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+        row = con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() \
+            if "meta" in tables else None
+        version = int(row[0]) if row else 0
+    except (sqlite3.DatabaseError, ValueError) as exc:
+        raise ValueError(f"{path}: not a tendyn history database ({exc})") from None
+    finally:
+        con.close()
+    if version > SCHEMA_VERSION:
+        raise ValueError(f"{path}: schema version {version} is newer than this tendyn's ({SCHEMA_VERSION})")
+    return path
 
 
 def connect(path=None) -> sqlite3.Connection:
@@ -221,7 +255,10 @@ def history(device, *, db=None, names=None) -> History:
     """The history of ``device`` (its file's hash) from the database, oldest first, drift flagged; ``names``
     keeps only these parameters."""
     h = device_hash(device)
-    con = connect(db)
+    path = Path(db) if db is not None else default_db()
+    if not path.exists():                       # nothing recorded yet: a read creates no database
+        return History(device.name, h, [], 0)
+    con = connect(path)
     try:
         rows = con.execute("SELECT r.id, r.kind, r.created, p.name, p.value, p.sigma, p.unit FROM runs r JOIN "
                            "parameters p ON p.run_id = r.id WHERE r.device_hash = ? ORDER BY r.created, r.id",

@@ -15,8 +15,6 @@ import dataclasses
 import numpy as np
 
 from .estimate import IDIM
-from tendyn.io.files import parse_json
-
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel
 from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
@@ -172,20 +170,41 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: b
     :meth:`IdentModel.joint_signals`; ``torques=False`` reads no torque column (tau has no column: the
     pass that only looks at the speeds); ``velocities``: the columns of :func:`velocity_columns` to read as
     the joint velocities qd [rad/s] (None: qd is None)."""
+    import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from tendyn.io.logs import LogError
+
     nm = model.n_motors
-    f = pq.ParquetFile(str(path))
-    names = ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + \
-        ([f"torque_motor_{i + 1}" for i in range(nm)] if torques else []) + list(velocities or [])
+    names = stream_columns(model, torques) + list(velocities or [])
+    try:        # pages verified against their checksums, as read_log does: corrupted bytes are refused
+        f = pq.ParquetFile(str(path), page_checksum_verification=True)
+    except (pa.ArrowException, OSError) as exc:
+        raise LogError(f"not a readable Parquet file: {exc}", file=str(path)) from None
+    missing = [n for n in names if n not in f.schema_arrow.names]
+    if missing:
+        raise LogError(f"identification needs {', '.join(missing)}", file=str(path), column=missing[0])
     Ginv = np.linalg.inv(model.G)
     nt = nm if torques else 0
     # row group by row group: a reader over the whole file pre-buffers ahead and holds memory in proportion
     # to the file (measured: all of a 3 M-sample log); one group at a time holds at most one group
     batches = (b for g in range(f.num_row_groups)
                for b in f.iter_batches(batch_size=rows, row_groups=[g], columns=names, use_threads=False))
-    for batch in batches:
-        cols = [batch.column(k).to_numpy() for k in range(len(names))]
+    done = 0
+    while True:
+        try:
+            batch = next(batches, None)
+        except (pa.ArrowException, OSError) as exc:
+            raise LogError(f"not a readable Parquet file: {exc}", file=str(path)) from None
+        if batch is None:
+            return
+        cols = [np.asarray(batch.column(k).to_numpy(zero_copy_only=False), dtype=float) for k in range(len(names))]
+        for name, c in zip(names, cols):            # nulls and non-finite values: what read_log refuses
+            bad = ~np.isfinite(c)
+            if bad.any():
+                raise LogError("missing or non-finite value", file=str(path), column=name,
+                               row=done + int(np.argmax(bad)))
+        done += cols[0].size
         t = cols[0]
         qm = np.column_stack(cols[1:1 + nm])
         y = np.column_stack(cols[1 + nm:1 + nm + nt]) @ model.G if torques else np.empty((t.size, 0))
@@ -269,6 +288,13 @@ def subtract_known(model: IdentModel, chunks):
     for t, q, tau, *rest in chunks:
         known = model.known_torque(q) if tau.shape[1] else None
         yield (t, q, tau if known is None else tau - known, *rest)
+
+
+def stream_columns(model: IdentModel, torques: bool = True) -> list[str]:
+    """The columns a streamed identification reads: time, the motor positions and (``torques``) torques."""
+    nm = model.n_motors
+    return ["time"] + [f"q_motor_{i + 1}" for i in range(nm)] + \
+        ([f"torque_motor_{i + 1}" for i in range(nm)] if torques else [])
 
 
 def prefetch(chunks, depth: int = 1):
@@ -369,18 +395,26 @@ class StreamingIDIM:
         return subtract_known(model, chunks)
 
     def fit(self, path):
+        import pyarrow as pa
         import pyarrow.parquet as pq
 
+        from tendyn.io.logs import LogError, read_meta
+
         from .estimate import VELOCITIES, IdentificationResult, cached_model
-        from tendyn.io.logs import LogError
 
         model = cached_model(self.device)
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
-        pf = pq.ParquetFile(str(path))
-        meta = parse_json(pf.schema_arrow.metadata[b"tendyn"].decode())
+        meta = read_meta(path)                  # a LogError naming the file, not a KeyError
+        try:
+            pf = pq.ParquetFile(str(path))
+        except (pa.ArrowException, OSError) as exc:
+            raise LogError(f"not a readable Parquet file: {exc}", file=str(path)) from None
         # the units of the file's columns (a prismatic joint's in m, N), checked as in memory
         schema = pf.schema_arrow
+        missing = [c for c in stream_columns(model) if c not in schema.names]
+        if missing:                             # before the speed pass reads the whole file
+            raise LogError(f"identification needs {', '.join(missing)}", file=str(path), column=missing[0])
         model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})
         rate = self._rate = float(meta["rate_hz"])
         vel = None if self.velocities == "differentiate" else velocity_columns(model, schema.names)

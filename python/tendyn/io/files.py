@@ -30,6 +30,7 @@ import numpy as np
 
 __all__ = [
     "creatable",
+    "interrupts_deferred",
     "STAGING_MAX_AGE_S",
     "TEMP_MAX_AGE_S",
     "all_or_none",
@@ -284,6 +285,31 @@ def _plan_moves(stage: Path, folder: Path) -> tuple[list[Path], list[tuple[Path,
 
 
 @contextlib.contextmanager
+def interrupts_deferred() -> Iterator[None]:
+    """Hold Ctrl-C (SIGINT) while a set of files is being put in place: the block finishes, then the interrupt
+    is raised (KeyboardInterrupt: exit 130 with the whole set written). Outside the main thread, or if SIGINT
+    is ignored (a background job), the block just runs."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.getsignal(signal.SIGINT)
+    if old is signal.SIG_IGN or old is None:
+        yield
+        return
+    held: list[int] = []
+    signal.signal(signal.SIGINT, lambda signum, frame: held.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if held:
+        raise KeyboardInterrupt
+
+
+@contextlib.contextmanager
 def all_or_none(folder) -> Iterator[Path]:
     """Write several files into ``folder`` as one: all of them, or (on an exception) none.
 
@@ -335,10 +361,11 @@ def all_or_none(folder) -> Iterator[Path]:
             shutil.rmtree(stage, ignore_errors=True)
             _remove_folders(created)
             raise
-        for d in dirs:
-            d.mkdir(exist_ok=True)
-        for src, dst in moves:
-            os.replace(src, dst)
+        with interrupts_deferred():              # a Ctrl-C here would leave some new and some old files
+            for d in dirs:
+                d.mkdir(exist_ok=True)
+            for src, dst in moves:
+                os.replace(src, dst)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
         _IN_FLIGHT.discard(stage)
@@ -348,20 +375,37 @@ def all_or_none(folder) -> Iterator[Path]:
 # JSON
 # ----------------------------------------------------------------------------------------------------------
 
+MAX_JSON_BYTES = 64 * 2**20
+"""Largest JSON document a user may give [bytes] (64 MiB). tendyn's own (PARAMS.json, FRICTION.json, a log's
+meta, shares) are kilobytes; a bigger one is a mistake (a log given for a parameters file) that would otherwise
+be read whole into memory and parsed for minutes."""
+
+
 def parse_json(text: str, **kw):
     """``json.loads`` for a document a user gives: one nested deeper than the interpreter's recursion limit
-    (~1000 levels; `[[[[…` 100 000 deep) raises :class:`json.JSONDecodeError` like any bad JSON, never a
-    RecursionError, so every reader reports it as a bad file."""
+    (~1000 levels; `[[[[…` 100 000 deep), larger than :data:`MAX_JSON_BYTES` or holding an integer longer than
+    the interpreter converts (4300 digits) raises :class:`json.JSONDecodeError` like any bad JSON, never a
+    RecursionError or a bare ValueError, so every reader reports it as a bad file."""
+    if len(text) > MAX_JSON_BYTES:
+        raise json.JSONDecodeError(f"larger than {MAX_JSON_BYTES // 2**20} MiB", "", 0)
     try:
         return json.loads(text, **kw)
     except RecursionError:
         raise json.JSONDecodeError(f"nested deeper than {sys.getrecursionlimit()} levels", "", 0) from None
+    except json.JSONDecodeError:
+        raise
+    except ValueError as exc:            # an integer of more than sys.get_int_max_str_digits() digits
+        raise json.JSONDecodeError(" ".join(str(exc).split()), "", 0) from None
 
 
 def read_json(path, **kw):
-    """Read and parse a JSON file: raises OSError, or :class:`json.JSONDecodeError` for a file that is not UTF-8
-    text, not JSON or nested too deep (:func:`parse_json`)."""
-    data = Path(path).read_bytes()
+    """Read and parse a JSON file: raises OSError, or :class:`json.JSONDecodeError` for a file that is larger than
+    :data:`MAX_JSON_BYTES` (checked before reading), not UTF-8 text, not JSON or nested too deep
+    (:func:`parse_json`)."""
+    path = Path(path)
+    if path.stat().st_size > MAX_JSON_BYTES:
+        raise json.JSONDecodeError(f"larger than {MAX_JSON_BYTES // 2**20} MiB", "", 0)
+    data = path.read_bytes()
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:

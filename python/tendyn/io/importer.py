@@ -254,4 +254,4 @@ def import_logs(raw_files, map_path) -> Log:
     units = {s["signal"]: s["unit"] for s in spec["signals"] if "unit" in s}
     return make_log(columns, device=spec["log"]["device"], rate_hz=rate, seed=None,
                     experiment=spec["log"]["experiment"], options=options, signals=signals or None,
-                    units=units or None)
+                    units=units or None, source=f"{', '.join(sorted(files))} (imported with {mp.name})")

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tendyn.io.files import atomic_write_bytes, creatable, parse_json, to_jsonable
+from tendyn.io.files import atomic_write_bytes, creatable, interrupts_deferred, parse_json, to_jsonable
 
 __all__ = [
     "COLUMNS",
@@ -67,6 +67,7 @@ __all__ = [
     "is_generic",
     "LINEAR_UNITS",
     "make_log",
+    "read_meta",
     "read_log",
     "read_run",
     "read_truth",
@@ -647,7 +648,8 @@ def _created_by() -> str:
 
 
 def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, experiment: str,
-             options: dict | None = None, signals: dict | None = None, units: dict | None = None) -> Log:
+             options: dict | None = None, signals: dict | None = None, units: dict | None = None,
+             source: str = "<memory>") -> Log:
     """Build and validate a log.
 
     Parameters
@@ -671,6 +673,9 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
     units : dict, optional
         Columns of a prismatic joint or linear motor and their unit, ``{"q_motor_1": "m", "torque_motor_1": "N"}``
         (``meta.units``; :data:`LINEAR_UNITS`).
+    source : str, optional
+        What an error names: the files the columns come from (``log import`` names the RAW files), else
+        ``"<memory>"``.
 
     Returns
     -------
@@ -681,7 +686,7 @@ def make_log(columns: dict, *, device: str, rate_hz: float, seed: int | None, ex
     LogError
         On any invalid column or meta value.
     """
-    source = "<memory>"
+    source = str(source)
     if not isinstance(columns, dict):
         raise LogError(f"columns must be a dict of name -> array, got {type(columns).__name__}", file=source)
     conv: dict[str, np.ndarray] = {}
@@ -1054,9 +1059,11 @@ def write_run(log: Log, truth: dict, path) -> tuple[Path, Path]:
     run_id = uuid.uuid4().hex
     log_data = _log_bytes(Log(log.columns, {**log.meta, "run_id": run_id}), path)
     truth_data = _truth_bytes({**truth, "run_id": run_id}, out)
-    # the truth first: a reader never finds a new log beside an old truth that would look like its own
-    atomic_write_bytes(out, truth_data)
-    atomic_write_bytes(path, log_data)
+    # the truth first: a reader never finds a new log beside an old truth that would look like its own;
+    # a Ctrl-C between the two is held until both are written (the pair stays one run)
+    with interrupts_deferred():
+        atomic_write_bytes(out, truth_data)
+        atomic_write_bytes(path, log_data)
     return path, out
 
 
@@ -1119,6 +1126,15 @@ def _read_meta(path: Path) -> dict:
         raise LogError(f"the meta is not valid JSON: {exc}", file=source, column="meta") from None
     if not isinstance(meta, dict):
         raise LogError(f"meta must be a dict, got {type(meta).__name__}", file=source, column="meta")
+    return meta
+
+
+def read_meta(path) -> dict:
+    """The checked meta record of a log file, without reading its samples (a log too large for memory: the
+    device it names can be refused before any work). Raises :class:`LogError` naming the file."""
+    path = Path(path)
+    meta = _read_meta(path)
+    _check_meta(meta, str(path))
     return meta
 
 

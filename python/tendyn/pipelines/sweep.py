@@ -32,8 +32,8 @@ import numpy as np
 from tendyn.device import compile_device
 from tendyn.results import Result, format_table
 
-__all__ = ["LOOPS", "METRICS", "SweepResult", "design_grid", "evaluate_design", "local_cluster", "parse_param", "run_sweep",
-           "write_outputs", "write_table"]
+__all__ = ["LOOPS", "METRICS", "SweepResult", "design_grid", "evaluate_design", "local_cluster", "memory_needed",
+           "parse_param", "run_sweep", "write_outputs", "write_table"]
 
 METRICS = ("peak_shift_hz", "open_loop_spread_db", "closed_loop_spread_db", "robust_performance")
 LOOPS = ("open", "closed")
@@ -57,6 +57,19 @@ def field_label(name: str) -> str:
     from tendyn.device.tendon_bench import BENCH_FIELDS
 
     return f"{name} [{BENCH_FIELDS[name][0] if name in BENCH_FIELDS else '-'}]"
+
+
+WORKER_BYTES = 400e6
+"""Memory of one local worker process [bytes]: the interpreter with numpy, scipy, control and tendyn imported
+(~250 MB measured) and a design's runs."""
+TASK_BYTES = 40e3
+"""Memory of one design on the client and scheduler [bytes]: the Dask task and future, its row."""
+
+
+def memory_needed(n_designs: int, n_amplitudes: int, n_workers: int, local: bool = True) -> float:
+    """Peak memory [bytes] of a sweep on this machine: the local workers (none with a remote scheduler) and the
+    client's tasks and rows (a row holds two peaks per amplitude)."""
+    return (n_workers * WORKER_BYTES if local else 0.0) + n_designs * (TASK_BYTES + 16.0 * 8 * n_amplitudes)
 
 
 def parse_param(text: str) -> tuple[str, np.ndarray]:
@@ -277,6 +290,11 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
         if k not in fields:
             raise KeyError(k)
     freqs_hz = list(np.arange(8.0, 42.0, 2.0)) if freqs_hz is None else list(freqs_hz)
+    from tendyn.sim.catalogue import require_memory
+
+    designs = math.prod(len(g) for g in params.values())
+    require_memory(memory_needed(designs, len(amplitudes), n_workers, client is None and not scheduler),
+                   "fewer designs, amplitudes or --workers", f"a sweep of {designs} designs")
     grid = design_grid(params)
     with dask_client(scheduler, n_workers, client) as client:
         futures = client.map(evaluate_design, [fields] * len(grid), grid, [list(amplitudes)] * len(grid),

@@ -416,11 +416,18 @@ def _gb(x: float) -> str:
     return f"{x / 1e9:.0f} GB" if x >= 10e9 else f"{x / 1e9:.1f} GB"
 
 
-def _check_memory(device, exp: Experiment, o: dict) -> None:
-    need, have = memory_needed(device, exp.name, o), memory_available()
+def require_memory(need: float, advice: str, what: str = "this run") -> None:
+    """Refuse, before it starts, work whose arrays need ``need`` bytes when that is more than
+    :data:`MEMORY_SHARE` of the memory available now (UsageError: exit 2 instead of a MemoryError or the OOM
+    killer after minutes). ``advice`` says how to make it smaller. `simulate`, `plan` and `sweep` use it."""
+    have = memory_available()
     if need > MEMORY_SHARE * have:
-        raise UsageError(f"this run needs {_gb(need)} of memory and {_gb(have)} are available: shorten it "
-                         f"(fewer cycles or speeds, a shorter duration) or lower --rate / --log-rate")
+        raise UsageError(f"{what} needs {_gb(need)} of memory and {_gb(have)} are available: {advice}")
+
+
+def _check_memory(device, exp: Experiment, o: dict) -> None:
+    require_memory(memory_needed(device, exp.name, o), "shorten it (fewer cycles or speeds, a shorter duration) "
+                   "or lower --rate / --log-rate")
 
 
 def planned_test(device, o: dict):

@@ -15,6 +15,17 @@ import numpy as np
 __all__ = ["multisine", "prbs", "stepped_sines"]
 
 
+BYTES_PER_SAMPLE = 96
+"""Peak memory of one reference sample [bytes]: the signal, its time column, the log's copies and its CSV or
+Parquet text (2 columns) — to refuse a plan that cannot fit before building it."""
+
+
+def _require_memory(n_values: float, what: str) -> None:
+    from tendyn.sim.catalogue import require_memory
+
+    require_memory(n_values, "shorten it or lower the rate", what)
+
+
 def _check(amplitude, duration_s, rate_hz):
     for name, v in (("amplitude", amplitude), ("duration_s", duration_s), ("rate_hz", rate_hz)):
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
@@ -22,6 +33,7 @@ def _check(amplitude, duration_s, rate_hz):
     n = int(round(duration_s * rate_hz))
     if n < 2:
         raise ValueError(f"duration_s × rate_hz must give at least 2 samples (got {n})")
+    _require_memory(BYTES_PER_SAMPLE * n, f"a reference of {n} samples")
     return n
 
 
@@ -58,14 +70,17 @@ def multisine(amplitude: float, duration_s: float, rate_hz: float, *, band_hz=(1
         raise ValueError(f"band_hz must satisfy 0 <= lo < hi < rate_hz/2 (got {band_hz!r})")
     if not (math.isfinite(period_s) and period_s * rate_hz >= 2):
         raise ValueError(f"period_s must hold at least 2 samples (got {period_s!r})")
-    ks = np.arange(max(1, math.ceil(lo * period_s)), math.floor(hi * period_s) + 1)
-    if ks.size == 0:
+    k0, k1 = max(1, math.ceil(lo * period_s)), math.floor(hi * period_s)
+    if k1 < k0:
         raise ValueError(f"no multiple of 1/period_s = {1 / period_s:g} Hz inside band_hz {band_hz!r}")
+    m = int(round(period_s * rate_hz))             # the lines x samples table, sized before anything is built
+    _require_memory(16.0 * m * (k1 - k0 + 1), f"a multisine of {k1 - k0 + 1} lines over {m} samples per period")
+    ks = np.arange(k0, k1 + 1)
     if seed is None:
         phases = -math.pi * ks * (ks - 1) / ks.size                 # Schroeder
     else:
         phases = np.random.default_rng(seed).uniform(0, 2 * math.pi, ks.size)
-    t = np.arange(int(round(period_s * rate_hz))) / rate_hz
+    t = np.arange(m) / rate_hz
     one = np.sin(2 * math.pi * np.outer(t, ks / period_s) + phases).sum(axis=1)
     one *= amplitude / np.max(np.abs(one))
     return np.resize(one, n)
@@ -82,10 +97,15 @@ def stepped_sines(amplitude: float, freqs_hz, rate_hz: float, *, cycles: int = 1
     _check(amplitude, 1.0, rate_hz)
     if int(cycles) < 1 or int(settle_cycles) < 0 or not settle_s >= 0:
         raise ValueError("cycles must be >= 1, settle_cycles >= 0 and settle_s >= 0")
-    out = []
-    for f in freqs:
+    def length(f):
         total = max(int(settle_cycles), math.ceil(settle_s * f)) + int(cycles)
         total = max(total, 2 * int(cycles))                        # the measured cycles in the second half
-        n = int(round(total / f * rate_hz))
+        return int(round(total / f * rate_hz))
+
+    n_all = sum(length(f) for f in freqs)
+    _require_memory(BYTES_PER_SAMPLE * n_all, f"{freqs.size} stepped sines of {n_all} samples in all")
+    out = []
+    for f in freqs:
+        n = length(f)
         out.append(amplitude * np.sin(2 * math.pi * f * np.arange(n) / rate_hz))
     return out
