@@ -362,6 +362,98 @@ inline double reducer_factor(double eta, double back, double power) {
   return power < 0.0 ? back : e;
 }
 
+/// One branch (i, b) climbed with its slope, the constants of the call: branch_upstream_slope with the bearing
+/// terms when the branch has bearings; a branch at rest passes t with slope 1 (stuck).
+inline double climb_branch(const TransmissionModel& m, const TransmissionData& d, int i, int b, double t,
+                           double* slope) {
+  const double sdot = d.Sdot(i, b);
+  if (sdot == 0.0) { *slope = 1.0; return t; }
+  if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {  // speed-dependent bearing terms (S0 eqs. 7–8)
+    const BranchFriction f = branch_friction(m, i, b, sdot);
+    return branch_upstream_slope(t, sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
+                                 1.0 / (1.0 - f.b), slope);
+  }
+  return branch_upstream_slope(t, sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b),
+                               d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b), slope);
+}
+
+/// A 2×2 block (a differential pair: cables a and a+1, joints a and a+1, both cables end at joint a+1) solved by
+/// the Newton iteration of feedforward_general written out for two unknowns, in registers: the same operations
+/// in the same order (lossless start, residual and Jacobian, Gaussian elimination with partial pivoting as
+/// selects, the same stopping test), so the same numbers, without the run-time loops, the workspace matrices and
+/// the pivot branch. Each cable climbs one branch (a+1) inside the block. Writes the block's tensions, stuck
+/// flags and d.block_iterations; returns false (NotConverged) after 30 steps, InvalidModel on a zero pivot.
+inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a, const double* known) {
+  const int b = a + 1;
+  const double Kaa = m.K(a, a), Kab = m.K(a, b), Kba = m.K(b, a), Kbb = m.K(b, b);
+  const double qa = d.qd(a), qb = d.qd(b);
+  const double eta_a = m.reducer_efficiency(a), eta_b = m.reducer_efficiency(b);
+  const double back_a = d.statics.back_factor(a), back_b = d.statics.back_factor(b);
+  const double ka = known[a], kb = known[b];
+  const double scale = std::max(std::max(0.0, std::abs(ka)), std::abs(kb));
+  const auto& X = d.statics.block_inverse;
+  double ta = 0.0 + X(a, a) * ka + X(a, b) * kb;  // lossless start (K_Bᵀ)⁻¹ τ_B
+  double tb = 0.0 + X(b, a) * ka + X(b, b) * kb;
+  double Taa = 0.0, Tba = 0.0;
+  Status status = Status::NotConverged;
+  for (int it = 0; it < 30; ++it) {
+    double sa, sb;
+    Taa = climb_branch(m, d, a, b, ta, &sa);  // tensions at joint a
+    Tba = climb_branch(m, d, b, b, tb, &sb);
+    // row a: cable a on its driven joint (reducer factor), cable b crossing it; row b: a crossing, b driven
+    const double ea = reducer_factor(eta_a, back_a, Kaa * Taa * qa);
+    const double eb = reducer_factor(eta_b, back_b, Kbb * tb * qb);
+    const double xaa = Kaa * ea * Taa, xba = Kba * 1.0 * Tba, xab = Kab * 1.0 * ta, xbb = Kbb * eb * tb;
+    const double ra = ka - xaa - xba, rb = kb - xab - xbb;
+    const double mag_a = std::max(std::max(scale, std::abs(xaa)), std::abs(xba));
+    const double mag = std::max(std::max(mag_a, std::abs(xab)), std::abs(xbb));
+    const double worst_r = std::max(std::max(0.0, std::abs(ra)), std::abs(rb));
+    if (it > 0 && worst_r <= 1e-13 * mag) { status = Status::Ok; break; }
+    double J00 = Kaa * ea * sa, J01 = Kba * 1.0 * sb, J10 = Kab * 1.0 * 1.0, J11 = Kbb * eb * 1.0;
+    double r0 = ra, r1 = rb;
+    const bool swap = std::abs(J10) > std::abs(J00);  // partial pivoting, as selects
+    const double P00 = swap ? J10 : J00, P01 = swap ? J11 : J01, P10 = swap ? J00 : J10, P11 = swap ? J01 : J11;
+    const double p0 = swap ? r1 : r0, p1 = swap ? r0 : r1;
+    if (P00 == 0.0) return Status::InvalidModel;
+    const double f = P10 / P00;
+    const double Q11 = P11 - f * P01, q1 = p1 - f * p0;
+    if (Q11 == 0.0) return Status::InvalidModel;
+    const double x1 = q1 / Q11;
+    const double x0 = (p0 - P01 * x1) / P00;
+    ta += x0;
+    tb += x1;
+    ++d.block_iterations;
+  }
+  d.tension(a, b) = ta;
+  d.tension(b, b) = tb;
+  d.tension(a, a) = Taa;
+  d.tension(b, a) = Tba;
+  d.stuck(a, b) = d.Sdot(a, b) == 0.0;
+  d.stuck(b, b) = d.Sdot(b, b) == 0.0;
+  return status;
+}
+
+/// The climb of cable i from the tension t at joint `from` (after branch from + 1) to its motor, branches from … 0
+/// (S0 eq. 6), without slopes. Writes d.tension(i, from − 1 … 0), d.stuck(i, from … 0), d.tension_motor(i).
+inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, double t, int from) {
+  for (int b = from; b >= 0; --b) {
+    const double sdot = d.Sdot(i, b);
+    if (sdot == 0.0) {
+      d.stuck(i, b) = 1;
+    } else {
+      d.stuck(i, b) = 0;
+      if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {
+        t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
+      } else {
+        t = branch_tension_upstream_q(t, sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b),
+                                      d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b));
+      }
+    }
+    if (b > 0) d.tension(i, b - 1) = t;
+  }
+  d.tension_motor(i) = t;
+}
+
 /// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one; the later
 /// blocks' cables are known by then, their torques at this block's joints subtracted once (block_residual
 /// keeps τ_j minus them). A 1×1 block (its cable ends at its own joint) is S0's closed form: the reducer, then
@@ -370,8 +462,9 @@ inline double reducer_factor(double eta, double back, double power) {
 /// iteration on the pieces, from the lossless tensions, ends exactly once it has the right pieces (checked on the residual,
 /// 1e-13 relative). The iteration climbs only the branches between the block's joints (the tensions its
 /// equations read); once it ends, each cable climbs the rest of the way to its motor. Status NotConverged
-/// after 30 steps.
-template <class V1, class V2>
+/// after 30 steps. Pairs: a 2×2 block takes solve_pair (the same iteration written out, same numbers; false: the
+/// run-time loops for every block, kept as the reference the tests compare it with).
+template <bool Pairs = true, class V1, class V2>
 inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
                                   const V2& qd) {
   const int n = m.n;
@@ -393,6 +486,15 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
       const double g = power > 0.0 ? g_drive : power < 0.0 ? d.statics.gain_backdriven(i)
                                                             : g_drive * m.reducer_efficiency(i);
       climb_cable<false>(m, d, i, own * g);
+      end = begin - 1;
+      continue;
+    }
+    if (Pairs && end == begin + 1) {
+      const Status sp = solve_pair(m, d, begin, known);
+      if (sp == Status::InvalidModel) return sp;
+      if (sp != Status::Ok) status = worst(status, sp);
+      climb_rest(m, d, begin, d.tension(begin, begin), begin);  // on to the motors from joint `begin`
+      climb_rest(m, d, end, d.tension(end, begin), begin);
       end = begin - 1;
       continue;
     }
