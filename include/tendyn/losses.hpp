@@ -14,6 +14,9 @@
 
 #include <algorithm>
 #include <cmath>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "tendyn/routing.hpp"
 
@@ -111,6 +114,16 @@ inline double flip(double y, double sign) {
   return y;
 #else
   return y * std::copysign(1.0, sign);
+#endif
+}
+/// x > y ? a : b without a branch (an SSE2 compare mask: the choices of the statics follow random signs, and a
+/// mispredicted branch costs more than the whole select; compilers turn a plain ?: on doubles into a jump).
+inline double pick_gt(double x, double y, double a, double b) {
+#if defined(__SSE2__)
+  const __m128d mask = _mm_cmpgt_sd(_mm_set_sd(x), _mm_set_sd(y));
+  return _mm_cvtsd_f64(_mm_or_pd(_mm_and_pd(mask, _mm_set_sd(a)), _mm_andnot_pd(mask, _mm_set_sd(b))));
+#else
+  return x > y ? a : b;
 #endif
 }
 /// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
@@ -311,8 +324,8 @@ inline double branch_upstream_slope(double x, double sdot, double kappa, double 
   const double y1 = c * q_plus, y2 = c * q_minus, y3 = c + b * std::abs(z);
   const double y12 = larger(y1, y2), y = larger(y12, y3);
   // selects, not branches (the piece follows random signs)
-  const double s12 = y2 > y1 ? q_minus : q_plus, s3 = 1.0 + flip(b, sign_bit(z));
-  *slope = y3 > y12 ? s3 : s12;
+  const double s12 = pick_gt(y2, y1, q_minus, q_plus), s3 = 1.0 + flip(b, sign_bit(z));
+  *slope = pick_gt(y3, y12, s3, s12);
   return flip(y, sign);
 }
 
@@ -358,8 +371,7 @@ inline void climb_cable(const TransmissionModel& m, TransmissionData& d, int i, 
 /// pulley drives the joint (power > 0), back = η_d/(2η_d − 1) when the joint back-drives it (power < 0), 1 at
 /// rest. Selects, not branches.
 inline double reducer_factor(double eta, double back, double power) {
-  const double e = power > 0.0 ? eta : 1.0;
-  return power < 0.0 ? back : e;
+  return pick_gt(0.0, power, back, pick_gt(power, 0.0, eta, 1.0));
 }
 
 /// One branch (i, b) climbed with its slope, the constants of the call: branch_upstream_slope with the bearing
@@ -411,9 +423,10 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
     if (it > 0 && worst_r <= 1e-13 * mag) { status = Status::Ok; break; }
     double J00 = Kaa * ea * sa, J01 = Kba * 1.0 * sb, J10 = Kab * 1.0 * 1.0, J11 = Kbb * eb * 1.0;
     double r0 = ra, r1 = rb;
-    const bool swap = std::abs(J10) > std::abs(J00);  // partial pivoting, as selects
-    const double P00 = swap ? J10 : J00, P01 = swap ? J11 : J01, P10 = swap ? J00 : J10, P11 = swap ? J01 : J11;
-    const double p0 = swap ? r1 : r0, p1 = swap ? r0 : r1;
+    const double a10 = std::abs(J10), a00 = std::abs(J00);  // partial pivoting (swap when |J10| > |J00|), as selects
+    const double P00 = pick_gt(a10, a00, J10, J00), P01 = pick_gt(a10, a00, J11, J01);
+    const double P10 = pick_gt(a10, a00, J00, J10), P11 = pick_gt(a10, a00, J01, J11);
+    const double p0 = pick_gt(a10, a00, r1, r0), p1 = pick_gt(a10, a00, r0, r1);
     if (P00 == 0.0) return Status::InvalidModel;
     const double f = P10 / P00;
     const double Q11 = P11 - f * P01, q1 = p1 - f * p0;
@@ -483,8 +496,8 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
       const int i = begin;
       // t = own / (K_ii e): the gains 1/(η_d K_ii) and 1/(K_ii back) taken once per model (no division here)
       const double own = known[i], power = own * d.qd(i), g_drive = d.statics.gain_driving(i);
-      const double g = power > 0.0 ? g_drive : power < 0.0 ? d.statics.gain_backdriven(i)
-                                                            : g_drive * m.reducer_efficiency(i);
+      const double g = pick_gt(power, 0.0, g_drive,
+                               pick_gt(0.0, power, d.statics.gain_backdriven(i), g_drive * m.reducer_efficiency(i)));
       climb_cable<false>(m, d, i, own * g);
       end = begin - 1;
       continue;
