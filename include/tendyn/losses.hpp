@@ -407,11 +407,27 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
   double ta = 0.0 + X(a, a) * ka + X(a, b) * kb;  // lossless start (K_Bᵀ)⁻¹ τ_B
   double tb = 0.0 + X(b, a) * ka + X(b, b) * kb;
   double Taa = 0.0, Tba = 0.0;
+  // the constants of branch b of each cable (they do not depend on the tension), as climb_branch takes them
+  struct Law { double sdot, kappa, beta, q_plus, q_minus; };
+  const auto law = [&](int i) {
+    const double sdot = d.Sdot(i, b);
+    if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {
+      const BranchFriction f = branch_friction(m, i, b, sdot);
+      return Law{sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b), 1.0 / (1.0 - f.b)};
+    }
+    return Law{sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b), d.statics.inv_one_plus_beta(i, b),
+               d.statics.inv_one_minus_beta(i, b)};
+  };
+  const Law la = law(a), lb = law(b);
+  const auto climb = [](const Law& l, double t, double* slope) {
+    if (l.sdot == 0.0) { *slope = 1.0; return t; }  // at rest: passes the tension (stuck)
+    return branch_upstream_slope(t, l.sdot, l.kappa, l.beta, l.q_plus, l.q_minus, slope);
+  };
   Status status = Status::NotConverged;
   for (int it = 0; it < 30; ++it) {
     double sa, sb;
-    Taa = climb_branch(m, d, a, b, ta, &sa);  // tensions at joint a
-    Tba = climb_branch(m, d, b, b, tb, &sb);
+    Taa = climb(la, ta, &sa);  // tensions at joint a
+    Tba = climb(lb, tb, &sb);
     // row a: cable a on its driven joint (reducer factor), cable b crossing it; row b: a crossing, b driven
     const double ea = reducer_factor(eta_a, back_a, Kaa * Taa * qa);
     const double eb = reducer_factor(eta_b, back_b, Kbb * tb * qb);
@@ -448,21 +464,29 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
 
 /// The climb of cable i from the tension t at joint `from` (after branch from + 1) to its motor, branches from … 0
 /// (S0 eq. 6), without slopes. Writes d.tension(i, from − 1 … 0), d.stuck(i, from … 0), d.tension_motor(i).
+/// Column-major (n, n) arrays read through raw pointers (entry [i, b] at i + b n).
 inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, double t, int from) {
+  const int n = m.n;
+  const double *Sdot = d.Sdot.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *beta = m.beta.data();
+  const double *q_plus = d.statics.inv_one_plus_beta.data(), *q_minus = d.statics.inv_one_minus_beta.data();
+  const double* count = m.bearing_count.data();
+  double* tension = d.tension.data();
+  int* stuck = d.stuck.data();
+  const bool bearings = d.statics.bearings;
   for (int b = from; b >= 0; --b) {
-    const double sdot = d.Sdot(i, b);
+    const int ib = i + b * n;
+    const double sdot = Sdot[ib];
     if (sdot == 0.0) {
-      d.stuck(i, b) = 1;
+      stuck[ib] = 1;
     } else {
-      d.stuck(i, b) = 0;
-      if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {
-        t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), m.nu(i, b));
+      stuck[ib] = 0;
+      if (bearings && count[ib] > 0.0) {
+        t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
       } else {
-        t = branch_tension_upstream_q(t, sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b),
-                                      d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b));
+        t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], q_plus[ib], q_minus[ib]);
       }
     }
-    if (b > 0) d.tension(i, b - 1) = t;
+    if (b > 0) tension[ib - n] = t;
   }
   d.tension_motor(i) = t;
 }
@@ -498,7 +522,9 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
       const double own = known[i], power = own * d.qd(i), g_drive = d.statics.gain_driving(i);
       const double g = pick_gt(power, 0.0, g_drive,
                                pick_gt(0.0, power, d.statics.gain_backdriven(i), g_drive * m.reducer_efficiency(i)));
-      climb_cable<false>(m, d, i, own * g);
+      const double t = own * g;
+      d.tension(i, m.last_joint(i)) = t;
+      climb_rest(m, d, i, t, m.last_joint(i));
       end = begin - 1;
       continue;
     }
