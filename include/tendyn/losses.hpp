@@ -14,6 +14,9 @@
 
 #include <algorithm>
 #include <cmath>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "tendyn/routing.hpp"
 
@@ -111,6 +114,16 @@ inline double flip(double y, double sign) {
   return y;
 #else
   return y * std::copysign(1.0, sign);
+#endif
+}
+/// x > y ? a : b without a branch (an SSE2 compare mask: the choices of the statics follow random signs, and a
+/// mispredicted branch costs more than the whole select; compilers turn a plain ?: on doubles into a jump).
+inline double pick_gt(double x, double y, double a, double b) {
+#if defined(__SSE2__)
+  const __m128d mask = _mm_cmpgt_sd(_mm_set_sd(x), _mm_set_sd(y));
+  return _mm_cvtsd_f64(_mm_or_pd(_mm_and_pd(mask, _mm_set_sd(a)), _mm_andnot_pd(mask, _mm_set_sd(b))));
+#else
+  return x > y ? a : b;
 #endif
 }
 /// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
@@ -311,8 +324,8 @@ inline double branch_upstream_slope(double x, double sdot, double kappa, double 
   const double y1 = c * q_plus, y2 = c * q_minus, y3 = c + b * std::abs(z);
   const double y12 = larger(y1, y2), y = larger(y12, y3);
   // selects, not branches (the piece follows random signs)
-  const double s12 = y2 > y1 ? q_minus : q_plus, s3 = 1.0 + flip(b, sign_bit(z));
-  *slope = y3 > y12 ? s3 : s12;
+  const double s12 = pick_gt(y2, y1, q_minus, q_plus), s3 = 1.0 + flip(b, sign_bit(z));
+  *slope = pick_gt(y3, y12, s3, s12);
   return flip(y, sign);
 }
 
@@ -358,8 +371,124 @@ inline void climb_cable(const TransmissionModel& m, TransmissionData& d, int i, 
 /// pulley drives the joint (power > 0), back = η_d/(2η_d − 1) when the joint back-drives it (power < 0), 1 at
 /// rest. Selects, not branches.
 inline double reducer_factor(double eta, double back, double power) {
-  const double e = power > 0.0 ? eta : 1.0;
-  return power < 0.0 ? back : e;
+  return pick_gt(0.0, power, back, pick_gt(power, 0.0, eta, 1.0));
+}
+
+/// One branch (i, b) climbed with its slope, the constants of the call: branch_upstream_slope with the bearing
+/// terms when the branch has bearings; a branch at rest passes t with slope 1 (stuck).
+inline double climb_branch(const TransmissionModel& m, const TransmissionData& d, int i, int b, double t,
+                           double* slope) {
+  const double sdot = d.Sdot(i, b);
+  if (sdot == 0.0) { *slope = 1.0; return t; }
+  if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {  // speed-dependent bearing terms (S0 eqs. 7–8)
+    const BranchFriction f = branch_friction(m, i, b, sdot);
+    return branch_upstream_slope(t, sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b),
+                                 1.0 / (1.0 - f.b), slope);
+  }
+  return branch_upstream_slope(t, sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b),
+                               d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b), slope);
+}
+
+/// A 2×2 block (a differential pair: cables a and a+1, joints a and a+1, both cables end at joint a+1) solved by
+/// the Newton iteration of feedforward_general written out for two unknowns, in registers: the same operations
+/// in the same order (lossless start, residual and Jacobian, Gaussian elimination with partial pivoting as
+/// selects, the same stopping test), so the same numbers, without the run-time loops, the workspace matrices and
+/// the pivot branch. Each cable climbs one branch (a+1) inside the block. Writes the block's tensions, stuck
+/// flags and d.block_iterations; returns false (NotConverged) after 30 steps, InvalidModel on a zero pivot.
+inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a, const double* known) {
+  const int b = a + 1;
+  const double Kaa = m.K(a, a), Kab = m.K(a, b), Kba = m.K(b, a), Kbb = m.K(b, b);
+  const double qa = d.qd(a), qb = d.qd(b);
+  const double eta_a = m.reducer_efficiency(a), eta_b = m.reducer_efficiency(b);
+  const double back_a = d.statics.back_factor(a), back_b = d.statics.back_factor(b);
+  const double ka = known[a], kb = known[b];
+  const double scale = std::max(std::max(0.0, std::abs(ka)), std::abs(kb));
+  const auto& X = d.statics.block_inverse;
+  double ta = 0.0 + X(a, a) * ka + X(a, b) * kb;  // lossless start (K_Bᵀ)⁻¹ τ_B
+  double tb = 0.0 + X(b, a) * ka + X(b, b) * kb;
+  double Taa = 0.0, Tba = 0.0;
+  // the constants of branch b of each cable (they do not depend on the tension), as climb_branch takes them
+  struct Law { double sdot, kappa, beta, q_plus, q_minus; };
+  const auto law = [&](int i) {
+    const double sdot = d.Sdot(i, b);
+    if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {
+      const BranchFriction f = branch_friction(m, i, b, sdot);
+      return Law{sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b), 1.0 / (1.0 - f.b)};
+    }
+    return Law{sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b), d.statics.inv_one_plus_beta(i, b),
+               d.statics.inv_one_minus_beta(i, b)};
+  };
+  const Law la = law(a), lb = law(b);
+  const auto climb = [](const Law& l, double t, double* slope) {
+    if (l.sdot == 0.0) { *slope = 1.0; return t; }  // at rest: passes the tension (stuck)
+    return branch_upstream_slope(t, l.sdot, l.kappa, l.beta, l.q_plus, l.q_minus, slope);
+  };
+  Status status = Status::NotConverged;
+  for (int it = 0; it < 30; ++it) {
+    double sa, sb;
+    Taa = climb(la, ta, &sa);  // tensions at joint a
+    Tba = climb(lb, tb, &sb);
+    // row a: cable a on its driven joint (reducer factor), cable b crossing it; row b: a crossing, b driven
+    const double ea = reducer_factor(eta_a, back_a, Kaa * Taa * qa);
+    const double eb = reducer_factor(eta_b, back_b, Kbb * tb * qb);
+    const double xaa = Kaa * ea * Taa, xba = Kba * 1.0 * Tba, xab = Kab * 1.0 * ta, xbb = Kbb * eb * tb;
+    const double ra = ka - xaa - xba, rb = kb - xab - xbb;
+    const double mag_a = std::max(std::max(scale, std::abs(xaa)), std::abs(xba));
+    const double mag = std::max(std::max(mag_a, std::abs(xab)), std::abs(xbb));
+    const double worst_r = std::max(std::max(0.0, std::abs(ra)), std::abs(rb));
+    if (it > 0 && worst_r <= 1e-13 * mag) { status = Status::Ok; break; }
+    double J00 = Kaa * ea * sa, J01 = Kba * 1.0 * sb, J10 = Kab * 1.0 * 1.0, J11 = Kbb * eb * 1.0;
+    double r0 = ra, r1 = rb;
+    const double a10 = std::abs(J10), a00 = std::abs(J00);  // partial pivoting (swap when |J10| > |J00|), as selects
+    const double P00 = pick_gt(a10, a00, J10, J00), P01 = pick_gt(a10, a00, J11, J01);
+    const double P10 = pick_gt(a10, a00, J00, J10), P11 = pick_gt(a10, a00, J01, J11);
+    const double p0 = pick_gt(a10, a00, r1, r0), p1 = pick_gt(a10, a00, r0, r1);
+    if (P00 == 0.0) return Status::InvalidModel;
+    const double f = P10 / P00;
+    const double Q11 = P11 - f * P01, q1 = p1 - f * p0;
+    if (Q11 == 0.0) return Status::InvalidModel;
+    const double x1 = q1 / Q11;
+    const double x0 = (p0 - P01 * x1) / P00;
+    ta += x0;
+    tb += x1;
+    ++d.block_iterations;
+  }
+  d.tension(a, b) = ta;
+  d.tension(b, b) = tb;
+  d.tension(a, a) = Taa;
+  d.tension(b, a) = Tba;
+  d.stuck(a, b) = d.Sdot(a, b) == 0.0;
+  d.stuck(b, b) = d.Sdot(b, b) == 0.0;
+  return status;
+}
+
+/// The climb of cable i from the tension t at joint `from` (after branch from + 1) to its motor, branches from … 0
+/// (S0 eq. 6), without slopes. Writes d.tension(i, from − 1 … 0), d.stuck(i, from … 0), d.tension_motor(i).
+/// Column-major (n, n) arrays read through raw pointers (entry [i, b] at i + b n).
+inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, double t, int from) {
+  const int n = m.n;
+  const double *Sdot = d.Sdot.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *beta = m.beta.data();
+  const double *q_plus = d.statics.inv_one_plus_beta.data(), *q_minus = d.statics.inv_one_minus_beta.data();
+  const double* count = m.bearing_count.data();
+  double* tension = d.tension.data();
+  int* stuck = d.stuck.data();
+  const bool bearings = d.statics.bearings;
+  for (int b = from; b >= 0; --b) {
+    const int ib = i + b * n;
+    const double sdot = Sdot[ib];
+    if (sdot == 0.0) {
+      stuck[ib] = 1;
+    } else {
+      stuck[ib] = 0;
+      if (bearings && count[ib] > 0.0) {
+        t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
+      } else {
+        t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], q_plus[ib], q_minus[ib]);
+      }
+    }
+    if (b > 0) tension[ib - n] = t;
+  }
+  d.tension_motor(i) = t;
 }
 
 /// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one; the later
@@ -370,8 +499,9 @@ inline double reducer_factor(double eta, double back, double power) {
 /// iteration on the pieces, from the lossless tensions, ends exactly once it has the right pieces (checked on the residual,
 /// 1e-13 relative). The iteration climbs only the branches between the block's joints (the tensions its
 /// equations read); once it ends, each cable climbs the rest of the way to its motor. Status NotConverged
-/// after 30 steps.
-template <class V1, class V2>
+/// after 30 steps. Pairs: a 2×2 block takes solve_pair (the same iteration written out, same numbers; false: the
+/// run-time loops for every block, kept as the reference the tests compare it with).
+template <bool Pairs = true, class V1, class V2>
 inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
                                   const V2& qd) {
   const int n = m.n;
@@ -390,9 +520,20 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
       const int i = begin;
       // t = own / (K_ii e): the gains 1/(η_d K_ii) and 1/(K_ii back) taken once per model (no division here)
       const double own = known[i], power = own * d.qd(i), g_drive = d.statics.gain_driving(i);
-      const double g = power > 0.0 ? g_drive : power < 0.0 ? d.statics.gain_backdriven(i)
-                                                            : g_drive * m.reducer_efficiency(i);
-      climb_cable<false>(m, d, i, own * g);
+      const double g = pick_gt(power, 0.0, g_drive,
+                               pick_gt(0.0, power, d.statics.gain_backdriven(i), g_drive * m.reducer_efficiency(i)));
+      const double t = own * g;
+      d.tension(i, m.last_joint(i)) = t;
+      climb_rest(m, d, i, t, m.last_joint(i));
+      end = begin - 1;
+      continue;
+    }
+    if (Pairs && end == begin + 1) {
+      const Status sp = solve_pair(m, d, begin, known);
+      if (sp == Status::InvalidModel) return sp;
+      if (sp != Status::Ok) status = worst(status, sp);
+      climb_rest(m, d, begin, d.tension(begin, begin), begin);  // on to the motors from joint `begin`
+      climb_rest(m, d, end, d.tension(end, begin), begin);
       end = begin - 1;
       continue;
     }

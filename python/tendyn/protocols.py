@@ -157,6 +157,11 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
         raise UsageError(f"transmission {transmission}: {len(distinct)} distinct speeds, the identification needs "
                          f"at least {MIN_SPEEDS} per direction", "speeds")
     G = compiled.transmission.matrices()["motor_from_joint_position"]
+    if G[j, j] == 0.0:  # the stroke is planned on the driven joint: travel / G[j, j]
+        name = dev.transmissions[j].name
+        raise UsageError(f"transmission {name} does not wrap joint {transmission} (zero driven radius): "
+                         f"isolated moves of that joint (S2) cannot be driven by its motor alone; this protocol "
+                         f"needs a nonzero diagonal of K", "transmission")
     lo, hi = _limits(dev)
     margin = LIMIT_MARGIN * (hi - lo)
     notes = []

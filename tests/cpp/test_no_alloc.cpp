@@ -182,6 +182,36 @@ static tendyn::TransmissionModel differential_chain() {
   return m;
 }
 
+// The 2x2 blocks' written-out iteration (solve_pair) gives exactly the numbers of the run-time iteration it
+// replaces (feedforward_general<false>): motor torques, every tension, stuck flags and step counts, bit for bit,
+// on the differential chain with bearings on a branch inside the pair too, joints at rest included.
+static void pair_solver_matches_the_general_iteration(tendyn::TransmissionModel m) {
+  m.bearing_count(2, 3) = 2; m.bearing_radius(2, 3) = 0.01; m.bearing_wrap(2, 3) = 2.0;
+  m.bearing_static_coefficient(2, 3) = 2e-4; m.bearing_dynamic_coefficient(2, 3) = 1.5e-4;
+  m.bearing_h0(2, 3) = 1e-4; m.bearing_h1(2, 3) = 2e-5; m.bearing_n0(2, 3) = 5;
+  tendyn::TransmissionData dp(m), dr(m);
+  std::mt19937 rng(19);
+  std::normal_distribution<double> N(0.0, 1.0);
+  Eigen::VectorXd tau(m.n), qd(m.n);
+  for (int k = 0; k < 2000; ++k) {
+    for (int i = 0; i < m.n; ++i) { tau(i) = 5.0 * N(rng); qd(i) = (k % 6 == i) ? 0.0 : N(rng); }
+    const tendyn::Status sp = tendyn::motor_torque_feedforward(m, dp, tau, qd);
+    tendyn::motor_torque_feedforward(m, dr, tau, qd);  // takes the constants
+    const tendyn::Status sr = tendyn::detail::feedforward_general<false>(m, dr, tau, qd);
+    bool same = sp == sr && dp.block_iterations == dr.block_iterations && dp.stuck == dr.stuck;
+    for (int i = 0; i < m.n; ++i) {
+      same = same && dp.torque_motor(i) == dr.torque_motor(i);
+      for (int b = 0; b <= m.last_joint(i); ++b) same = same && dp.tension(i, b) == dr.tension(i, b);
+    }
+    if (!same) {
+      std::printf("PHYSICS FAIL pair solver != general iteration at call %d: %.17g vs %.17g\n", k,
+                  dp.torque_motor(2), dr.torque_motor(2));
+      ++physics_failures;
+      return;
+    }
+  }
+}
+
 int main(int argc, char** argv) {
   const long calls = argc > 1 ? std::atol(argv[1]) : 100000;
   bearing_statics();
@@ -206,6 +236,8 @@ int main(int argc, char** argv) {
   tendyn::TransmissionData d(m);
   const tendyn::TransmissionModel md = differential_chain();
   if (tendyn::is_error(md.validate()) || md.serial) { std::puts("invalid differential model"); return 1; }
+  pair_solver_matches_the_general_iteration(md);
+  if (physics_failures) return 1;
   tendyn::TransmissionData dd(md);
 
   std::mt19937 rng(1234);

@@ -142,6 +142,22 @@ def test_zero_diagonal_routing_is_accepted_where_invertible(tmp_path):
     np.testing.assert_allclose(J, [[0.01 * 0.5 / 0.03, 0.01 / 0.03], [0.5, 0.0]], rtol=1e-12, atol=1e-15)
 
 
+@pytest.mark.parametrize("strategy", ["S2", "S1"])
+def test_plan_refuses_a_zero_diagonal_transmission_in_one_line(tmp_path, capsys, strategy):
+    """`tendyn plan` on the zero-diagonal wrist: the stroke is planned on the driven joint (travel / G[j, j]), which
+    t1 does not wrap; a one-line refusal naming t1, exit 2 (was NaN and an internal error). t2 still plans."""
+    text = _TWO + _trans("t1", 1, [2], [0.02], 0.0, 2) + _trans("t2", 2, [1], [0.03], -0.01, 2)
+    dev = _write(tmp_path, text)
+    out = tmp_path / "r.csv"
+    assert main(["plan", "constant-velocity", str(dev), "--transmission", "1", "--strategy", strategy,
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "transmission t1 does not wrap joint 1" in err, err
+    assert not out.exists()
+    assert main(["plan", "constant-velocity", str(dev), "--transmission", "2", "--strategy", strategy,
+                 "--out", str(out)]) == 0
+
+
 def test_the_issues_refused_routings_now_load(tmp_path):
     """The messages of issue 19 (negative driven radius; a cable crossing a joint after the one it drives) are
     gone: both are routings of real differentials."""
