@@ -27,6 +27,14 @@ from tendyn.io import atomic_write_text  # noqa: E402
 from tendyn.transmission import Transmission  # noqa: E402
 
 
+def timer_path(name: str) -> str:
+    """The C++ timer `name` that `make bench` builds (its path in TENDYN_<NAME>_TIMER, else build/bench/)."""
+    timer = os.environ.get(f"TENDYN_{name.upper()}", str(HERE.parent / "build/bench/benchmarks" / name))
+    if not Path(timer).exists():
+        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/{name}.cpp)")
+    return timer
+
+
 def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int = 3000) -> None:
     """Feedforward motor torques with losses, L-EXOS (4 transmissions): C++ core vs a plain C++ Eigen
     implementation of the same statics (benchmarks/plain_eigen_statics.hpp, same executable, checked equal to
@@ -43,9 +51,7 @@ def bench_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int
     for k in range(50):
         np.testing.assert_allclose(numpy_feedforward(arr, tau[k], qd[k]),
                                    tr.feedforward(tau[k], qd[k]).torque_motor, rtol=1e-10, atol=1e-12)
-    timer = os.environ.get("TENDYN_FEEDFORWARD_TIMER", str(HERE.parent / "build/bench/benchmarks/feedforward_timer"))
-    if not Path(timer).exists():
-        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/feedforward_timer.cpp)")
+    timer = timer_path("feedforward_timer")
     print(f"[bench] C++ feedforward and its Eigen baseline, {calls} calls x 7 rounds ({Path(timer).name}) …",
           file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
@@ -97,9 +103,7 @@ def bench_differential_feedforward(results: list, calls: int = 1_000_000) -> Non
     entries are S0's serial recursion, and MuJoCo's fixed tendons carry no tension-dependent losses."""
     from tendyn.devices.generate import write_cable_device
 
-    timer = os.environ.get("TENDYN_ROUTING_TIMER", str(HERE.parent / "build/bench/benchmarks/routing_timer"))
-    if not Path(timer).exists():
-        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/routing_timer.cpp)")
+    timer = timer_path("routing_timer")
     print(f"[bench] differential feedforward (7 transmissions) vs L-EXOS, {calls} calls x 7 rounds …", file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
         lexos, diff = Path(tmp) / "lexos.model", Path(tmp) / "diff7.model"
@@ -141,9 +145,7 @@ def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int
     tj = rng.normal(size=qm.shape)
     for k in range(200):  # the numpy cycle is the same cycle
         np.testing.assert_allclose(ref.cycle(qm[k], tj[k]), comp.cycle(qm[k], tj[k]), rtol=1e-9, atol=1e-11)
-    timer = os.environ.get("TENDYN_COMPENSATOR_TIMER", str(HERE.parent / "build/bench/benchmarks/compensator_timer"))
-    if not Path(timer).exists():
-        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/compensator_timer.cpp)")
+    timer = timer_path("compensator_timer")
     print(f"[bench] {name}: compensator cycle of {dev.name} ({n} transmissions) through the C ABI, {calls} calls "
           "(batch and one by one) …", file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
@@ -190,9 +192,7 @@ def bench_compensator_tracking(results: list, calls: int = 1_000_000,
 
     dev = compile_device(load_device(bundled("lexos")))
     comp = Compensator.from_device(dev, passivity=True, tracking={"acceleration_max": 1e6, "velocity_min": 0.1})
-    timer = os.environ.get("TENDYN_COMPENSATOR_TIMER", str(HERE.parent / "build/bench/benchmarks/compensator_timer"))
-    if not Path(timer).exists():
-        raise SystemExit(f"{timer} not found: run `make bench` (it builds benchmarks/compensator_timer.cpp)")
+    timer = timer_path("compensator_timer")
     print(f"[bench] {name}: compensator + tracking + passivity controller cycle of {dev.name}, {calls} calls …",
           file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
