@@ -149,14 +149,10 @@ def _version() -> str:
 
 
 def _load(device_arg: str):
-    """A device file path, or the name of a bundled twin (e.g. ``lexos``)."""
-    from tendyn.device import load_device
-    from tendyn.devices import bundled
+    """A device file path, or the name of a bundled twin (e.g. ``lexos``): :func:`tendyn.devices.load`."""
+    from tendyn.devices import load
 
-    path = Path(device_arg)
-    if path.suffix.lower() == ".toml" or path.exists():
-        return load_device(path)
-    return load_device(bundled(device_arg))
+    return load(device_arg)
 
 
 def _print_json(doc) -> None:

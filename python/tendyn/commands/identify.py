@@ -46,13 +46,9 @@ def register(subparsers) -> None:
 
 
 def _device(arg: str):
-    from tendyn.device import load_device
-    from tendyn.devices import bundled
+    from tendyn.devices import load
 
-    path = Path(arg)
-    if path.suffix.lower() == ".toml" or path.exists():
-        return load_device(path)
-    return load_device(bundled(arg))
+    return load(arg)
 
 
 def _scheduler(arg, n_logs: int):

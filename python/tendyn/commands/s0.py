@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -30,14 +29,10 @@ LOG_SUFFIXES = (".csv", ".parquet")
 
 
 def _load_device(text: str):
-    """A device file path or a bundled twin name (as the rest of the command line)."""
-    from tendyn.device import load_device
-    from tendyn.devices import bundled
+    """A device file path or a bundled twin name: :func:`tendyn.devices.load`."""
+    from tendyn.devices import load
 
-    path = Path(text)
-    if path.suffix.lower() == ".toml" or path.exists():
-        return load_device(path)
-    return load_device(bundled(text))
+    return load(text)
 
 
 def cable_device(text: str, what: str):

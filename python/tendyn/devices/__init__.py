@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..device.schema import DeviceError
 
-__all__ = ["available", "bundled", "is_twin_of"]
+__all__ = ["available", "bundled", "is_twin_of", "load"]
 
 _HERE = Path(__file__).resolve().parent
 
@@ -48,6 +48,21 @@ def bundled(name: str) -> Path:
     if stem not in names:
         raise DeviceError(f"no bundled device named {name!r}; available: {', '.join(names) or '(none)'}")
     return _HERE / f"{stem}.toml"
+
+
+def load(name_or_path):
+    """The device a command line or a caller names: a device file (a path ending in ``.toml`` or an existing
+    file) or the name of a bundled twin (``"lexos"``). The one rule every command follows.
+
+    Raises
+    ------
+    DeviceError
+        If the file does not parse or no bundled device has that name.
+    """
+    from ..device import load_device
+
+    path = Path(name_or_path)
+    return load_device(path if path.suffix.lower() == ".toml" or path.exists() else bundled(str(name_or_path)))
 
 
 def is_twin_of(device, name: str) -> bool:

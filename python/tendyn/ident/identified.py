@@ -217,8 +217,6 @@ class IdentifiedModel:
 
 
 def _load_device(arg):
-    from tendyn.device import load_device
-    from tendyn.devices import bundled
+    from tendyn.devices import load
 
-    p = Path(arg)
-    return load_device(p if p.suffix.lower() == ".toml" or p.exists() else bundled(str(arg)))
+    return load(arg)
