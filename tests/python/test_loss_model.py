@@ -151,3 +151,21 @@ def test_from_device_takes_the_documented_inputs(lossy, tmp_path):
     assert a.model.friction_source == "friction.json"
     with pytest.raises(LossModelError, match="unknown friction format"):
         identified_losses(lossy, {"format": "something/1"})
+
+
+def test_a_built_loss_model_is_taken_as_it_is_and_only_for_its_device(lossy, tmp_path):
+    """An :class:`IdentifiedLosses` passed as ``friction`` is used as built (``tendyn export`` builds it once, for
+    the summary and the compensator): the compensator equals the one built from the file; a loss model of
+    another device is refused, not applied to a routing it was not identified on."""
+    f = tmp_path / "friction.json"
+    f.write_text(json.dumps(friction_doc(lossy, [0.02, 0.03, 0.04], [1e-3, 2e-3, 3e-3])))
+    built = identified_losses(lossy, f)
+    assert identified_losses(lossy, built) is built
+    a, b = Compensator.from_device(lossy, friction=f), Compensator.from_device(lossy, friction=built)
+    for key in ("tau0", "nu", "reducer_efficiency"):
+        np.testing.assert_array_equal(np.array(getattr(a.model.transmission, key)),
+                                      np.array(getattr(b.model.transmission, key)))
+    assert b.model.friction_source == a.model.friction_source
+    other = load_device(write_cable_device(tmp_path, 3, bearings=True, seed=5, name="other"))
+    with pytest.raises(LossModelError, match="not 'other'"):
+        identified_losses(other, built)

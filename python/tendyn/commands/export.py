@@ -99,7 +99,7 @@ def run_export(args) -> int:
     except LossModelError as exc:
         raise UsageError(str(exc)) from None
     if args.kind == "compensator":
-        comp = Compensator.from_device(dev, friction=args.friction, shares=args.shares, underestimation=args.k,
+        comp = Compensator.from_device(dev, friction=losses, underestimation=args.k,
                                        velocity_band=args.velocity_band, velocity_cutoff_hz=args.velocity_cutoff,
                                        rate_hz=args.rate)
         comp.export(args.out)

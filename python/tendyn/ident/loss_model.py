@@ -174,7 +174,8 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
     friction : FRICTION.json (``tendyn.friction/1``: path or its dict), a decomposition (``tendyn decompose
         --json``, ``tendyn.decomposition/1``), or a mapping of per-branch arrays ``tau0`` [N] and ``nu`` [N·s/m]
         (n, n), optionally ``beta`` (n, n) [-], ``reducer_efficiency`` (n,) [-] or ``load_coefficient`` (n,) [-],
-        and ``sources`` (a term → "device"/"identified"/"none" mapping; default identified, absent terms none)
+        and ``sources`` (a term → "device"/"identified"/"none" mapping; default identified, absent terms none);
+        or an :class:`IdentifiedLosses` already built for this device, returned as it is (built once)
     shares : (p, p') (n, n) arrays, or a ``tendyn.shares/1`` file, for the decomposition of FRICTION.json
         (default :func:`tendyn.ident.decomposition.default_shares`)
 
@@ -191,6 +192,10 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
     n = dev.n_transmissions
     if n == 0:
         raise LossModelError(f"{dev.name} has no cable transmissions")
+    if isinstance(friction, IdentifiedLosses):
+        if friction.device != dev.name or np.shape(friction.tau0) != (n, n):
+            raise LossModelError(f"the loss model is about {friction.device!r}, not {dev.name!r}", field="device")
+        return friction
     doc, origin = _read(friction)
     name = doc.get("device")
     if name is not None and name != dev.name:
