@@ -246,7 +246,7 @@ def print_table(results: list) -> None:
 
 ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
         "diff7_feedforward_mean": "differential", "lexos_compensator_cycle_tracking": "tracking",
-        "zwidth_grid": "zwidth"}
+        "zwidth_grid": "zwidth", "tx40_identify": "tx40", "stream_identify_1h": "stream"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 
@@ -269,6 +269,14 @@ def run_only(names: list[str]) -> int:
         bench_compensator_tracking(results)
     if "zwidth" in groups:
         bench_zwidth_grid(results)
+    if "tx40" in groups:
+        from tx40_identify import bench_tx40_identify
+
+        bench_tx40_identify(results)
+    if "stream" in groups:
+        from ident_scale import bench_stream
+
+        bench_stream(results)
     path = HERE / "results.json"
     old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
     new = {r["name"] for r in results}
