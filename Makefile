@@ -69,8 +69,8 @@ docs: install
 
 demo: install
 	$(VENV)/bin/tendyn routing show lexos
-	$(VENV)/bin/tendyn demo lexos --out out/demo
-	$(VENV)/bin/tendyn demo mcgill_bench --out out/demo
+	$(VENV)/bin/tendyn demo lexos --out out/demo/lexos
+	$(VENV)/bin/tendyn demo mcgill_bench --out out/demo/mcgill_bench
 
 bench: install
 	$(PIP) install -q mujoco || echo "[bench] mujoco not installed: its entries are skipped"
