@@ -126,6 +126,14 @@ inline double pick_gt(double x, double y, double a, double b) {
   return x > y ? a : b;
 #endif
 }
+/// x, kept a scalar: an empty asm the compiler cannot see through, so it does not fuse this load with its neighbour
+/// into one vector load (which cannot be served from two separate recent scalar stores: a store-forwarding stall).
+inline double scalar(double x) {
+#if defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
+  __asm__("" : "+x"(x));
+#endif
+  return x;
+}
 /// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
 inline double larger(double a, double b) { return a < b ? b : a; }
 /// branch_tension_upstream given κ = a + ν|Ṡ| and the reciprocals q₊ = 1/(1 + b), q₋ = 1/(1 − b): no division.
@@ -400,10 +408,10 @@ template <bool Bearings>
 inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a, const double* known) {
   const int b = a + 1;
   const double Kaa = m.K(a, a), Kab = m.K(a, b), Kba = m.K(b, a), Kbb = m.K(b, b);
-  const double qa = d.qd(a), qb = d.qd(b);
+  const double qa = scalar(d.qd(a)), qb = scalar(d.qd(b));  // scalar: stored one by one just before
   const double eta_a = m.reducer_efficiency(a), eta_b = m.reducer_efficiency(b);
   const double back_a = d.statics.back_factor(a), back_b = d.statics.back_factor(b);
-  const double ka = known[a], kb = known[b];
+  const double ka = scalar(known[a]), kb = scalar(known[b]);
   const double scale = std::max(std::max(0.0, std::abs(ka)), std::abs(kb));
   const auto& X = d.statics.block_inverse;
   double ta = 0.0 + X(a, a) * ka + X(a, b) * kb;  // lossless start (K_Bᵀ)⁻¹ τ_B
@@ -535,7 +543,11 @@ inline Status feedforward_general_b(const TransmissionModel& m, TransmissionData
     for (int j = begin; j <= end; ++j) {
       double r = torque_joint(j);
       const double *Kj = K + j * n, *Tj = tension + j * n;
-      for (int k = n - 1; k > end; --k) r -= Kj[k] * Tj[k];
+      for (int k = n - 1; k > end; --k) {
+        // one scalar load per tension: the climbs have just stored them one by one, and a vector load across two
+        // such stores cannot take them from the store buffer (it waits for them to retire, on the chain)
+        r -= Kj[k] * scalar(Tj[k]);
+      }
       known[j] = r;
     }
     if (begin == end) {  // S0's recursion for one cable: reducer (eqs. 9–10), then the climb (eq. 6)
