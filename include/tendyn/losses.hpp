@@ -126,6 +126,14 @@ inline double pick_gt(double x, double y, double a, double b) {
   return x > y ? a : b;
 #endif
 }
+/// x, kept a scalar: an empty asm the compiler cannot see through, so it does not fuse this load with its neighbour
+/// into one vector load (which cannot be served from two separate recent scalar stores: a store-forwarding stall).
+inline double scalar(double x) {
+#if defined(__SSE2__) && (defined(__GNUC__) || defined(__clang__))
+  __asm__("" : "+x"(x));
+#endif
+  return x;
+}
 /// max by value (one maxsd; std::max returns a reference the compiler may keep in memory).
 inline double larger(double a, double b) { return a < b ? b : a; }
 /// branch_tension_upstream given κ = a + ν|Ṡ| and the reciprocals q₊ = 1/(1 + b), q₋ = 1/(1 − b): no division.
@@ -395,13 +403,15 @@ inline double climb_branch(const TransmissionModel& m, const TransmissionData& d
 /// selects, the same stopping test), so the same numbers, without the run-time loops, the workspace matrices and
 /// the pivot branch. Each cable climbs one branch (a+1) inside the block. Writes the block's tensions, stuck
 /// flags and d.block_iterations; returns false (NotConverged) after 30 steps, InvalidModel on a zero pivot.
+/// Bearings: d.statics.bearings (without, the laws take no call and the iteration keeps its values in registers).
+template <bool Bearings>
 inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a, const double* known) {
   const int b = a + 1;
   const double Kaa = m.K(a, a), Kab = m.K(a, b), Kba = m.K(b, a), Kbb = m.K(b, b);
-  const double qa = d.qd(a), qb = d.qd(b);
+  const double qa = scalar(d.qd(a)), qb = scalar(d.qd(b));  // scalar: stored one by one just before
   const double eta_a = m.reducer_efficiency(a), eta_b = m.reducer_efficiency(b);
   const double back_a = d.statics.back_factor(a), back_b = d.statics.back_factor(b);
-  const double ka = known[a], kb = known[b];
+  const double ka = scalar(known[a]), kb = scalar(known[b]);
   const double scale = std::max(std::max(0.0, std::abs(ka)), std::abs(kb));
   const auto& X = d.statics.block_inverse;
   double ta = 0.0 + X(a, a) * ka + X(a, b) * kb;  // lossless start (K_Bᵀ)⁻¹ τ_B
@@ -411,7 +421,7 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
   struct Law { double sdot, kappa, beta, q_plus, q_minus; };
   const auto law = [&](int i) {
     const double sdot = d.Sdot(i, b);
-    if (d.statics.bearings && m.bearing_count(i, b) > 0.0) {
+    if (Bearings && m.bearing_count(i, b) > 0.0) {
       const BranchFriction f = branch_friction(m, i, b, sdot);
       return Law{sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b), 1.0 / (1.0 - f.b)};
     }
@@ -464,7 +474,9 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
 
 /// The climb of cable i from the tension t at joint `from` (after branch from + 1) to its motor, branches from … 0
 /// (S0 eq. 6), without slopes. Writes d.tension(i, from − 1 … 0), d.stuck(i, from … 0), d.tension_motor(i).
-/// Column-major (n, n) arrays read through raw pointers (entry [i, b] at i + b n).
+/// Column-major (n, n) arrays read through raw pointers (entry [i, b] at i + b n). Bearings: some branch of the
+/// model has bearings (d.statics.bearings); without, the loop has no call in it and is inlined into the caller.
+template <bool Bearings>
 inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, double t, int from) {
   const int n = m.n;
   const double *Sdot = d.Sdot.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *beta = m.beta.data();
@@ -472,7 +484,6 @@ inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, d
   const double* count = m.bearing_count.data();
   double* tension = d.tension.data();
   int* stuck = d.stuck.data();
-  const bool bearings = d.statics.bearings;
   for (int b = from; b >= 0; --b) {
     const int ib = i + b * n;
     const double sdot = Sdot[ib];
@@ -480,7 +491,7 @@ inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, d
       stuck[ib] = 1;
     } else {
       stuck[ib] = 0;
-      if (bearings && count[ib] > 0.0) {
+      if (Bearings && count[ib] > 0.0) {
         t = branch_tension_upstream(t, sdot, branch_friction(m, i, b, sdot), nu[ib]);
       } else {
         t = branch_tension_upstream_q(t, sdot, tau0[ib] + nu[ib] * std::abs(sdot), beta[ib], q_plus[ib], q_minus[ib]);
@@ -501,19 +512,42 @@ inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, d
 /// equations read); once it ends, each cable climbs the rest of the way to its motor. Status NotConverged
 /// after 30 steps. Pairs: a 2×2 block takes solve_pair (the same iteration written out, same numbers; false: the
 /// run-time loops for every block, kept as the reference the tests compare it with).
-template <bool Pairs = true, class V1, class V2>
-inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
-                                  const V2& qd) {
+template <bool Pairs, bool Bearings, class V1, class V2>
+inline Status feedforward_general_b(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                    const V2& qd) {
   const int n = m.n;
-  velocities_from_joint_n<0>(m, d, qd);
+  // column-major (n, n) arrays through raw pointers (entry [i, b] at i + b n); restrict: the outputs are
+  // distinct buffers of d, none aliases the model's or the inputs (the same sums, in the same order, as
+  // velocities_from_joint_n)
+  const double* __restrict K = m.K.data();
+  const int* __restrict last_joint = m.last_joint.data();
+  const double* __restrict motor_radius = m.motor_radius.data();
+  double* __restrict qdl = d.qd.data();
+  double* __restrict Sdot = d.Sdot.data();
+  double* __restrict qd_motor = d.qd_motor.data();
+  for (int i = 0; i < n; ++i) qdl[i] = qd(i);
+  for (int i = 0; i < n; ++i) {  // branch velocities Ṡ_b = Σ_{l≥b} K_il q̇_l from the driven joint (routing.hpp)
+    double s = 0.0;
+    for (int b = last_joint[i]; b >= 0; --b) {
+      s += K[i + b * n] * qdl[b];
+      Sdot[i + b * n] = s;
+    }
+    qd_motor[i] = s / motor_radius[i];
+  }
   Status status = Status::Ok;
   d.block_iterations = 0;
   double* known = d.block_step.data();  // τ_j minus the later blocks' cables, per joint of the block
+  const double* tension = d.tension.data();
   for (int end = n - 1; end >= 0;) {
     const int begin = m.block_begin(end);
     for (int j = begin; j <= end; ++j) {
       double r = torque_joint(j);
-      for (int k = n - 1; k > end; --k) r -= m.K(k, j) * d.tension(k, j);
+      const double *Kj = K + j * n, *Tj = tension + j * n;
+      for (int k = n - 1; k > end; --k) {
+        // one scalar load per tension: the climbs have just stored them one by one, and a vector load across two
+        // such stores cannot take them from the store buffer (it waits for them to retire, on the chain)
+        r -= Kj[k] * scalar(Tj[k]);
+      }
       known[j] = r;
     }
     if (begin == end) {  // S0's recursion for one cable: reducer (eqs. 9–10), then the climb (eq. 6)
@@ -524,16 +558,16 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
                                pick_gt(0.0, power, d.statics.gain_backdriven(i), g_drive * m.reducer_efficiency(i)));
       const double t = own * g;
       d.tension(i, m.last_joint(i)) = t;
-      climb_rest(m, d, i, t, m.last_joint(i));
+      climb_rest<Bearings>(m, d, i, t, m.last_joint(i));
       end = begin - 1;
       continue;
     }
     if (Pairs && end == begin + 1) {
-      const Status sp = solve_pair(m, d, begin, known);
+      const Status sp = solve_pair<Bearings>(m, d, begin, known);
       if (sp == Status::InvalidModel) return sp;
       if (sp != Status::Ok) status = worst(status, sp);
-      climb_rest(m, d, begin, d.tension(begin, begin), begin);  // on to the motors from joint `begin`
-      climb_rest(m, d, end, d.tension(end, begin), begin);
+      climb_rest<Bearings>(m, d, begin, d.tension(begin, begin), begin);  // on to the motors from joint `begin`
+      climb_rest<Bearings>(m, d, end, d.tension(end, begin), begin);
       end = begin - 1;
       continue;
     }
@@ -601,6 +635,14 @@ inline Status feedforward_general(const TransmissionModel& m, TransmissionData& 
     d.torque_joint(i) = torque_joint(i);
   }
   return status;
+}
+
+/// feedforward_general_b with Bearings = d.statics.bearings (taken once per call, not per branch).
+template <bool Pairs = true, class V1, class V2>
+inline Status feedforward_general(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
+                                  const V2& qd) {
+  return d.statics.bearings ? feedforward_general_b<Pairs, true>(m, d, torque_joint, qd)
+                            : feedforward_general_b<Pairs, false>(m, d, torque_joint, qd);
 }
 
 /// motor_torque_feedforward for N transmissions (N = 0: m.n at run time); sizes already checked.
