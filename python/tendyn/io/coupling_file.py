@@ -137,6 +137,17 @@ def _find_coupling(doc):
     return None
 
 
+def _position_map(forward, inverse, name: str, forward_label: str, inverse_label: str, missing: str) -> np.ndarray:
+    """G (joint → motor position) from a file that gives it, its inverse, or both (then checked: inverse · G = I)."""
+    if forward is not None:
+        if inverse is not None:
+            _check(inverse @ forward, np.eye(len(forward)), f"{name}: {inverse_label} · {forward_label} is not I")
+        return forward
+    if inverse is not None:
+        return _inverse(inverse, f"{name}: {inverse_label}")
+    raise CouplingFileError(f"{name}: {missing}")
+
+
 def _dvrk(text: str, name: str) -> np.ndarray:
     try:
         doc = json.loads(_strip_js_comments(text))
@@ -146,16 +157,9 @@ def _dvrk(text: str, name: str) -> np.ndarray:
     if coup is None:
         raise CouplingFileError(f"{name}: no \"coupling\" object (dVRK: coupling.ActuatorToJointPosition …)")
     mats = {_key(k): _square(v, f"{name}: coupling.{k}") for k, v in coup.items() if isinstance(v, list)}
-    a2jp, j2ap = mats.get("actuatortojointposition"), mats.get("jointtoactuatorposition")
-    if j2ap is not None:
-        G = j2ap
-        if a2jp is not None:
-            _check(a2jp @ G, np.eye(len(G)), f"{name}: ActuatorToJointPosition · JointToActuatorPosition is not I")
-    elif a2jp is not None:
-        G = _inverse(a2jp, f"{name}: coupling.ActuatorToJointPosition")
-    else:
-        raise CouplingFileError(f"{name}: the coupling has neither ActuatorToJointPosition nor "
-                                "JointToActuatorPosition")
+    G = _position_map(mats.get("jointtoactuatorposition"), mats.get("actuatortojointposition"), name,
+                      "JointToActuatorPosition", "coupling.ActuatorToJointPosition",
+                      "the coupling has neither ActuatorToJointPosition nor JointToActuatorPosition")
     if "actuatortojointeffort" in mats:
         _check(mats["actuatortojointeffort"], G.T, f"{name}: ActuatorToJointEffort is not the transpose of "
                                                    "JointToActuatorPosition (virtual work)")
@@ -190,14 +194,7 @@ def _libbarrett(text: str, name: str) -> np.ndarray:
     text = re.sub(r"(#|//)[^\n]*", "", re.sub(r"/\*.*?\*/", "", text, flags=re.S))
     j2mp = _libconfig_matrix(text, "j2mp", name)
     m2jp = _libconfig_matrix(text, "m2jp", name)
-    if j2mp is not None:
-        G = j2mp
-        if m2jp is not None:
-            _check(m2jp @ G, np.eye(len(G)), f"{name}: m2jp · j2mp is not I")
-    elif m2jp is not None:
-        G = _inverse(m2jp, f"{name}: m2jp")
-    else:
-        raise CouplingFileError(f"{name}: no j2mp (joint-to-motor position) or m2jp matrix")
+    G = _position_map(j2mp, m2jp, name, "j2mp", "m2jp", "no j2mp (joint-to-motor position) or m2jp matrix")
     j2mt = _libconfig_matrix(text, "j2mt", name)
     if j2mt is not None:
         _check(j2mt @ G.T, np.eye(len(G)), f"{name}: j2mt is not the inverse transpose of j2mp")
