@@ -313,14 +313,11 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
-        from tendyn.io.logs import LogError
-
         *settings, velocities = settings
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
         if velocities == "logged" and qd is None:
-            raise LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{model.n_motors} "
-                           f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
+            raise model.no_logged_velocities()
         if parts is not None:
             n = time.size
             sl = slice(int(parts[0] * n), int(parts[1] * n))

@@ -381,13 +381,30 @@ class IdentModel:
         active joint j (file joint numbers)."""
         from tendyn.io.logs import LogError
 
-        if log.column_names("qd_motor_"):
-            qdm = log.stack("qd_motor_")
-            if qdm.shape[1] != self.n_motors:
-                raise LogError(f"the log has {qdm.shape[1]} motor velocities, the device {self.device.name} has "
-                               f"{self.n_motors} motors", column="qd_motor_")
-            return np.linalg.solve(self.G, qdm.T).T
-        names = [f"qd_joint_{n}" for n in self.active_numbers]
-        if all(n in log for n in names):
-            return np.column_stack([log[n] for n in names])
-        return None
+        found = log.column_names("qd_motor_")
+        if found and len(found) != self.n_motors:
+            raise LogError(f"the log has {len(found)} motor velocities, the device {self.device.name} has "
+                           f"{self.n_motors} motors", column="qd_motor_")
+        names = self.velocity_columns(log.columns)
+        if names is None:
+            return None
+        v = np.column_stack([log[n] for n in names])
+        return np.linalg.solve(self.G, v.T).T if names[0].startswith("qd_motor_") else v
+
+    def velocity_columns(self, names) -> list[str] | None:
+        """The logged-velocity columns among ``names`` that :meth:`joint_velocities` reads: ``qd_motor_<i>`` of
+        every motor, else ``qd_joint_<j>`` of every active joint; None: none (the one rule, in memory and
+        streamed)."""
+        names = set(names)
+        motor = [f"qd_motor_{i + 1}" for i in range(self.n_motors)]
+        if all(n in names for n in motor):
+            return motor
+        joint = [f"qd_joint_{n}" for n in self.active_numbers]
+        return joint if all(n in names for n in joint) else None
+
+    def no_logged_velocities(self):
+        """The error of ``--velocities logged`` on a log without them."""
+        from tendyn.io.logs import LogError
+
+        return LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{self.n_motors} "
+                        f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")

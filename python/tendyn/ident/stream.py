@@ -154,21 +154,12 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
     return (peak if peak_only else (ne, ne_b) if split_at is not None else ne), tr
 
 
-def velocity_columns(model: IdentModel, names) -> list[str] | None:
-    """The logged-velocity columns of a log with columns ``names``, as :meth:`IdentModel.joint_velocities`
-    reads them: ``qd_motor_<i>`` of every motor, else ``qd_joint_<j>`` of every active joint; None: none."""
-    names = set(names)
-    motor = [f"qd_motor_{i + 1}" for i in range(model.n_motors)]
-    if all(n in names for n in motor):
-        return motor
-    joint = [f"qd_joint_{n}" for n in model.active_numbers]
-    return joint if all(n in names for n in joint) else None
 
 
 def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: bool = True, velocities=None):
     """(time, q, tau, qd) chunks of a Parquet log, batch by batch (pyarrow), joint signals as in
     :meth:`IdentModel.joint_signals`; ``torques=False`` reads no torque column (tau has no column: the
-    pass that only looks at the speeds); ``velocities``: the columns of :func:`velocity_columns` to read as
+    pass that only looks at the speeds); ``velocities``: the columns of :meth:`IdentModel.velocity_columns` to read as
     the joint velocities qd [rad/s] (None: qd is None)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -417,10 +408,9 @@ class StreamingIDIM:
             raise LogError(f"identification needs {', '.join(missing)}", file=str(path), column=missing[0])
         model.check_units({f.name: (f.metadata or {}).get(b"unit", b"").decode() for f in schema})
         rate = self._rate = float(meta["rate_hz"])
-        vel = None if self.velocities == "differentiate" else velocity_columns(model, schema.names)
+        vel = None if self.velocities == "differentiate" else model.velocity_columns(schema.names)
         if self.velocities == "logged" and vel is None:
-            raise LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{model.n_motors} "
-                           f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
+            raise model.no_logged_velocities()
         self._vel_cols = vel
         # stale rows and time stamps: a pass over time, q and τ, then the same re-timing as in memory
         self._retime = None
