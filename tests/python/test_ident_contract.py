@@ -126,3 +126,20 @@ def test_pseudo_inertia_not_positive_definite_is_flagged(arm, tmp_path, capsys):
     json.dumps(d)
     cons = IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True).fit(log, crossval=False)
     assert all(p["ok"] for p in cons.result_.pseudo_inertia)
+
+
+def test_logged_joint_velocities_read_like_motor_velocities(arm):  # noqa: F811
+    """One rule for logged velocities (IdentModel.velocity_columns, in memory and streamed): ``qd_joint_<j>`` of
+    every active joint, when the motors' are absent, give the same joint velocities as ``qd_motor_<i>`` through
+    G⁻¹; an incomplete set of either is no logged velocity."""
+    from tendyn.io.logs import make_log
+
+    log = synthetic_log(arm, rate_hz=1000.0, duration=2.0, seed=5, velocities=True)
+    qd = arm.joint_velocities(log)
+    cols = {k: np.asarray(log[k]) for k in log.columns if not k.startswith("qd_motor_")}
+    cols.update({f"qd_joint_{n}": qd[:, k] for k, n in enumerate(arm.active_numbers)})
+    joint_log = make_log(cols, device=arm.device.name, rate_hz=1000.0, seed=5, experiment="exciting")
+    np.testing.assert_allclose(arm.joint_velocities(joint_log), qd, rtol=1e-12, atol=1e-12)
+    motors = [f"qd_motor_{i + 1}" for i in range(arm.n_motors)]
+    assert arm.velocity_columns(["time", *motors]) == motors
+    assert arm.velocity_columns(["time", *motors[1:]]) is None
