@@ -331,6 +331,44 @@ def test_mjcf_round_trip_lossless_agrees_within_1e_6_rad(tmp_path, device):
     assert np.abs(q_mj - q_ref).max() < 1e-6
 
 
+@pytest.mark.parametrize("differential", [False, True], ids=["serial", "differential"])
+@pytest.mark.parametrize("coulomb", [False, True], ids=["viscous", "viscous_and_coulomb"])
+def test_mjcf_round_trip_with_the_losses_mujoco_expresses_agrees_with_the_twin(tmp_path, differential, coulomb):
+    """The exported losses simulated: a generated 3-joint spatial device whose losses are only what MuJoCo can
+    carry (ν, and τ0 when ``coulomb``; no β, bearings or reducers), MuJoCo (implicitfast) against the twin
+    (tendyn's simulator: losses from the statics' branch sites, another code path), same step, same held
+    torques. Viscous only: both are the same implicit damping (measured 4e-14 rad); with τ0 the export makes
+    MuJoCo's friction as stiff as it accepts (measured 1.3e-6 rad; MuJoCo's default soft friction: 8e-3 rad,
+    which the 1e-5 band would catch) over about 1 rad of motion in 0.3 s."""
+    import re
+
+    from tendyn import _core
+    from tendyn.interop.mjcf import to_mjcf
+    from tendyn.sim.model import run_log, sim_model
+
+    path = write_cable_device(tmp_path, 3, planar=False, seed=4, beta=False, reducers=False,
+                              differential=differential)
+    if not coulomb:
+        path.write_text(re.sub(r"tau0 = [0-9.e-]+", "tau0 = 0.0", path.read_text()))
+    dev = load_device(path)
+    dt, steps, n = 1e-4, 3000, 3
+    u = np.array([0.05 * np.sin(2 * np.pi * (1.0 + np.arange(n)) * k * dt + np.arange(n)) for k in range(steps)])
+    m = mujoco.MjModel.from_xml_string(to_mjcf(dev, timestep=dt, limits=False, losses=True))
+    d = mujoco.MjData(m)
+    q_mj = []
+    for k in range(steps):
+        q_mj.append(d.qpos.copy())
+        d.ctrl[:] = u[k]
+        mujoco.mj_step(m, d)
+    twin = sim_model(dev, rate_hz=1 / dt, control_hz=1 / dt, friction=True, sensors=False)
+    z = np.zeros_like(u)
+    q_twin = run_log(twin, _core.SimData(twin), z, z, u, z, 1)["q_joint"]    # row k: the state before step k
+    lossless = mujoco.MjModel.from_xml_string(to_mjcf(dev, timestep=dt, limits=False, losses=False))
+    assert np.abs(q_twin[-1]).max() > 0.5, "the test must move the joints"
+    assert m.ntendon > lossless.ntendon, "the losses must be exported (else the agreement says nothing)"
+    assert np.abs(np.array(q_mj) - q_twin).max() < (1e-5 if coulomb else 1e-9)
+
+
 def test_mjcf_export_cli_losses_and_comment(capsys, tmp_path):
     """lexos: one tendon per motor (coefficients R_m⁻¹K row), one per lossy branch with Ṡ_ib = Σ_{j=b..i} K_ij q̇_j,
     frictionloss τ0 and damping ν (S0 eq. 12); β, reducers and pretension named in the comment; MuJoCo loads it."""

@@ -9,7 +9,7 @@ What the file holds (``tendyn export mjcf DEVICE``; docs/cli.md):
   (M += Gᵀ J_r G) and a ``<motor>`` actuator on it (gear 1: the control is the motor torque [N·m]);
 * the losses MuJoCo can express: for cable routing one fixed tendon per cable branch with the branch's velocity
   as its length rate (the coefficients of ``Transmission.branch_velocities``), ``frictionloss`` = τ0 [N] and
-  ``damping`` = ν [N·s/m] (S0 eq. 12); for geared motors and capstan drives the motor-side Coulomb and viscous
+  ``damping`` = ν [N·s/m] (S0 eq. 12), the friction as stiff as MuJoCo accepts (:func:`_loss_attrs`); for geared motors and capstan drives the motor-side Coulomb and viscous
   friction on the motor tendon;
 * a comment naming every loss term of the device MuJoCo cannot express (MuJoCo's friction-loss bound is a
   constant: tension-proportional β, bearings and reducer efficiencies depend on the load), and other terms left out;
@@ -21,6 +21,24 @@ from __future__ import annotations
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
+
+
+FRICTION_SOLIMP = "0.99 0.999 0.001"
+"""MuJoCo ``solimpfriction`` of an exported friction loss: impedance near 1, so the dry friction holds."""
+
+
+def _loss_attrs(frictionloss: float, damping: float, timestep: float) -> str:
+    """The MJCF attributes of a tendon's loss terms [N or N·m; N·s/m or N·m·s/rad]. A friction loss is made as
+    stiff as MuJoCo accepts (``solreffriction`` time constant 2·timestep, its lower bound; critical damping):
+    with MuJoCo's default soft friction a generated 3-joint device crept 0.8 % of its motion away from the
+    twin's Coulomb friction in 0.3 s, with these 1.3e-6 rad (tests/python/test_coupling_export.py)."""
+    out = ""
+    if frictionloss > 0:
+        out += (f' frictionloss="{_f(frictionloss)}" solreffriction="{_f(2 * timestep)} 1"'
+                f' solimpfriction="{FRICTION_SOLIMP}"')
+    if damping > 0:
+        out += f' damping="{_f(damping)}"'
+    return out
 
 
 def _f(x: float) -> str:
@@ -143,8 +161,8 @@ def to_mjcf(device, *, timestep: float = 1e-3, integrator: str = "implicitfast",
         coefs = "".join(f'<joint joint={_name(joint_name[active[j]])} coef="{_f(g)}"/>'
                         for j, g in enumerate(c.G[i]) if g != 0.0)
         fl, dmp = motor_loss[i] if losses else (0.0, 0.0)
-        extra = (f' frictionloss="{_f(fl)}"' if fl > 0 else "") + (f' damping="{_f(dmp)}"' if dmp > 0 else "")
-        tendons.append(f'    <fixed name={_name(name)} armature="{_f(rotor[i])}"{extra}>{coefs}</fixed>')
+        tendons.append(f'    <fixed name={_name(name)} armature="{_f(rotor[i])}"{_loss_attrs(fl, dmp, timestep)}>'
+                       f'{coefs}</fixed>')
         rng = f' ctrlrange="{_f(-peak[i])} {_f(peak[i])}"' if peak[i] else ""
         actuators.append(f'    <motor name={_name(name)} tendon={_name(name)} gear="1"{rng}/>')
     if device.transmissions and losses:
@@ -161,8 +179,8 @@ def to_mjcf(device, *, timestep: float = 1e-3, integrator: str = "implicitfast",
                                 for j in range(J.shape[2]) if J[i, b, j] != 0.0 and (j + 1) in tree_of_file)
                 if not coefs:
                     continue
-                extra = (f' frictionloss="{_f(tau0)}"' if tau0 > 0 else "") + (f' damping="{_f(nu)}"' if nu > 0 else "")
-                tendons.append(f'    <fixed name={_name(f"{t.name}_branch{b}")}{extra}>{coefs}</fixed>')
+                tendons.append(f'    <fixed name={_name(f"{t.name}_branch{b}")}{_loss_attrs(tau0, nu, timestep)}>'
+                               f'{coefs}</fixed>')
 
     # ---- closed loops: q_tree = L q_active + c for the passive joints ----
     equalities = []
