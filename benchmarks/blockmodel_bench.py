@@ -58,7 +58,6 @@ def bench_blockmodel_fit(results: list, rounds: int = 3) -> None:
         model = bm.BlockModel("wiener", "dead-zone", order=n, rate_hz=1000.0).fit((u, y))
         times.append(time.perf_counter() - t0)
     best = min(times)
-    theta = np.concatenate([model.b_, model.a_, list(model.params_.values())])
     # the baseline from tendyn's starting point (its ARX + linear output error + grid initial estimate)
     b0, a0 = bm._arx([bm.Record(u, y, 1000.0)], n)
     b0, p0 = bm._initial_nonlinear("wiener", bm.nonlinearity("dead-zone"), n, b0, a0, [bm.Record(u, y, 1000.0)], 0)

@@ -56,7 +56,6 @@ def python_loop_identify(model, log, treatment):
             rows[s, :, c + 2] = G[i] * np.sign(gv)
     taps = parallel_filter_taps(treatment.decimate)
     K = treatment.decimate
-    h = (taps.size - 1) // 2
     from scipy.signal import convolve
 
     def dec(x):  # x (n, ...) -> centred windows, every K-th

@@ -32,7 +32,6 @@ def _files(tmp_path, n, terms: str, name: str, planar=True, seed=1):
 
 
 def _twin_log(dev, duration=24.0, seed=0):
-    bw = 2.0
     return exciting_trajectory(dev, duration=duration, rate_hz=5_000.0, log_rate_hz=1_000.0, seed=seed,
                                friction=False, design="classic", amplitude=0.9, f_tri=0.2,
                                f_sin=(0.45, 0.9, 1.6), a_sin=0.08).log

@@ -110,7 +110,7 @@ def _ident_results(lexos):
     from tendyn.pipelines.s0_friction import StrategyComparison
 
     v = np.array([2.0, 4.0, 6.0, 8.0, 10.0])
-    fits, cmp = {}, StrategyComparison("L-EXOS", list(v))
+    cmp = StrategyComparison("L-EXOS", list(v))
     for t in range(1, 5):
         for k, s in enumerate(("S1", "S2")):
             c0, nu = 0.008 * t * (1.1 - 0.1 * k), 6.4e-4 * t

@@ -3,7 +3,6 @@ hand-weighted least squares that knows the true noise of each joint (issue 22): 
 the estimate equals the oracle's; weighting by 1/σ² instead of 1/σ fails."""
 
 import numpy as np
-import pytest
 
 from tendyn.device import load_device
 from tendyn.devices import bundled

@@ -33,14 +33,14 @@ from __future__ import annotations
 
 import math
 import weakref
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
 
 from tendyn.analysis.handle_point import HandlePoint
 from tendyn.device import CompiledDevice, Device, compile_device
-from tendyn.results import Result, format_table, new_figure
+from tendyn.results import Result, format_table
 
 __all__ = ["OperationalModel", "OperationalMaps", "MapFigure", "ParamsError", "operational_maps", "read_params",
            "true_params", "maps_summary", "natural_pose", "DEFAULT_HALF_WIDTH", "DEFAULT_POINTS"]

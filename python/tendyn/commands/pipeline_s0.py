@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 
 from tendyn.commands.pipeline import Pipeline, publish, register_pipeline
 

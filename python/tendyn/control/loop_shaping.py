@@ -21,7 +21,7 @@ Robust-performance weights (documented choice, :func:`default_weights`):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np

@@ -27,9 +27,7 @@ import numpy as np
 from .base import Device
 from .compiled import CompiledDevice, compile_device
 from .rigid_body import (
-    STANDARD_PARAMETER_NAMES,
     cut_frames,
-    joint_frames,
     rot_x,
     rot_z,
     trans,

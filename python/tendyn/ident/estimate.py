@@ -16,11 +16,11 @@ import sys
 
 import numpy as np
 
-from tendyn.results import Result, format_table, new_figure
+from tendyn.results import Result, format_table
 
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel, unit_of
-from .treatment import DEFAULT_VELOCITY_FRACTION, Block, default_treatment, drop_stale, stack_blocks, treat
+from .treatment import DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, stack_blocks, treat
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 

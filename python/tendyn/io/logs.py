@@ -43,7 +43,6 @@ import io
 import json
 import math
 import operator
-import os
 import re
 import uuid
 from dataclasses import dataclass, field
@@ -622,7 +621,7 @@ class Log:
         indices = [_column_index(n, prefix) for n in names]
         if indices != list(range(1, len(names) + 1)):
             missing = sorted(set(range(1, max(indices) + 1)) - set(indices))
-            raise LogError(f"indices must run 1..k without gaps to stack; missing "
+            raise LogError("indices must run 1..k without gaps to stack; missing "
                            + ", ".join(f"{prefix}{i}" for i in missing), column=f"{prefix}<i>")
         out = np.empty((self.n_samples, len(names)), dtype=np.float64)
         for c, name in enumerate(names):

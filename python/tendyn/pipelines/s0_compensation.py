@@ -26,7 +26,7 @@ from tendyn.control.compensator import (DEFAULT_UNDERESTIMATION, DEFAULT_VELOCIT
                                         DEFAULT_VELOCITY_CUTOFF_HZ)
 from tendyn.device import compile_device, load_device
 from tendyn.devices import bundled
-from tendyn.results import Result, format_table, new_figure
+from tendyn.results import Result, format_table
 from tendyn.sim.model import sim_model
 
 __all__ = ["Fig7Result", "HandRun", "HandTask", "WallRun", "fig7_experiment", "hand_run", "hand_task", "wall_run",

@@ -190,7 +190,6 @@ def hand_stroke(model, q0, factor: float, *, direction=(1.0, 1.0, 1.0), stroke: 
     periods = int(round((2 * T + release) * control_hz))
     time = np.arange(periods) / control_hz
     f_along, x_along, tag = np.empty(periods), np.empty(periods), np.zeros(periods, int)
-    frame = model.frame
     w_cycle = None
     for s, t in enumerate(time):
         torque_motor = comp.cycle(_encoders(sim, data))

@@ -29,7 +29,7 @@ import numpy as np
 
 from tendyn.ident.friction import TransmissionFriction
 from tendyn.ident.lsq import rel_stderr_pct
-from tendyn.results import Result, format_table, new_figure
+from tendyn.results import Result, format_table
 
 __all__ = ["FRICTION_TESTS", "FrictionProtocol", "Z_DECISION", "joint_friction", "passive_friction_test",
            "run_friction_protocol"]
@@ -99,7 +99,7 @@ class FrictionProtocol(Result):
                             title="Friction of the arm (S2 Table 3), joint side")
         dec = self.decision
         zs = ", ".join(f"{k}: z = {v['z']:+.2f}" for k, v in dec["differences"].items())
-        return (text + f"\ncond(W) of the friction fits: " + ", ".join(f"{k} {c:.3g}" for k, c in self.conds.items())
+        return (text + "\ncond(W) of the friction fits: " + ", ".join(f"{k} {c:.3g}" for k, c in self.conds.items())
                 + f"\npassive-joint friction (C34): {zs} -> "
                 + ("negligible" if dec["passive_friction_negligible"] else "NOT negligible") + f" (|z| < {dec['z_max']:g})")
 

@@ -24,7 +24,7 @@ The grid runs on Dask (a local cluster by default, ``scheduler`` for a real one)
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Sequence
 
 import numpy as np
