@@ -90,6 +90,32 @@ def test_stream_and_in_memory_agree_with_stale_rows_and_logged_velocities(arm, t
         np.testing.assert_allclose(st.stderr_, mem.stderr_, rtol=1e-5)
 
 
+def test_stream_reads_a_clean_log_twice_and_a_stale_one_three_times(arm, tmp_path, monkeypatch):  # noqa: F811
+    """The stale-row scan rides on the speed pass: a clean log is read twice (speeds + scan, then the sums), a log
+    with stale rows three times (the speed pass again on the re-timed batches). Counted by wrapping the Parquet
+    reader; the parameters still equal the in-memory ones."""
+    import tendyn.ident.stream as stream
+    from tendyn.io import write_log
+
+    reads = []
+    reader = stream.iter_parquet_chunks
+
+    def counting(*a, **k):
+        reads.append(k.get("torques", True))
+        return reader(*a, **k)
+
+    monkeypatch.setattr(stream, "iter_parquet_chunks", counting)
+    log = synthetic_log(arm, rate_hz=1000.0, duration=6.0, seed=5, noise=0.01)
+    for name, lg, passes in (("clean", log, 2), ("stale", with_stale_rows(log, 0.1, seed=2)[0], 3)):
+        reads.clear()
+        path = write_log(lg, tmp_path / f"{name}.parquet")
+        st = stream.StreamingIDIM(arm.device, chunk_rows=999, cutoff_hz=20.0, decimate=10).fit(path)
+        assert len(reads) == passes, (name, reads)
+        assert st.treatment_.retimed == (name == "stale")
+        mem = IDIM(arm.device, cutoff_hz=20.0, decimate=10).fit(lg, crossval=False)
+        np.testing.assert_allclose(st.params_, mem.params_, rtol=1e-6, atol=1e-8 * np.max(np.abs(mem.params_)))
+
+
 def test_cli_stream_takes_the_velocities_option_and_prints_the_treatment(arm, tmp_path, capsys):  # noqa: F811
     from tendyn.cli import main
     from tendyn.io import write_log

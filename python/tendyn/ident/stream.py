@@ -206,33 +206,44 @@ def iter_parquet_chunks(model: IdentModel, path, rows: int = 500_000, torques: b
         yield t, qm @ Ginv.T + model.joint_offsets, y, qd
 
 
-def scan_stale(chunks, rate_hz: float):
-    """One pass over (time, q, tau, …) chunks: (stale rows, samples, first and last time [s], on the uniform
-    grid) with the definitions of :func:`tendyn.ident.treatment.drop_stale` (a row whose q and τ equal the
-    previous row's; stamps within RETIME_TOLERANCE of t₀ + k / rate)."""
-    from .treatment import RETIME_TOLERANCE
+class StaleScan:
+    """Iterate (time, q, tau, …) chunks unchanged while counting what :func:`tendyn.ident.treatment.drop_stale`
+    would do: stale rows (a row whose q and τ equal the previous row's) and whether the stamps lie within
+    RETIME_TOLERANCE of t₀ + k / rate. It rides on another pass over the log (the speed pass), so a clean log
+    is not read once more for it; :meth:`result` after the iteration."""
 
-    n_stale = n = 0
-    t0 = t_last = None
-    prev = None
-    worst = 0.0
-    for t, q, tau, *_ in chunks:
-        if t.size == 0:
-            continue
-        if t0 is None:
-            t0 = float(t[0])
-        qq = q if prev is None else np.vstack([prev[0], q])
-        tt = tau if prev is None else np.vstack([prev[1], tau])
-        n_stale += int(np.sum(np.all(qq[1:] == qq[:-1], axis=1) & np.all(tt[1:] == tt[:-1], axis=1)))
-        worst = max(worst, float(np.max(np.abs(t - (t0 + (1.0 / rate_hz) * (n + np.arange(t.size)))))))
-        n += t.size
-        t_last = float(t[-1])
-        prev = (q[-1:], tau[-1:])
-    if t0 is None:
-        return 0, 0, 0.0, 0.0, True
-    n_grid = int(np.round((t_last - t0) * rate_hz)) + 1
-    on_grid = n_grid == n and worst <= RETIME_TOLERANCE / rate_hz
-    return n_stale, n, t0, t_last, on_grid
+    def __init__(self, chunks, rate_hz: float):
+        self.chunks, self.rate_hz = chunks, float(rate_hz)
+        self.n_stale = self.n = 0
+        self.t0 = self.t_last = None
+        self.worst = 0.0                   # largest |stamp − grid| [s]
+
+    def __iter__(self):
+        prev = None
+        for chunk in self.chunks:
+            t, q, tau = chunk[:3]
+            if t.size:
+                if self.t0 is None:
+                    self.t0 = float(t[0])
+                qq = q if prev is None else np.vstack([prev[0], q])
+                tt = tau if prev is None else np.vstack([prev[1], tau])
+                self.n_stale += int(np.sum(np.all(qq[1:] == qq[:-1], axis=1) & np.all(tt[1:] == tt[:-1], axis=1)))
+                grid = self.t0 + (1.0 / self.rate_hz) * (self.n + np.arange(t.size))
+                self.worst = max(self.worst, float(np.max(np.abs(t - grid))))
+                self.n += t.size
+                self.t_last = float(t[-1])
+                prev = (q[-1:], tau[-1:])
+            yield chunk
+
+    def result(self):
+        """(stale rows, samples, first and last time [s], on the uniform grid)."""
+        from .treatment import RETIME_TOLERANCE
+
+        if self.t0 is None:
+            return 0, 0, 0.0, 0.0, True
+        n_grid = int(np.round((self.t_last - self.t0) * self.rate_hz)) + 1
+        on_grid = n_grid == self.n and self.worst <= RETIME_TOLERANCE / self.rate_hz
+        return self.n_stale, self.n, self.t0, self.t_last, on_grid
 
 
 def retime_chunks(chunks, rate_hz: float, t0: float, t_last: float):
@@ -341,8 +352,9 @@ class StreamingIDIM:
     method : "ols" or "wls"
     cutoff_hz, decimate, order, velocity_threshold, velocities : the treatment options of
         :class:`tendyn.ident.IDIM`, honoured the same way (defaults from the rate and bandwidth; the default
-        threshold, a fraction of each joint's peak speed, costs a pass that reads the positions only; stale
-        rows are dropped and the log re-timed as in memory, which costs a first pass when the log has them)
+        threshold, a fraction of each joint's peak speed, costs a first pass over q, τ and the logged speeds
+        that also counts the stale rows; when the log has them or is off its grid, it is re-timed as in memory
+        and the speed pass is run again on the re-timed batches)
     chunk_rows : int
         Samples read per Parquet batch.
 
@@ -412,21 +424,29 @@ class StreamingIDIM:
         if self.velocities == "logged" and vel is None:
             raise model.no_logged_velocities()
         self._vel_cols = vel
-        # stale rows and time stamps: a pass over time, q and τ, then the same re-timing as in memory
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
+                               self.order, self.velocity_threshold)
+        tr = dataclasses.replace(tr, velocities="logged" if vel else "differentiate")
+        # stale rows and time stamps (the same re-timing as in memory) counted on the speed pass, which reads
+        # q, τ and the logged speeds once: a clean log is read twice in all, a log to re-time three times
         self._retime = None
-        n_stale, n, t0, t_last, on_grid = scan_stale(iter_parquet_chunks(model, path, self.chunk_rows), rate)
+        scan = StaleScan(prefetch(iter_parquet_chunks(model, path, self.chunk_rows, velocities=vel)), rate)
+        if self.velocity_threshold is None:
+            peak, _ = accumulate(model, scan, rate, tr, peak_only=True)
+        else:
+            for _ in scan:
+                pass
+        n_stale, n, t0, t_last, on_grid = scan.result()
         if n_stale or not on_grid:
             self._retime = (t0, t_last)
             n = int(np.round((t_last - t0) * rate)) + 1
-        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
-                               self.order, self.velocity_threshold)
-        tr = dataclasses.replace(tr, velocities="logged" if vel else "differentiate", stale_dropped=n_stale,
-                                 retimed=self._retime is not None)
+            if self.velocity_threshold is None:     # the speeds of the re-timed log, as in memory
+                peak, _ = accumulate(model, self._chunks(model, path, torques=False), rate, tr, peak_only=True)
+        tr = dataclasses.replace(tr, stale_dropped=n_stale, retimed=self._retime is not None)
         from tendyn import _core
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
         if self.velocity_threshold is None:
-            peak, _ = accumulate(model, self._chunks(model, path, torques=False), rate, tr, peak_only=True)
             thr = DEFAULT_VELOCITY_FRACTION * peak
         else:
             thr = np.full(model.n_active, float(self.velocity_threshold))
