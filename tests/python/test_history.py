@@ -127,7 +127,21 @@ def test_history_command_shows_exports_and_plots(db, tmp_path):
     assert text.returncode == 0 and "DRIFT" in text.stdout
 
 
+def test_history_report_page_with_the_drift_as_a_warning(db, tmp_path):
+    """--report: the page, its JSON, the table and the figure; the one drift beyond 3σ is a warning on the page and
+    on stderr, the 2.5σ move is not."""
+    out = _tendyn("history", "lexos", "--db", str(db), "--report", str(tmp_path / "r"))
+    assert out.returncode == 0, out.stderr
+    files = {p.name for p in (tmp_path / "r").iterdir()}
+    assert {"report.html", "history.json", "history.txt", "history.png"} <= files, files
+    warned = [line for line in out.stderr.splitlines() if "warning" in line]
+    assert len(warned) == 1 and "C_m0[2]" in warned[0] and "2026-03-03" in warned[0], out.stderr
+    assert "C_m0[2] moved beyond 3σ" in (tmp_path / "r" / "report.html").read_text()
+    assert json.loads((tmp_path / "r" / "history.json").read_text())["drifts"][0]["name"] == "C_m0[2]"
+
+
 @pytest.mark.parametrize("argv,problem", [
+    (["--report", "DB"], "--report"),
     (["--db", "/nonexistent/h.sqlite"], "--db"),
     (["--parameter", "C_m0[9]"], "--parameter"),
     (["--csv", "h.txt"], "--csv"),

@@ -36,7 +36,17 @@ def _commands(work: Path) -> dict:
     from tendyn.devices import bundled
     from tendyn.devices.generate import write_cable_device
 
+    from datetime import datetime, timedelta, timezone
+
+    from tendyn.ident import history as hist
+
     gen = write_cable_device(work, 3, seed=4)
+    db, lexos = work / "history.sqlite", load_device(bundled("lexos"))
+    for day, c in enumerate((0.05, 0.05, 0.07)):       # the third record drifts
+        hist.record(lexos, "identify-friction", {"fits": [{"transmission": 1, "coulomb_motor": c,
+                                                           "coulomb_motor_std": 0.002, "viscous_motor": 1e-3,
+                                                           "viscous_motor_std": 1e-4}]},
+                    db=db, created=datetime(2026, 3, 1, tzinfo=timezone.utc) + timedelta(days=day))
     cea = work / "cea_params.json"
     cea.write_text(json.dumps({"params": true_params(load_device(bundled("cea_branch")))}), encoding="utf-8")
     log = work / "tx40.parquet"
@@ -62,6 +72,9 @@ def _commands(work: Path) -> dict:
                         r("pipeline_s2") / "report.html"),
         "sweep": (["sweep", "mcgill_bench", "--param", "k1=20000:400000:2", "--amplitudes", "0.6,2", "--workers", "1",
                    "--quiet", "--out", str(work / "sweep.parquet")], work / "sweep.html"),
+        "zwidth": (["zwidth", "lexos", "--stiffness", "1000:100000:2", "--damping", "0:0:1", "--modes", "compensated",
+                    "--scheduler", "none", "--quiet", "--out", str(work / "zwidth.parquet")], work / "zwidth.html"),
+        "history": (["history", "lexos", "--db", str(db), "--report", str(r("history"))], r("history") / "report.html"),
         "claims": (["claims", "--quick", "--only", "C1,C2", "--quiet", "--report", str(r("claims"))],
                    r("claims") / "report.html"),
         "demo_lexos": (["demo", "lexos", "--out", str(r("demo_lexos"))], r("demo_lexos") / "report.html"),

@@ -123,7 +123,9 @@ def test_zwidth_cli_on_a_local_dask_cluster(tmp_path, lexos):
     assert out.returncode == 0, out.stderr
     doc = json.loads(out.stdout)
     assert doc["scheduler"].startswith("local")
-    assert (tmp_path / "zw.parquet").exists() and (tmp_path / "zw.png").exists()
+    for suffix in (".parquet", ".png", ".html", ".json"):      # the table, figure, page and document beside it
+        assert (tmp_path / f"zw{suffix}").exists(), suffix
+    assert doc["report"] == str(tmp_path / "zw.html") and "Z-width" in (tmp_path / "zw.html").read_text()
     by = {(r["mode"], r["K"]): r["stable"] for r in doc["rows"]}
     assert by[("compensated", 100000.0)] is False and by[("passivity", 100000.0)] is True
 

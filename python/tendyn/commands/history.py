@@ -1,5 +1,5 @@
 """`tendyn history DEVICE [--db PATH] [--parameter NAME]... [--csv OUT.csv] [--parquet OUT.parquet] [--plot OUT.png]
-[--json]`: a device's calibration history (:mod:`tendyn.ident.history`)."""
+[--report DIR] [--json]`: a device's calibration history (:mod:`tendyn.ident.history`)."""
 
 from __future__ import annotations
 
@@ -48,6 +48,8 @@ def register(subparsers) -> None:
     p.add_argument("--csv", default=None, metavar="OUT.csv", help="export the rows as CSV")
     p.add_argument("--parquet", default=None, metavar="OUT.parquet", help="export the rows as Parquet")
     p.add_argument("--plot", default=None, metavar="OUT.png", help="plot each parameter over time")
+    p.add_argument("--report", default=None, metavar="DIR",
+                   help="write report.html (figure, table, drifts as warnings), history.json and history.txt into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
     p.set_defaults(func=run)
 
@@ -66,13 +68,14 @@ def _check_out(path: str | None, suffix: str, option: str) -> Path | None:
 
 
 def run(args) -> int:
-    from tendyn.cli import _load, _print_json
+    from tendyn.cli import _check_out_folder, _load, _print_json
     from tendyn.io import atomic_write_bytes, atomic_write_text, save_png
     from tendyn.ident.history import history
 
     dev = _load(args.device)
     csv, parquet = _check_out(args.csv, ".csv", "csv"), _check_out(args.parquet, ".parquet", "parquet")
     png = _check_out(args.plot, ".png", "plot")
+    report = _check_out_folder(args.report, "report") if args.report else None
     if args.db is not None and not Path(args.db).is_file():
         raise UsageError(f"{args.db}: no such database", "db")
     try:
@@ -83,14 +86,20 @@ def run(args) -> int:
         missing = sorted(set(args.parameter) - set(h.names()))
         if missing:
             raise UsageError(f"no record of {', '.join(missing)} for {dev.name}", "parameter")
-    if png and not h.rows:
-        raise UsageError(f"nothing recorded for {dev.name}: no plot", "plot")
+    for option, given in (("plot", png), ("report", report)):
+        if given and not h.rows:
+            raise UsageError(f"nothing recorded for {dev.name}: no {option}", option)
     if csv:
         atomic_write_text(csv, h.to_csv())
     if parquet:
         atomic_write_bytes(parquet, h.to_parquet())
     if png:
         save_png(h.plot(), png)
+    if report:
+        from tendyn.report import publish
+
+        return publish(args, h.to_dict(), h.table(), {"history": h}, report, "history.json", "history.txt",
+                       command="history", device=dev, title=f"Calibration history of {dev.name}")
     if args.json:
         _print_json(h.to_dict())
     else:

@@ -41,7 +41,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from tendyn.cli import _load, _print_json
     from tendyn.pipelines.sweep import MAX_DESIGNS, parse_param, run_sweep
-    from tendyn.report import warn
+    from tendyn.report import warn, write_beside
     from tendyn.sim.tendon_bench import bench_model
 
     dev = _load(args.device)
@@ -76,30 +76,14 @@ def run(args) -> int:
                         scheduler=args.scheduler, n_workers=args.workers, progress=not args.quiet)
     except ConnectionError as exc:
         raise UsageError(str(exc), "scheduler") from None
-    fig_path, html_path = out.with_suffix(".png"), out.with_suffix(".html")
-    doc = res.to_dict() | {"table": str(out), "figure": str(fig_path), "report": str(html_path)}
-    _write(res, doc, args, dev, out)
+    doc = write_beside(res, res.to_dict(), args, dev, out, "sweep", f"Design sweep of {dev.name}",
+                       f"{len(res.rows)} designs of {dev.name}, metric {res.metric}.")
     if args.json:
         _print_json(doc)
     else:
         print(res.table())
-        print(f"table: {out}\nfigure: {fig_path}\nreport: {html_path}")
+        print(f"table: {doc['table']}\nfigure: {doc['figure']}\nreport: {doc['report']}")
     sys.stdout.flush()
     warn("sweep", res.warnings)
     return 0
 
-
-def _write(res, doc, args, dev, out: Path) -> None:
-    """The table (Parquet), its figure (PNG), the page (HTML) and the document (JSON) beside each other, all or
-    none (:mod:`tendyn.report`)."""
-    from tendyn.io.files import all_or_none
-    from tendyn.pipelines.sweep import write_table
-    from tendyn.report import Figure, Section, run_info, write_html_report
-
-    with all_or_none(out.parent) as stage:
-        write_table(res, stage / out.name)
-        sections = [Section("Design sweep", text=f"{len(res.rows)} designs of {dev.name}, metric {res.metric}.",
-                            tables=[res.table()], figures=[Figure(res, name=out.stem)], warnings=res.warnings)]
-        write_html_report(stage, f"Design sweep of {dev.name}", run_info("sweep", device=dev, options=args), sections,
-                          data=doc, json_name=out.with_suffix(".json").name, html_name=out.with_suffix(".html").name,
-                          pngs=True, extra_files=[out.name])

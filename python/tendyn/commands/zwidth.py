@@ -58,7 +58,6 @@ def _grid(text: str, option: str, lo_min: float):
 def run(args) -> int:
     from tendyn import _core
     from tendyn.cli import _load, _print_json
-    from tendyn.pipelines.sweep import write_outputs
     from tendyn.pipelines.zwidth import MODES, run_zwidth
 
     dev = _load(args.device)
@@ -96,12 +95,14 @@ def run(args) -> int:
         raise UsageError(str(exc), "scheduler") from None
     doc = res.to_dict()
     if out is not None:
-        out, fig_path = write_outputs(res, out)
-        doc |= {"table": str(out), "figure": str(fig_path)}
+        from tendyn.report import write_beside
+
+        doc = write_beside(res, doc, args, dev, out, "zwidth", f"Z-width of {dev.name}",
+                           f"{len(res.rows)} walls of {dev.name} at {res.rate_hz:g} Hz; {res.criterion}.")
     if args.json:
         _print_json(doc)
     else:
         print(res.table())
         if out is not None:
-            print(f"table: {out}\nfigure: {fig_path}")
+            print(f"table: {doc['table']}\nfigure: {doc['figure']}\nreport: {doc['report']}")
     return 0

@@ -195,6 +195,12 @@ class History(Result):
     def drifts(self) -> list[dict]:
         return [r for r in self.rows if r["drift"]]
 
+    @property
+    def warnings(self) -> list[str]:
+        """One line per drift beyond 3σ (the report's warnings)."""
+        return [f"{r['name']} moved beyond 3σ from its previous record on {r['created'][:10]} ({r['kind']}: "
+                f"{r['value']:.6g} {r['unit']})" for r in self.drifts()]
+
     reading = ('Each identified parameter over the records, divided by its first value (bars: 3σ); a red cross marks '
                'a drift beyond 3σ, a change of the device.')
 
@@ -210,6 +216,7 @@ class History(Result):
             bad = [k for k, r in enumerate(rows) if r["drift"]]
             if bad:
                 ax.plot([t[k] for k in bad], v[bad] / ref, "rx", ms=9, mew=2)
+        ax.set_xlabel("record date (UTC)")
         ax.set_ylabel("value / first record (bars: 3σ; ×: drift > 3σ)")
         ax.set_title(f"{self.device}: calibration history")
         ax.legend(fontsize=6, ncol=2)

@@ -36,6 +36,7 @@ __all__ = [
     "all_or_none",
     "atomic_write_bytes",
     "atomic_write_text",
+    "atomic_write_rows",
     "remove_stale",
     "save_png",
     "to_jsonable",
@@ -197,6 +198,19 @@ def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> Path:
 def atomic_write_text(path: str | os.PathLike, text: str) -> Path:
     """:func:`atomic_write_bytes` of ``text`` encoded as UTF-8."""
     return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_rows(path: str | os.PathLike, rows: list[dict]) -> Path:
+    """:func:`atomic_write_bytes` of ``rows`` (dicts with the same keys) as one Parquet table, with page
+    checksums (readers can verify it)."""
+    import io
+
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    buf = io.BytesIO()
+    pq.write_table(pa.Table.from_pylist(rows), buf, write_page_checksum=True)
+    return atomic_write_bytes(path, buf.getvalue())
 
 
 def save_png(fig, path, dpi: int = 130) -> Path:

@@ -33,7 +33,7 @@ from tendyn.device import compile_device
 from tendyn.results import Result, format_table
 
 __all__ = ["LOOPS", "METRICS", "SweepResult", "design_grid", "evaluate_design", "local_cluster", "memory_needed",
-           "parse_param", "run_sweep", "write_outputs", "write_table"]
+           "parse_param", "run_sweep"]
 
 METRICS = ("peak_shift_hz", "open_loop_spread_db", "closed_loop_spread_db", "robust_performance")
 LOOPS = ("open", "closed")
@@ -302,37 +302,3 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
         rows = gather_in_order(futures, f"{bench.name}: sweep", "design", progress)
     return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)",
                        [float(f) for f in freqs_hz])
-
-
-def _parquet_bytes(result: SweepResult) -> bytes:
-    import io
-
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    buf = io.BytesIO()
-    pq.write_table(pa.Table.from_pylist(result.rows), buf, write_page_checksum=True)  # readers can verify it
-    return buf.getvalue()
-
-
-def write_table(result: SweepResult, path) -> None:
-    """Write the rows as one Parquet table (:func:`tendyn.io.atomic_write_bytes`: nothing half-written)."""
-    from tendyn.io.files import atomic_write_bytes
-
-    atomic_write_bytes(path, _parquet_bytes(result))
-
-
-def write_outputs(result: SweepResult, table_path):
-    """The table (Parquet) and the figure of the metric beside it (same stem, ``.png``), all or none
-    (:func:`tendyn.io.files.all_or_none`). Returns (table path, figure path)."""
-    from pathlib import Path
-
-    from tendyn.io import save_png
-    from tendyn.io.files import all_or_none, atomic_write_bytes
-
-    table_path = Path(table_path)
-    fig_path = table_path.with_suffix(".png")
-    with all_or_none(table_path.parent) as stage:
-        atomic_write_bytes(stage / table_path.name, _parquet_bytes(result))
-        save_png(result.plot(), stage / fig_path.name)
-    return table_path, fig_path

@@ -15,7 +15,7 @@ from typing import Any, Mapping, Sequence
 from tendyn.report.checks import scan
 from tendyn.report.page import HTML_NAME, Figure, Section, run_info, section_of, write_html_report
 
-__all__ = ["publish", "warn", "sections_of", "write_report"]
+__all__ = ["publish", "warn", "sections_of", "write_report", "write_beside"]
 
 
 def warn(command: str, warnings: Sequence[str]) -> None:
@@ -103,3 +103,22 @@ def publish(args, doc: dict, table: str, figures: Mapping[str, Any], out, json_n
     sys.stdout.flush()
     warn(command, warnings)
     return 0
+
+
+def write_beside(result, doc: dict, args, device, out, command: str, title: str, text: str = "") -> dict:
+    """A grid command's outputs beside its table ``out`` (``.parquet``), all or none: the rows as Parquet, the
+    figure (same stem, ``.png``), the page (``.html``) and ``doc`` (``.json``). ``result`` has ``rows``,
+    ``plot``, ``table`` and ``warnings``. Returns ``doc`` with the paths of the table, figure and page."""
+    from tendyn.io.files import all_or_none, atomic_write_rows
+
+    out = Path(out)
+    paths = {"table": str(out), "figure": str(out.with_suffix(".png")), "report": str(out.with_suffix(".html"))}
+    doc = doc | paths
+    with all_or_none(out.parent) as stage:
+        atomic_write_rows(stage / out.name, result.rows)
+        sections = [Section(title, text=text, tables=[result.table()], figures=[Figure(result, name=out.stem)],
+                            warnings=list(getattr(result, "warnings", []) or []))]
+        write_html_report(stage, title, run_info(command, device=device, options=args), sections, data=doc,
+                          json_name=out.with_suffix(".json").name, html_name=out.with_suffix(".html").name,
+                          pngs=True, extra_files=[out.name])
+    return doc
