@@ -261,7 +261,7 @@ def test_negative_viscous_coefficient_is_flagged(arm, tmp_path, capsys):
     from tendyn.io import write_log
 
     log = synthetic_log(arm, duration=8.0, seed=8, noise=0.01, fv=np.array([0.35, -0.05]))
-    est = IDIM(arm.device, cutoff_hz=20.0, decimate=10).fit(log, crossval=False)
+    est = IDIM(arm.device, cutoff_hz=20.0, decimate=20).fit(log, crossval=False)
     fv2 = est.params_[est.names_.index("FV2")]
     assert fv2 < 0
     warn = {w.split(" ")[0]: w for w in est.result_.warnings}
@@ -272,12 +272,12 @@ def test_negative_viscous_coefficient_is_flagged(arm, tmp_path, capsys):
     assert "warning: FV2 = " in est.result_.table()
     path = write_log(log, tmp_path / "log.csv")
     assert main(["identify", str(arm.file), str(path), "--json", "--quiet", "--cutoff-hz", "20",
-                 "--decimate", "10"]) == 0
+                 "--decimate", "20"]) == 0
     out = capsys.readouterr()
     doc = json.loads(out.out)
     assert "FV2" in [w.split(" ")[0] for w in doc["warnings"]]
     assert "warning: FV2" in out.err
-    cons = IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True).fit(log, crossval=False)
+    cons = IDIM(arm.device, cutoff_hz=20.0, decimate=20, consistent=True).fit(log, crossval=False)
     assert cons.result_.warnings == []
 
 

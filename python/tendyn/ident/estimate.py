@@ -95,6 +95,7 @@ class IdentificationResult(Result):
         self.crossval = crossval
         self.units = list(units) if units is not None else [unit_of(n) for n in self.names]
         self.warnings = implausible(self.names, self.values, self.stderr, self.units)
+        self.warnings += list(getattr(treatment, "warnings", []))
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
 
