@@ -42,10 +42,10 @@ def _lfilter(b, a, x):
     return lfilter(b, a, x)
 
 
-__all__ = ["NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity", "Record", "nrms",
-           "records_from_logs", "simulate"]
+__all__ = ["LURE_NONLINEARITIES", "NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity",
+           "Record", "nrms", "records_from_logs", "simulate"]
 
-STRUCTURES = ("wiener", "hammerstein")
+STRUCTURES = ("wiener", "hammerstein", "lure")
 
 
 # ---- static nonlinearities --------------------------------------------------------------------------------
@@ -100,6 +100,11 @@ NONLINEARITIES["dead-band"] = NONLINEARITIES["dead-zone"]
 IDENTITY = Nonlinearity("identity", (), lambda x, p: x, lambda x, p: np.ones_like(x),
                         lambda x, p: np.zeros((x.size, 0)), (), "f = x (the linear output-error fit)")
 NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "saturation", "abs", "polynomial")
+LURE_NONLINEARITIES: dict[str, Nonlinearity] = {"coulomb": Nonlinearity(
+    "coulomb", ("level",), lambda v, p: p[0] * _sgn(v), lambda v, p: np.zeros_like(v), lambda v, p: _sgn(v)[:, None],
+    (0.0,), "φ = F sgn(Δy) fed back to G's input, sticking (Δy = 0, |φ| ≤ F) when it can: Coulomb friction of "
+            "level F [input unit] inside the dynamics (Lur'e)")}
+"""Feedback nonlinearities of the Lur'e structure (:func:`_lure_simulate`)."""
 
 
 def polynomial(degree: int) -> Nonlinearity:
@@ -115,8 +120,14 @@ def polynomial(degree: int) -> Nonlinearity:
         tuple(-np.inf for _ in ks), f"f = x + Σ_k c_k x^k, k = 2…{int(degree)}")
 
 
-def nonlinearity(name: str, degree: int = 3) -> Nonlinearity:
-    """The nonlinearity called ``name`` (:data:`NONLINEARITY_NAMES`; ``degree`` for the polynomial)."""
+def nonlinearity(name: str, degree: int = 3, structure: str = "wiener") -> Nonlinearity:
+    """The nonlinearity called ``name`` (:data:`NONLINEARITY_NAMES`; ``degree`` for the polynomial); for the
+    ``lure`` structure, one of :data:`LURE_NONLINEARITIES`."""
+    if structure == "lure":
+        if name not in LURE_NONLINEARITIES:
+            raise ValueError(f"the lure structure takes the nonlinearity {', '.join(LURE_NONLINEARITIES)} "
+                             f"(got {name!r})")
+        return LURE_NONLINEARITIES[name]
     if name == "polynomial":
         return polynomial(degree)
     if name not in NONLINEARITIES:
@@ -190,8 +201,55 @@ def nrms(y, yhat) -> float:
 
 # ---- simulation and Jacobian ----------------------------------------------------------------------------
 
+def _lure_simulate(b, a, level, u) -> np.ndarray:
+    """ŷ of the Lur'e model from rest: y = G (u − φ), G(z) = (b_1 z⁻¹ + … + b_n z⁻ⁿ)/A(z) strictly proper
+    (``b`` = b_1…b_n, ``a`` = a_1…a_n), φ_t Coulomb friction of level F = ``level`` [u unit] held over the
+    sample like u_t and opposing the output's next increment Δ = y_{t+1} − y_t (Moreau's time stepping at
+    the velocity level, as the twins' nodes, ``tendon_bench.hpp``): with Δ₀ the increment without friction,
+
+        |Δ₀| ≤ |b_1| F:  stick, φ_t = Δ₀/b_1, y_{t+1} = y_t;   otherwise  slip, φ_t = F sgn(b_1 Δ₀),
+        y_{t+1} = y_t + Δ₀ − |b_1| F sgn(Δ₀)
+
+    (the increment passes a dead-zone of half-width |b_1| F: ŷ is continuous in θ). At rest and stuck, the
+    static balance |u − y/G(1)| ≤ F holds: F is the half-width of the dead-band seen from u. One scalar
+    recursion per sample (the stick/slip choice depends on the simulated output): plain floats, ≈ 0.4 µs a
+    sample."""
+    n = len(a)
+    b = [float(v) for v in b]
+    a = [float(v) for v in a]
+    b1, F = b[0], max(float(level), 0.0)
+    thr, sb = abs(b1) * F, (1.0 if b1 >= 0.0 else -1.0)
+    uu = np.asarray(u, float).tolist()
+    N = len(uu)
+    y = [0.0] * (N + n)          # sample t at index t + n (n zeros of rest before it)
+    w = [0.0] * (N + n)
+    for t in range(N - 1):
+        i = t + n
+        ut = uu[t]
+        acc = b1 * ut
+        for k in range(1, n):
+            acc += b[k] * w[i - k]
+        for k in range(n):
+            acc -= a[k] * y[i - k]
+        yt = y[i]
+        d = acc - yt
+        if -thr <= d <= thr:
+            f = d / b1 if b1 != 0.0 else 0.0
+            y[i + 1] = yt
+        elif d > 0.0:
+            f = F * sb
+            y[i + 1] = acc - thr
+        else:
+            f = -F * sb
+            y[i + 1] = acc + thr
+        w[i] = ut - f
+    return np.array(y[n:])
+
+
 def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
-    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1)."""
+    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1; Lur'e: b_0 = 0)."""
+    if structure == "lure":
+        return _lure_simulate(b[1:], a, p[0], u)
     A = np.concatenate([[1.0], a])
     if structure == "wiener":
         return nl.f(_lfilter(b, A, u), p)
@@ -206,7 +264,34 @@ def _shifted(w, k):
     return out
 
 
+def _lure_residual_and_jac(n, theta, records, want_jac, skip):
+    """Residual of the Lur'e model and its Jacobian by forward differences (b_0 ≡ 0: its column is zero, so
+    the step leaves it at 0). The recursion's stick/slip choice is redone at each perturbed θ; ŷ is
+    continuous in θ (:func:`_lure_simulate`), its derivative jumps where a sample changes between stick and
+    slip, a set of measure zero."""
+    def res(th):
+        r = np.concatenate([(_lure_simulate(th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1], rec.u) - rec.y)[skip:]
+                            for rec in records])
+        bad = ~np.isfinite(r)
+        return np.where(bad, 1e6, np.clip(r, -1e6, 1e6)) if bad.any() else r
+
+    r = res(theta)
+    if not want_jac:
+        return r
+    J = np.zeros((r.size, theta.size))
+    umax = max(float(np.max(np.abs(rec.u))) for rec in records) or 1.0
+    scale = np.concatenate([[0.0], np.full(n, np.abs(theta[1:n + 1]).max() or 1.0), np.ones(n), [umax]])
+    for j in range(1, theta.size):
+        h = 1e-7 * (abs(theta[j]) + 1e-2 * scale[j])
+        th = theta.copy()
+        th[j] += h
+        J[:, j] = (res(th) - r) / (th[j] - theta[j])
+    return r, J
+
+
 def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
+    if structure == "lure":
+        return _lure_residual_and_jac(n, theta, records, want_jac, skip)
     b, a, p = theta[:n + 1], theta[n + 1:2 * n + 1], theta[2 * n + 1:]
     A = np.concatenate([[1.0], a])
     res, jacs = [], []
@@ -354,6 +439,35 @@ def _initial_nonlinear(structure, nl, n, b, a, records, degree_cols):
     return g * b, np.array(c)
 
 
+def _initial_lure(n, records):
+    """Initial Lur'e model by equation error with the friction's sign read from the measured output: where
+    the output moved over the n samples a step depends on (|Δy| above round-off: slip), φ_j = F sgn(Δy_{j+1})
+    and y_{t+1} + Σ a_k y_{t+1−k} = Σ b_k u_{t+1−k} − Σ c_k sgn(Δy_{t+2−k}) is linear in (a, b, c = b F);
+    F = c·b / b·b (≥ 0), a stabilised. Stuck samples are left out (their φ is unknown)."""
+    rows, rhs = [], []
+    for r in records:
+        y, u = r.y, r.u
+        dy = np.diff(y, append=y[-1])                  # dy[j] = y_{j+1} − y_j
+        s = np.sign(dy)
+        moving = np.abs(dy) > 1e-9 * (np.ptp(y) or 1.0)
+        ok = np.ones(y.size, bool)                    # row t predicts y_{t+1} from samples t+1−k, k = 1…n
+        for k in range(n):
+            ok &= _shifted(moving.astype(float), k) > 0
+        cols = ([-_shifted(y, k) for k in range(n)] + [_shifted(u, k) for k in range(n)]
+                + [-_shifted(s, k) for k in range(n)])
+        X = np.column_stack(cols)[n - 1:-1]
+        keep = ok[n - 1:-1]
+        rows.append(X[keep])
+        rhs.append(y[n:][keep])
+    X, Y = np.concatenate(rows), np.concatenate(rhs)
+    if Y.size < 3 * n + 1:
+        raise ValueError(f"too few moving samples ({Y.size}) for a Lur'e model of order {n}")
+    th, *_ = np.linalg.lstsq(X, Y, rcond=None)
+    a, b, c = th[:n], th[n:2 * n], th[2 * n:]
+    F = max(float(c @ b / (b @ b)), 0.0) if b @ b > 0 else 0.0
+    return np.concatenate([[0.0], b]), _stabilise(a), np.array([F])
+
+
 def _kernel_signs(records, lags=24):
     """A sign sequence for x = G u from y = |x|: y² = (g * u)² is a quadratic form in the lagged inputs,
     y²_t ≈ Σ_ij Q_ij u_{t−i} u_{t−j} with Q = g gᵀ (g the first ``lags`` samples of G's impulse response);
@@ -451,8 +565,9 @@ class BlockModelFit(Result):
         return num / den
 
     def predict(self, u) -> np.ndarray:
-        return simulate(self.structure, nonlinearity(self.nonlinearity, len(self.params) + 1), self.b, self.a,
-                        np.array(list(self.params.values()), float), np.asarray(u, float))
+        nl = nonlinearity(self.nonlinearity, len(self.params) + 1, self.structure)
+        return simulate(self.structure, nl, self.b, self.a, np.array(list(self.params.values()), float),
+                        np.asarray(u, float))
 
     reading = ('The measured output and the fitted block model simulated from rest over the same input; where the '
                'dashed curve leaves the measured one, the model misses the dynamics.')
@@ -543,20 +658,23 @@ class BlockModel:
 
     # ---- fitting ----
     def _nl(self) -> Nonlinearity:
-        return nonlinearity(self.nonlinearity, self.degree)
+        return nonlinearity(self.nonlinearity, self.degree, self.structure)
 
     def _fit_order(self, records, n, warm=None):
         """θ and evaluations of the order-n model; ``warm``, the order n − 1 solution, is also tried padded
         with a pole and a zero at the origin (the same model), so a higher order never fits worse."""
         nl = self._nl()
-        if self.structure == "wiener" and nl.name == "abs":
+        if self.structure == "lure":
+            b, a, p = _initial_lure(n, records)
+        elif self.structure == "wiener" and nl.name == "abs":
             b, a = _abs_sign_recovery(records, n, self.skip, self.max_nfev)
         else:   # linear output error (identity in place of f) from ARX
             b, a = _arx(records, n)
-            sol = _solve(self.structure, IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
+            sol = _solve("wiener", IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
                          np.zeros(0))
             b, a = sol.x[:n + 1], _stabilise(sol.x[n + 1:2 * n + 1])
-        b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
+        if self.structure != "lure":
+            b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
         sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
                      np.array(nl.lower, float))
         if warm is not None:
