@@ -1,23 +1,32 @@
 """Block-oriented nonlinear models of a bench, fitted by output error (simulation error) to its logs.
 
 A linear block G (discrete transfer function of order n, sample time of the logs) and a static nonlinearity
-f (:data:`NONLINEARITIES`) in one of two orders:
+f (:data:`NONLINEARITIES`, :data:`LURE_NONLINEARITIES`) in one of three arrangements:
 
 * Wiener:      x = G u,  ŷ = f(x)     (S1's dead-band plant, §4.2 and Fig. 8: linear tendon dynamics, then
   the single-valued dead-band of the breakaway friction model, which makes the hysteresis-like loops);
-* Hammerstein: v = f(u), ŷ = G v.
+* Hammerstein: v = f(u), ŷ = G v;
+* Lur'e:       ŷ = G (u − φ), φ a static nonlinearity of the output's motion fed back to G's input — Coulomb
+  friction φ = F sgn(Δŷ) that sticks when it can (:func:`_lure_simulate`). This is where the twins' node
+  friction acts (inside the dynamics: it damps the motion), which neither a Wiener nor a Hammerstein model
+  can hold (their G absorbs it); the level F [input unit] is the half-width of the dead-band seen from u.
 
 G(z) = (b_0 + b_1 z⁻¹ + … + b_n z⁻ⁿ) / (1 + a_1 z⁻¹ + … + a_n z⁻ⁿ). Each nonlinearity has slope one in its
 linear part (dead-zone outside the band, saturation inside, polynomial x + c_2 x² + …), so the gain of the
 chain lives in G alone and the parameters are identifiable.
 
 Output error: θ = (b, a, p) minimises Σ_records Σ_t (y_t − ŷ_t(θ))², ŷ simulated from rest over the whole
-record (not one step ahead). The simulation is ``scipy.signal.lfilter`` (compiled) and so is the exact
-Jacobian: ∂x/∂b_k = (z⁻ᵏ/A) u, ∂x/∂a_k = −(z⁻ᵏ/A) x — two filters per record for all of (b, a) — chained
-through f′ (Wiener) or filtered through G (the nonlinearity's parameters in Hammerstein form). The
-minimiser is ``scipy.optimize.least_squares`` (trust region, bounds on the thresholds) started from a linear
-initial estimate: ARX least squares, refined to linear output error, then the nonlinearity's parameters by
-linear least squares over a grid of thresholds (the gain of G rescaled at the same time).
+record (not one step ahead). Wiener and Hammerstein: the simulation is ``scipy.signal.lfilter`` (compiled)
+and so is the exact Jacobian: ∂x/∂b_k = (z⁻ᵏ/A) u, ∂x/∂a_k = −(z⁻ᵏ/A) x — two filters per record for all of
+(b, a) — chained through f′ (Wiener) or filtered through G (the nonlinearity's parameters in Hammerstein
+form). The minimiser is Levenberg–Marquardt (:func:`_solve`, bounds on the thresholds) started from a
+linear initial estimate: ARX least squares, refined to linear output error, then the nonlinearity's
+parameters by linear least squares over a grid of thresholds (the gain of G rescaled at the same time).
+Lur'e: the stick/slip choice of each sample depends on the simulated output, so the simulation is one
+scalar recursion (:func:`_lure_simulate`) and the Jacobian is by forward differences; G is strictly proper
+(b_0 = 0, the friction of sample t acts from sample t + 1 on); the initial estimate is equation error with
+the friction's sign read from the measured output (:func:`_initial_lure`), which starts the minimiser in
+the basin of the truth where a linear output-error G (its damping inflated by the friction) does not.
 
 RMS [output unit] and NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (1: no better than the mean) are reported on the fit and
 on validation records. :class:`BlockModel` is the estimator (hyper-parameters in ``__init__``, learned values
@@ -510,7 +519,7 @@ def _abs_sign_recovery(records, n, skip, max_nfev, rounds=4):
 
 @dataclass(eq=False)
 class BlockModelFit(Result):
-    """A fitted Wiener or Hammerstein model: G(z) = B/A at ``dt`` [s], the nonlinearity and its parameters,
+    """A fitted Wiener, Hammerstein or Lur'e model: G(z) = B/A at ``dt`` [s], the nonlinearity and its parameters,
     RMS [output unit] and NRMS [-] on the fit and validation records, NRMS per order tried."""
 
     structure: str
@@ -612,13 +621,14 @@ class BlockModelFit(Result):
 
 
 class BlockModel:
-    """Estimator of a Wiener or Hammerstein model by output error (module docstring).
+    """Estimator of a Wiener, Hammerstein or Lur'e model by output error (module docstring).
 
     Parameters (hyper-parameters, stored as given)
     ----------
-    structure : {"wiener", "hammerstein"}
+    structure : {"wiener", "hammerstein", "lure"}
     nonlinearity : str
-        One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``.
+        One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``;
+        ``lure``: ``coulomb`` (friction of level ``params_["level"]`` [input unit] in G's feedback).
     order : int or None
         Order n of G(z); None chooses it in 1…``max_order`` by the NRMS on the validation records (or, without
         them, on the last third of each fit record, the model fitted on the first two thirds), then refits.
