@@ -213,46 +213,56 @@ def nrms(y, yhat) -> float:
 def _lure_simulate(b, a, level, u) -> np.ndarray:
     """ŷ of the Lur'e model from rest: y = G (u − φ), G(z) = (b_1 z⁻¹ + … + b_n z⁻ⁿ)/A(z) strictly proper
     (``b`` = b_1…b_n, ``a`` = a_1…a_n), φ_t Coulomb friction of level F = ``level`` [u unit] held over the
-    sample like u_t and opposing the output's next increment Δ = y_{t+1} − y_t (Moreau's time stepping at
-    the velocity level, as the twins' nodes, ``tendon_bench.hpp``): with Δ₀ the increment without friction,
+    sample like u_t, opposing the output's next increment Δ = y_{t+1} − y_t (time stepping at the velocity
+    level, as the twins' nodes, ``tendon_bench.hpp``). With Δ₀ the increment without friction:
 
-        |Δ₀| ≤ |b_1| F:  stick, φ_t = Δ₀/b_1, y_{t+1} = y_t;   otherwise  slip, φ_t = F sgn(b_1 Δ₀),
-        y_{t+1} = y_t + Δ₀ − |b_1| F sgn(Δ₀)
+    * slip, |Δ₀| > |b_1| F:  φ_t = F sgn(b_1 Δ₀), y_{t+1} = y_t + Δ₀ − |b_1| F sgn(Δ₀);
+    * stick, |Δ₀| ≤ |b_1| F: y_{t+1} = y_t and the state is put at rest there (the last n outputs y_t, the
+      last n − 1 net inputs y_t/G(1)), φ_t = u_t − y_t/G(1) the static balance.
 
-    (the increment passes a dead-zone of half-width |b_1| F: ŷ is continuous in θ). At rest and stuck, the
-    static balance |u − y/G(1)| ≤ F holds: F is the half-width of the dead-band seen from u. One scalar
-    recursion per sample (the stick/slip choice depends on the simulated output): plain floats, ≈ 0.4 µs a
-    sample."""
+    At rest the free increment is Δ₀ = b_1 (u_t − y_t/G(1)), so the stick test is the static one,
+    |u − y/G(1)| ≤ F: F is the half-width of the dead-band seen from u. Resting the state (rather than only
+    holding y_{t+1} = y_t, which inverts G's numerator and makes the stuck friction ring on its sampling
+    zero near z = −1) is what a stuck mass does: its velocity is zero. One scalar recursion per sample (the
+    stick/slip choice depends on the simulated output): plain floats, ≈ 0.5 µs a sample."""
     n = len(a)
     b = [float(v) for v in b]
     a = [float(v) for v in a]
     b1, F = b[0], max(float(level), 0.0)
     thr, sb = abs(b1) * F, (1.0 if b1 >= 0.0 else -1.0)
+    sum_b = sum(b)
+    inv_g0 = (1.0 + sum(a)) / sum_b if sum_b != 0.0 else 0.0        # 1/G(1)
     uu = np.asarray(u, float).tolist()
     N = len(uu)
-    y = [0.0] * (N + n)          # sample t at index t + n (n zeros of rest before it)
-    w = [0.0] * (N + n)
+    out = [0.0] * N
+    yh = [0.0] * n              # y_t, y_{t−1}, …, y_{t−n+1}
+    wh = [0.0] * (n - 1)        # w_{t−1}, …, w_{t−n+1}  (w = u − φ)
+    bw = b[1:]
     for t in range(N - 1):
-        i = t + n
         ut = uu[t]
         acc = b1 * ut
-        for k in range(1, n):
-            acc += b[k] * w[i - k]
+        for k in range(n - 1):
+            acc += bw[k] * wh[k]
         for k in range(n):
-            acc -= a[k] * y[i - k]
-        yt = y[i]
+            acc -= a[k] * yh[k]
+        yt = yh[0]
         d = acc - yt
-        if -thr <= d <= thr:
-            f = d / b1 if b1 != 0.0 else 0.0
-            y[i + 1] = yt
-        elif d > 0.0:
-            f = F * sb
-            y[i + 1] = acc - thr
+        if -thr <= d <= thr:                                        # stick: at rest at y_t
+            yh = [yt] * n
+            wh = [yt * inv_g0] * (n - 1)
+            out[t + 1] = yt
+            continue
+        if d > 0.0:
+            f, ynew = F * sb, acc - thr
         else:
-            f = -F * sb
-            y[i + 1] = acc + thr
-        w[i] = ut - f
-    return np.array(y[n:])
+            f, ynew = -F * sb, acc + thr
+        yh.insert(0, ynew)
+        yh.pop()
+        if n > 1:
+            wh.insert(0, ut - f)
+            wh.pop()
+        out[t + 1] = ynew
+    return np.array(out)
 
 
 def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
@@ -273,11 +283,16 @@ def _shifted(w, k):
     return out
 
 
+LURE_TOL = 1e-7
+"""Relative decrease of the cost below which the Lur'e fit stops (its cost is rough at the scale of one
+sample's stick/slip change: finer tolerances buy evaluations, not accuracy)."""
+
+
 def _lure_residual_and_jac(n, theta, records, want_jac, skip):
     """Residual of the Lur'e model and its Jacobian by forward differences (b_0 ≡ 0: its column is zero, so
-    the step leaves it at 0). The recursion's stick/slip choice is redone at each perturbed θ; ŷ is
-    continuous in θ (:func:`_lure_simulate`), its derivative jumps where a sample changes between stick and
-    slip, a set of measure zero."""
+    the step leaves it at 0). The recursion's stick/slip choice is redone at each perturbed θ; ŷ jumps (by
+    about the velocity of one threshold |b_1| F a sample) where a sample changes between stick and slip, a
+    set of measure zero that a step of 1e-7 relative seldom meets."""
     def res(th):
         r = np.concatenate([(_lure_simulate(th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1], rec.u) - rec.y)[skip:]
                             for rec in records])
@@ -390,10 +405,15 @@ def _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol):
             except np.linalg.LinAlgError:
                 step = np.zeros_like(theta)
             trial = np.maximum(theta + step, lb)
-            r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
+            if structure == "lure":     # a Jacobian costs 2n simulations: only at accepted points
+                r2 = _residual_and_jac(structure, nl, n, trial, records, False, skip)
+            else:                       # the Jacobian shares the simulation: with every trial
+                r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
             nfev += 1
             c2 = float(r2 @ r2)
             if c2 < cost:
+                if structure == "lure":
+                    r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
                 break
             lam *= 4.0
             if lam > 1e12:
@@ -685,11 +705,13 @@ class BlockModel:
             b, a = sol.x[:n + 1], _stabilise(sol.x[n + 1:2 * n + 1])
         if self.structure != "lure":
             b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
+        tol = LURE_TOL if self.structure == "lure" else 1e-10
         sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
-                     np.array(nl.lower, float))
+                     np.array(nl.lower, float), tol)
         if warm is not None:
             padded = np.concatenate([warm[:n], [0.0], warm[n:2 * n - 1], [0.0], warm[2 * n - 1:]])
-            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float))
+            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float),
+                           tol)
             if other.cost < sol.cost:
                 sol = _Solution(other.x, other.cost, other.nfev + sol.nfev)
         theta = sol.x
