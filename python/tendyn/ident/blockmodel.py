@@ -25,8 +25,9 @@ parameters by linear least squares over a grid of thresholds (the gain of G resc
 Lur'e: the stick/slip choice of each sample depends on the simulated output, so the simulation is one
 scalar recursion (:func:`_lure_simulate`) and the Jacobian is by forward differences; G is strictly proper
 (b_0 = 0, the friction of sample t acts from sample t + 1 on); the initial estimate is equation error with
-the friction's sign read from the measured output (:func:`_initial_lure`), which starts the minimiser in
-the basin of the truth where a linear output-error G (its damping inflated by the friction) does not.
+the friction's sign read from the measured output (:func:`_initial_lure`), exact at no noise (a linear
+output-error G has its damping inflated by the friction; from it the McGill twin's fit ends at a higher
+cost, docs/bench-identification.md).
 
 RMS [output unit] and NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (1: no better than the mean) are reported on the fit and
 on validation records. :class:`BlockModel` is the estimator (hyper-parameters in ``__init__``, learned values
