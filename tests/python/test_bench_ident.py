@@ -54,6 +54,7 @@ STATIC = {   # f written out independently of blockmodel.NONLINEARITIES
     "polynomial": lambda x, p: x + p[0] * x ** 2 + p[1] * x ** 3,
 }
 TRUTH = {"dead-zone": [0.3], "coulomb": [0.15], "saturation": [0.5], "abs": [], "polynomial": [0.3, -0.2]}
+STATIC_STRUCTURES = ("wiener", "hammerstein")   # the Lur'e structure: tests/python/test_blockmodel_lure.py
 B_TRUE = np.array([0.0, 0.2, 0.1])
 A_TRUE = np.array([-1.2, 0.5])           # poles 0.6 ± 0.37j
 
@@ -75,7 +76,7 @@ def prbs(rng, n, amplitude=1.0, hold=4):
 def data():
     rng = np.random.default_rng(21)
     out = {}
-    for structure in bm.STRUCTURES:
+    for structure in STATIC_STRUCTURES:
         for name in TRUTH:
             u, uv = prbs(rng, 3000), prbs(rng, 1500)
             out[structure, name] = (u, system(structure, name, u), uv, system(structure, name, uv))
@@ -242,7 +243,7 @@ def test_frf_command_writes_json_and_figure(tmp_path):
 
 # ---- 3. block-oriented models --------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("structure", bm.STRUCTURES)
+@pytest.mark.parametrize("structure", STATIC_STRUCTURES)
 @pytest.mark.parametrize("name", list(TRUTH))
 def test_block_model_recovers_the_parameters_at_no_noise(data, structure, name):
     u, y, uv, yv = data[structure, name]
@@ -254,7 +255,7 @@ def test_block_model_recovers_the_parameters_at_no_noise(data, structure, name):
     assert model.score(uv, yv) == pytest.approx(1 - model.validation_nrms_[0])
 
 
-@pytest.mark.parametrize("structure", bm.STRUCTURES)
+@pytest.mark.parametrize("structure", STATIC_STRUCTURES)
 @pytest.mark.parametrize("name", list(TRUTH))
 def test_block_model_reaches_the_noise_floor_with_noise(data, structure, name):
     """Output noise at 5 % of the output's rms: the validation NRMS against the noisy record is the noise

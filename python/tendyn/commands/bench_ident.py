@@ -5,7 +5,7 @@
 
     tendyn frf LOG... --input NAME --output NAME [--estimator h1|h2] [--window hann] [--segment N]
                [--overlap 0.5] [--confidence 0.95] [--band LO,HI] [--out FRF.json] [--figure FRF.png] [--json]
-    tendyn identify-bench LOG... --structure wiener|hammerstein --nonlinearity NAME [--order N]
+    tendyn identify-bench LOG... --structure wiener|hammerstein|lure --nonlinearity NAME [--order N]
                --validate LOG... [--input NAME --output NAME] [--out MODEL.json] [--figure FIT.png] [--json]
 """
 
@@ -130,10 +130,12 @@ def run_frf(args) -> int:
 def add_identify_bench_arguments(sub) -> None:
     from tendyn.ident.blockmodel import NONLINEARITY_NAMES, STRUCTURES
 
-    p = sub.add_parser("identify-bench", help="Wiener/Hammerstein model (linear block + static nonlinearity) by "
-                                              "output error, validated by simulation on other logs")
+    p = sub.add_parser("identify-bench", help="Wiener/Hammerstein/Lur'e model (linear block + static nonlinearity) "
+                                              "by output error, validated by simulation on other logs")
     p.add_argument("logs", nargs="+", type=conv.existing_file, metavar="LOG", help="estimation logs")
-    p.add_argument("--structure", choices=STRUCTURES, required=True, help="wiener: G then f; hammerstein: f then G")
+    p.add_argument("--structure", choices=STRUCTURES, required=True,
+                   help="wiener: G then f; hammerstein: f then G; lure: G with f in its feedback (Coulomb "
+                        "friction of the output's motion at G's input; --nonlinearity coulomb)")
     p.add_argument("--nonlinearity", choices=NONLINEARITY_NAMES, required=True, help="the static nonlinearity f")
     p.add_argument("--order", type=conv.number(1, 12, integer=True), default=None,
                    help="order of G(z) (default: chosen in 1…--max-order by the validation NRMS)")

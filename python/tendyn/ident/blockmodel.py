@@ -1,23 +1,33 @@
 """Block-oriented nonlinear models of a bench, fitted by output error (simulation error) to its logs.
 
 A linear block G (discrete transfer function of order n, sample time of the logs) and a static nonlinearity
-f (:data:`NONLINEARITIES`) in one of two orders:
+f (:data:`NONLINEARITIES`, :data:`LURE_NONLINEARITIES`) in one of three arrangements:
 
 * Wiener:      x = G u,  ŷ = f(x)     (S1's dead-band plant, §4.2 and Fig. 8: linear tendon dynamics, then
   the single-valued dead-band of the breakaway friction model, which makes the hysteresis-like loops);
-* Hammerstein: v = f(u), ŷ = G v.
+* Hammerstein: v = f(u), ŷ = G v;
+* Lur'e:       ŷ = G (u − φ), φ a static nonlinearity of the output's motion fed back to G's input — Coulomb
+  friction φ = F sgn(Δŷ) that sticks when it can (:func:`_lure_simulate`). This is where the twins' node
+  friction acts (inside the dynamics: it damps the motion), which neither a Wiener nor a Hammerstein model
+  can hold (their G absorbs it); the level F [input unit] is the half-width of the dead-band seen from u.
 
 G(z) = (b_0 + b_1 z⁻¹ + … + b_n z⁻ⁿ) / (1 + a_1 z⁻¹ + … + a_n z⁻ⁿ). Each nonlinearity has slope one in its
 linear part (dead-zone outside the band, saturation inside, polynomial x + c_2 x² + …), so the gain of the
 chain lives in G alone and the parameters are identifiable.
 
 Output error: θ = (b, a, p) minimises Σ_records Σ_t (y_t − ŷ_t(θ))², ŷ simulated from rest over the whole
-record (not one step ahead). The simulation is ``scipy.signal.lfilter`` (compiled) and so is the exact
-Jacobian: ∂x/∂b_k = (z⁻ᵏ/A) u, ∂x/∂a_k = −(z⁻ᵏ/A) x — two filters per record for all of (b, a) — chained
-through f′ (Wiener) or filtered through G (the nonlinearity's parameters in Hammerstein form). The
-minimiser is ``scipy.optimize.least_squares`` (trust region, bounds on the thresholds) started from a linear
-initial estimate: ARX least squares, refined to linear output error, then the nonlinearity's parameters by
-linear least squares over a grid of thresholds (the gain of G rescaled at the same time).
+record (not one step ahead). Wiener and Hammerstein: the simulation is ``scipy.signal.lfilter`` (compiled)
+and so is the exact Jacobian: ∂x/∂b_k = (z⁻ᵏ/A) u, ∂x/∂a_k = −(z⁻ᵏ/A) x — two filters per record for all of
+(b, a) — chained through f′ (Wiener) or filtered through G (the nonlinearity's parameters in Hammerstein
+form). The minimiser is Levenberg–Marquardt (:func:`_solve`, bounds on the thresholds) started from a
+linear initial estimate: ARX least squares, refined to linear output error, then the nonlinearity's
+parameters by linear least squares over a grid of thresholds (the gain of G rescaled at the same time).
+Lur'e: the stick/slip choice of each sample depends on the simulated output, so the simulation is one
+scalar recursion (:func:`_lure_simulate`) and the Jacobian is by forward differences; G is strictly proper
+(b_0 = 0, the friction of sample t acts from sample t + 1 on); the initial estimate is equation error with
+the friction's sign read from the measured output (:func:`_initial_lure`), exact at no noise (a linear
+output-error G has its damping inflated by the friction; from it the McGill twin's fit ends at a higher
+cost, docs/bench-identification.md).
 
 RMS [output unit] and NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (1: no better than the mean) are reported on the fit and
 on validation records. :class:`BlockModel` is the estimator (hyper-parameters in ``__init__``, learned values
@@ -42,10 +52,10 @@ def _lfilter(b, a, x):
     return lfilter(b, a, x)
 
 
-__all__ = ["NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity", "Record", "nrms",
-           "records_from_logs", "simulate"]
+__all__ = ["LURE_NONLINEARITIES", "NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity",
+           "Record", "nrms", "records_from_logs", "simulate"]
 
-STRUCTURES = ("wiener", "hammerstein")
+STRUCTURES = ("wiener", "hammerstein", "lure")
 
 
 # ---- static nonlinearities --------------------------------------------------------------------------------
@@ -100,6 +110,11 @@ NONLINEARITIES["dead-band"] = NONLINEARITIES["dead-zone"]
 IDENTITY = Nonlinearity("identity", (), lambda x, p: x, lambda x, p: np.ones_like(x),
                         lambda x, p: np.zeros((x.size, 0)), (), "f = x (the linear output-error fit)")
 NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "saturation", "abs", "polynomial")
+LURE_NONLINEARITIES: dict[str, Nonlinearity] = {"coulomb": Nonlinearity(
+    "coulomb", ("level",), lambda v, p: p[0] * _sgn(v), lambda v, p: np.zeros_like(v), lambda v, p: _sgn(v)[:, None],
+    (0.0,), "φ = F sgn(Δy) fed back to G's input, sticking (Δy = 0, |φ| ≤ F) when it can: Coulomb friction of "
+            "level F [input unit] inside the dynamics (Lur'e)")}
+"""Feedback nonlinearities of the Lur'e structure (:func:`_lure_simulate`)."""
 
 
 def polynomial(degree: int) -> Nonlinearity:
@@ -115,8 +130,14 @@ def polynomial(degree: int) -> Nonlinearity:
         tuple(-np.inf for _ in ks), f"f = x + Σ_k c_k x^k, k = 2…{int(degree)}")
 
 
-def nonlinearity(name: str, degree: int = 3) -> Nonlinearity:
-    """The nonlinearity called ``name`` (:data:`NONLINEARITY_NAMES`; ``degree`` for the polynomial)."""
+def nonlinearity(name: str, degree: int = 3, structure: str = "wiener") -> Nonlinearity:
+    """The nonlinearity called ``name`` (:data:`NONLINEARITY_NAMES`; ``degree`` for the polynomial); for the
+    ``lure`` structure, one of :data:`LURE_NONLINEARITIES`."""
+    if structure == "lure":
+        if name not in LURE_NONLINEARITIES:
+            raise ValueError(f"the lure structure takes the nonlinearity {', '.join(LURE_NONLINEARITIES)} "
+                             f"(got {name!r})")
+        return LURE_NONLINEARITIES[name]
     if name == "polynomial":
         return polynomial(degree)
     if name not in NONLINEARITIES:
@@ -190,8 +211,65 @@ def nrms(y, yhat) -> float:
 
 # ---- simulation and Jacobian ----------------------------------------------------------------------------
 
+def _lure_simulate(b, a, level, u) -> np.ndarray:
+    """ŷ of the Lur'e model from rest: y = G (u − φ), G(z) = (b_1 z⁻¹ + … + b_n z⁻ⁿ)/A(z) strictly proper
+    (``b`` = b_1…b_n, ``a`` = a_1…a_n), φ_t Coulomb friction of level F = ``level`` [u unit] held over the
+    sample like u_t, opposing the output's next increment Δ = y_{t+1} − y_t (time stepping at the velocity
+    level, as the twins' nodes, ``tendon_bench.hpp``). With Δ₀ the increment without friction:
+
+    * slip, |Δ₀| > |b_1| F:  φ_t = F sgn(b_1 Δ₀), y_{t+1} = y_t + Δ₀ − |b_1| F sgn(Δ₀);
+    * stick, |Δ₀| ≤ |b_1| F: y_{t+1} = y_t and the state is put at rest there (the last n outputs y_t, the
+      last n − 1 net inputs y_t/G(1)), φ_t = u_t − y_t/G(1) the static balance.
+
+    At rest the free increment is Δ₀ = b_1 (u_t − y_t/G(1)), so the stick test is the static one,
+    |u − y/G(1)| ≤ F: F is the half-width of the dead-band seen from u. Resting the state (rather than only
+    holding y_{t+1} = y_t, which inverts G's numerator and makes the stuck friction ring on its sampling
+    zero near z = −1) is what a stuck mass does: its velocity is zero. One scalar recursion per sample (the
+    stick/slip choice depends on the simulated output): plain floats, ≈ 0.5 µs a sample."""
+    n = len(a)
+    b = [float(v) for v in b]
+    a = [float(v) for v in a]
+    b1, F = b[0], max(float(level), 0.0)
+    thr, sb = abs(b1) * F, (1.0 if b1 >= 0.0 else -1.0)
+    sum_b = sum(b)
+    inv_g0 = (1.0 + sum(a)) / sum_b if sum_b != 0.0 else 0.0        # 1/G(1)
+    uu = np.asarray(u, float).tolist()
+    N = len(uu)
+    out = [0.0] * N
+    yh = [0.0] * n              # y_t, y_{t−1}, …, y_{t−n+1}
+    wh = [0.0] * (n - 1)        # w_{t−1}, …, w_{t−n+1}  (w = u − φ)
+    bw = b[1:]
+    for t in range(N - 1):
+        ut = uu[t]
+        acc = b1 * ut
+        for k in range(n - 1):
+            acc += bw[k] * wh[k]
+        for k in range(n):
+            acc -= a[k] * yh[k]
+        yt = yh[0]
+        d = acc - yt
+        if -thr <= d <= thr:                                        # stick: at rest at y_t
+            yh = [yt] * n
+            wh = [yt * inv_g0] * (n - 1)
+            out[t + 1] = yt
+            continue
+        if d > 0.0:
+            f, ynew = F * sb, acc - thr
+        else:
+            f, ynew = -F * sb, acc + thr
+        yh.insert(0, ynew)
+        yh.pop()
+        if n > 1:
+            wh.insert(0, ut - f)
+            wh.pop()
+        out[t + 1] = ynew
+    return np.array(out)
+
+
 def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
-    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1)."""
+    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1; Lur'e: b_0 = 0)."""
+    if structure == "lure":
+        return _lure_simulate(b[1:], a, p[0], u)
     A = np.concatenate([[1.0], a])
     if structure == "wiener":
         return nl.f(_lfilter(b, A, u), p)
@@ -206,7 +284,39 @@ def _shifted(w, k):
     return out
 
 
+LURE_TOL = 1e-7
+"""Relative decrease of the cost below which the Lur'e fit stops (its cost is rough at the scale of one
+sample's stick/slip change: finer tolerances buy evaluations, not accuracy)."""
+
+
+def _lure_residual_and_jac(n, theta, records, want_jac, skip):
+    """Residual of the Lur'e model and its Jacobian by forward differences (b_0 ≡ 0: its column is zero, so
+    the step leaves it at 0). The recursion's stick/slip choice is redone at each perturbed θ; ŷ jumps (by
+    about the velocity of one threshold |b_1| F a sample) where a sample changes between stick and slip, a
+    set of measure zero that a step of 1e-7 relative seldom meets."""
+    def res(th):
+        r = np.concatenate([(_lure_simulate(th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1], rec.u) - rec.y)[skip:]
+                            for rec in records])
+        bad = ~np.isfinite(r)
+        return np.where(bad, 1e6, np.clip(r, -1e6, 1e6)) if bad.any() else r
+
+    r = res(theta)
+    if not want_jac:
+        return r
+    J = np.zeros((r.size, theta.size))
+    umax = max(float(np.max(np.abs(rec.u))) for rec in records) or 1.0
+    scale = np.concatenate([[0.0], np.full(n, np.abs(theta[1:n + 1]).max() or 1.0), np.ones(n), [umax]])
+    for j in range(1, theta.size):
+        h = 1e-7 * (abs(theta[j]) + 1e-2 * scale[j])
+        th = theta.copy()
+        th[j] += h
+        J[:, j] = (res(th) - r) / (th[j] - theta[j])
+    return r, J
+
+
 def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
+    if structure == "lure":
+        return _lure_residual_and_jac(n, theta, records, want_jac, skip)
     b, a, p = theta[:n + 1], theta[n + 1:2 * n + 1], theta[2 * n + 1:]
     A = np.concatenate([[1.0], a])
     res, jacs = [], []
@@ -296,10 +406,15 @@ def _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol):
             except np.linalg.LinAlgError:
                 step = np.zeros_like(theta)
             trial = np.maximum(theta + step, lb)
-            r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
+            if structure == "lure":     # a Jacobian costs 2n simulations: only at accepted points
+                r2 = _residual_and_jac(structure, nl, n, trial, records, False, skip)
+            else:                       # the Jacobian shares the simulation: with every trial
+                r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
             nfev += 1
             c2 = float(r2 @ r2)
             if c2 < cost:
+                if structure == "lure":
+                    r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
                 break
             lam *= 4.0
             if lam > 1e12:
@@ -354,6 +469,35 @@ def _initial_nonlinear(structure, nl, n, b, a, records, degree_cols):
     return g * b, np.array(c)
 
 
+def _initial_lure(n, records):
+    """Initial Lur'e model by equation error with the friction's sign read from the measured output: where
+    the output moved over the n samples a step depends on (|Δy| above round-off: slip), φ_j = F sgn(Δy_{j+1})
+    and y_{t+1} + Σ a_k y_{t+1−k} = Σ b_k u_{t+1−k} − Σ c_k sgn(Δy_{t+2−k}) is linear in (a, b, c = b F);
+    F = c·b / b·b (≥ 0), a stabilised. Stuck samples are left out (their φ is unknown)."""
+    rows, rhs = [], []
+    for r in records:
+        y, u = r.y, r.u
+        dy = np.diff(y, append=y[-1])                  # dy[j] = y_{j+1} − y_j
+        s = np.sign(dy)
+        moving = np.abs(dy) > 1e-9 * (np.ptp(y) or 1.0)
+        ok = np.ones(y.size, bool)                    # row t predicts y_{t+1} from samples t+1−k, k = 1…n
+        for k in range(n):
+            ok &= _shifted(moving.astype(float), k) > 0
+        cols = ([-_shifted(y, k) for k in range(n)] + [_shifted(u, k) for k in range(n)]
+                + [-_shifted(s, k) for k in range(n)])
+        X = np.column_stack(cols)[n - 1:-1]
+        keep = ok[n - 1:-1]
+        rows.append(X[keep])
+        rhs.append(y[n:][keep])
+    X, Y = np.concatenate(rows), np.concatenate(rhs)
+    if Y.size < 3 * n + 1:
+        raise ValueError(f"too few moving samples ({Y.size}) for a Lur'e model of order {n}")
+    th, *_ = np.linalg.lstsq(X, Y, rcond=None)
+    a, b, c = th[:n], th[n:2 * n], th[2 * n:]
+    F = max(float(c @ b / (b @ b)), 0.0) if b @ b > 0 else 0.0
+    return np.concatenate([[0.0], b]), _stabilise(a), np.array([F])
+
+
 def _kernel_signs(records, lags=24):
     """A sign sequence for x = G u from y = |x|: y² = (g * u)² is a quadratic form in the lagged inputs,
     y²_t ≈ Σ_ij Q_ij u_{t−i} u_{t−j} with Q = g gᵀ (g the first ``lags`` samples of G's impulse response);
@@ -396,7 +540,7 @@ def _abs_sign_recovery(records, n, skip, max_nfev, rounds=4):
 
 @dataclass(eq=False)
 class BlockModelFit(Result):
-    """A fitted Wiener or Hammerstein model: G(z) = B/A at ``dt`` [s], the nonlinearity and its parameters,
+    """A fitted Wiener, Hammerstein or Lur'e model: G(z) = B/A at ``dt`` [s], the nonlinearity and its parameters,
     RMS [output unit] and NRMS [-] on the fit and validation records, NRMS per order tried."""
 
     structure: str
@@ -451,8 +595,9 @@ class BlockModelFit(Result):
         return num / den
 
     def predict(self, u) -> np.ndarray:
-        return simulate(self.structure, nonlinearity(self.nonlinearity, len(self.params) + 1), self.b, self.a,
-                        np.array(list(self.params.values()), float), np.asarray(u, float))
+        nl = nonlinearity(self.nonlinearity, len(self.params) + 1, self.structure)
+        return simulate(self.structure, nl, self.b, self.a, np.array(list(self.params.values()), float),
+                        np.asarray(u, float))
 
     reading = ('The measured output and the fitted block model simulated from rest over the same input; where the '
                'dashed curve leaves the measured one, the model misses the dynamics.')
@@ -497,13 +642,14 @@ class BlockModelFit(Result):
 
 
 class BlockModel:
-    """Estimator of a Wiener or Hammerstein model by output error (module docstring).
+    """Estimator of a Wiener, Hammerstein or Lur'e model by output error (module docstring).
 
     Parameters (hyper-parameters, stored as given)
     ----------
-    structure : {"wiener", "hammerstein"}
+    structure : {"wiener", "hammerstein", "lure"}
     nonlinearity : str
-        One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``.
+        One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``;
+        ``lure``: ``coulomb`` (friction of level ``params_["level"]`` [input unit] in G's feedback).
     order : int or None
         Order n of G(z); None chooses it in 1…``max_order`` by the NRMS on the validation records (or, without
         them, on the last third of each fit record, the model fitted on the first two thirds), then refits.
@@ -543,25 +689,30 @@ class BlockModel:
 
     # ---- fitting ----
     def _nl(self) -> Nonlinearity:
-        return nonlinearity(self.nonlinearity, self.degree)
+        return nonlinearity(self.nonlinearity, self.degree, self.structure)
 
     def _fit_order(self, records, n, warm=None):
         """θ and evaluations of the order-n model; ``warm``, the order n − 1 solution, is also tried padded
         with a pole and a zero at the origin (the same model), so a higher order never fits worse."""
         nl = self._nl()
-        if self.structure == "wiener" and nl.name == "abs":
+        if self.structure == "lure":
+            b, a, p = _initial_lure(n, records)
+        elif self.structure == "wiener" and nl.name == "abs":
             b, a = _abs_sign_recovery(records, n, self.skip, self.max_nfev)
         else:   # linear output error (identity in place of f) from ARX
             b, a = _arx(records, n)
-            sol = _solve(self.structure, IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
+            sol = _solve("wiener", IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
                          np.zeros(0))
             b, a = sol.x[:n + 1], _stabilise(sol.x[n + 1:2 * n + 1])
-        b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
+        if self.structure != "lure":
+            b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
+        tol = LURE_TOL if self.structure == "lure" else 1e-10
         sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
-                     np.array(nl.lower, float))
+                     np.array(nl.lower, float), tol)
         if warm is not None:
             padded = np.concatenate([warm[:n], [0.0], warm[n:2 * n - 1], [0.0], warm[2 * n - 1:]])
-            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float))
+            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float),
+                           tol)
             if other.cost < sol.cost:
                 sol = _Solution(other.x, other.cost, other.nfev + sol.nfev)
         theta = sol.x

@@ -11,6 +11,11 @@ compared with.
   S1 Fig. 8), validated by simulation on PRBS logs at two other amplitudes (NRMS). Its linear block is
   compared with G(s), its half-width δ with the twin's dead-band 2 F_c (the class-B half-waves against the
   Coulomb node friction at rest, F_c = F_c0 + μ_T T_pre; ``sim/tendon_bench`` conventions).
+* The friction inside the dynamics: a Lur'e model on the same logs (:func:`lure_fit`), G(z) with Coulomb
+  friction of level F fed back to its input (the twin's node friction acts there: it damps the motion, which
+  the Wiener model's G absorbs), fitted by output error. Its linear block is compared with G(s) and F — the
+  half-width of the dead-band seen from the command, static balance |u − y/G(1)| ≤ F — with the same
+  2 F_c. Summary key ``lure`` beside ``wiener``.
 * The loop area: the 0.2 Hz / 0.31 N low-speed log (S1 Fig. 10b), |∮ F_m dF_τ| normalised
   (:func:`tendyn.pipelines.s1.loop_area`) from the log's two columns.
 
@@ -32,7 +37,7 @@ from tendyn.sim import excitation
 from tendyn.sim.catalogue import PRBS_CLOCK_HZ
 from tendyn.sim.tendon_bench import bench_log, simulate
 
-__all__ = ["LOG_RATE_HZ", "PRBS_AMPLITUDES", "bench_records", "prbs_logs", "record_log", "s1_from_logs",
+__all__ = ["LOG_RATE_HZ", "PRBS_AMPLITUDES", "bench_records", "lure_fit", "prbs_logs", "record_log", "s1_from_logs",
            "stepped_sine_logs"]
 
 SIM_RATE_HZ = 20000.0
@@ -80,6 +85,33 @@ def stepped_sine_logs(bench, freqs_hz, amplitude_N: float, cycles: int = 8, sett
             for k, (f, u) in enumerate(zip(np.ravel(freqs_hz), refs))]
 
 
+def lure_fit(estimation_logs, validation_logs, order: int = 2):
+    """The Lur'e model (G(z) of ``order``, Coulomb friction in its feedback: ``BlockModel("lure", "coulomb")``)
+    fitted by output error to the twin's logs, validated by simulation on ``validation_logs``; its
+    :class:`~tendyn.ident.blockmodel.BlockModelFit` (units N → N, ``params["level"]`` the friction level
+    F [N] = the dead-band's half-width)."""
+    model = BlockModel("lure", "coulomb", order=order).fit(bench_records(estimation_logs),
+                                                           validation=bench_records(validation_logs))
+    res = model.result_
+    res.units = {"input": "N", "output": "N"}
+    return res
+
+
+def _linear_errors(model, truth_G, frf_freq_hz) -> dict:
+    """Relative errors of a block model's linear part, made continuous, against G(s): the max in
+    :data:`BAND_HZ` and at the stepped-sine frequencies [Hz]."""
+    from tendyn.control.loop_shaping import freqresp
+
+    w = 2 * math.pi * np.linspace(BAND_HZ[0], BAND_HZ[1], 50)
+    lin = model.linear_continuous()
+    g = freqresp(truth_G, omega=w)
+    wf = 2 * math.pi * np.asarray(frf_freq_hz, float)
+    gf = freqresp(truth_G, omega=wf)
+    return {"linear_max_rel_error_in_band": float(np.max(np.abs(freqresp(lin, omega=w) - g) / np.abs(g))),
+            "linear_rel_error_vs_G": {f"{f:g}": float(e) for f, e in zip(
+                frf_freq_hz, np.abs(freqresp(lin, omega=wf) - gf) / np.abs(gf))}}
+
+
 def s1_from_logs(bench, *, freqs_hz, large_amplitude_N: float, truth_G=None, dead_band_truth_N: float | None = None):
     """The logs route (module docstring). Returns ``(summary dict, plant fit, Wiener fit, logs dict)``.
 
@@ -98,6 +130,8 @@ def s1_from_logs(bench, *, freqs_hz, large_amplitude_N: float, truth_G=None, dea
     model = BlockModel("wiener", "dead-zone", order=2).fit(bench_records(est), validation=bench_records(val))
     wiener = model.result_
     wiener.units = {"input": "N", "output": "N"}
+    # the friction inside the dynamics: a Lur'e model on the same logs
+    lure = lure_fit(est, val)
     # the loop area from the low-speed log (0.2 Hz, 0.31 N: S1 Fig. 10b), the last of two cycles
     n = int(round(2 / LOW_SPEED_FREQ_HZ * SIM_RATE_HZ))
     slow_u = 0.31 * np.sin(2 * math.pi * LOW_SPEED_FREQ_HZ * (np.arange(n) + 0.5) / SIM_RATE_HZ)
@@ -112,21 +146,21 @@ def s1_from_logs(bench, *, freqs_hz, large_amplitude_N: float, truth_G=None, dea
                    "validation_nrms": wiener.validation_nrms, "validation_amplitudes_N": list(VALIDATION_AMPLITUDES),
                    "prbs_amplitudes_N": list(PRBS_AMPLITUDES), "prbs_clock_hz": PRBS_CLOCK_HZ,
                    "seconds": wiener.seconds},
+        "lure": {"dead_band_N": lure.params["level"], "coulomb_level_N": lure.params["level"], "order": lure.order,
+                 "fit_nrms": lure.fit_nrms, "validation_nrms": lure.validation_nrms, "seconds": lure.seconds},
         "loop_area": loop_area(slow["force_cmd"][half:], slow["force_tendon"][half:]),
         "band_hz": list(BAND_HZ),
     }
     if truth_G is not None:
         w = 2 * math.pi * np.linspace(BAND_HZ[0], BAND_HZ[1], 50)
         g = freqresp(truth_G, omega=w)
-        lin = wiener.linear_continuous()
-        summary["wiener"]["linear_max_rel_error_in_band"] = float(np.max(np.abs(freqresp(lin, omega=w) - g) / np.abs(g)))
         summary["plant_fit"]["max_rel_error_vs_G_in_band"] = float(np.max(np.abs(fit.response(omega=w) - g) / np.abs(g)))
-        wf = frf.omega
-        gf = freqresp(truth_G, omega=wf)
-        summary["wiener"]["linear_rel_error_vs_G"] = {f"{f:g}": float(e) for f, e in zip(
-            frf.freq_hz, np.abs(freqresp(lin, omega=wf) - gf) / np.abs(gf))}
+        for key, m in (("wiener", wiener), ("lure", lure)):
+            summary[key].update(_linear_errors(m, truth_G, frf.freq_hz))
     if dead_band_truth_N is not None:
-        summary["wiener"]["dead_band_truth_N"] = dead_band_truth_N
-        summary["wiener"]["dead_band_rel_error"] = (abs(wiener.params["width"] - dead_band_truth_N) / dead_band_truth_N
-                                                    if dead_band_truth_N > 0 else None)
+        for key, m in (("wiener", wiener), ("lure", lure)):
+            d = summary[key]["dead_band_N"]
+            summary[key]["dead_band_truth_N"] = dead_band_truth_N
+            summary[key]["dead_band_rel_error"] = (abs(d - dead_band_truth_N) / dead_band_truth_N
+                                                   if dead_band_truth_N > 0 else None)
     return summary, fit, wiener, {"stepped_sine": steps, "prbs": est, "validation": val, "low_speed": slow}
