@@ -493,7 +493,7 @@ def test_check_log_path_unwritable(tmp_path, monkeypatch):
         (tmp_path / "ro").chmod(0o555)
     else:  # root may write anywhere: pretend the folder is read-only
         real = os.access
-        monkeypatch.setattr(logs_mod.os, "access", lambda p, mode: False if Path(p).name == "ro" else real(p, mode))
+        monkeypatch.setattr(os, "access", lambda p, mode: False if Path(p).name == "ro" else real(p, mode))
     try:
         with pytest.raises(LogError, match="no permission to write in the folder .*ro"):
             check_log_path(tmp_path / "ro" / "new" / "run.csv")

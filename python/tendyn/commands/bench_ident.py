@@ -4,9 +4,11 @@
 ::
 
     tendyn frf LOG... --input NAME --output NAME [--estimator h1|h2] [--window hann] [--segment N]
-               [--overlap 0.5] [--confidence 0.95] [--band LO,HI] [--out FRF.json] [--figure FRF.png] [--json]
+               [--overlap 0.5] [--confidence 0.95] [--band LO,HI] [--out FRF.json] [--figure FRF.png]
+               [--report DIR] [--json]
     tendyn identify-bench LOG... --structure wiener|hammerstein|lure --nonlinearity NAME [--order N]
-               --validate LOG... [--input NAME --output NAME] [--out MODEL.json] [--figure FIT.png] [--json]
+               --validate LOG... [--input NAME --output NAME] [--out MODEL.json] [--figure FIT.png]
+               [--report DIR] [--json]
 """
 
 from __future__ import annotations
@@ -23,6 +25,16 @@ DEFAULT_PAIRS = (("input_1", "output_1"), ("force_cmd", "force_tendon"))
 
 def _out(suffix: str):
     return conv.out_path((suffix,))
+
+
+def _report_dir(text: str):
+    """A report folder that exists or can be created (nothing is created here)."""
+    from tendyn.cli import _check_out_folder
+
+    try:
+        return _check_out_folder(text, "report")
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(exc.problem) from None
 
 
 def _band(text: str):
@@ -66,13 +78,25 @@ def _print_json(doc) -> None:
 
 
 def _publish(args, doc, result, what: str) -> int:
-    """Write ``doc`` to ``--out`` and the figure to ``--figure`` (when given), print the JSON or the table."""
+    """Write ``doc`` to ``--out`` and the figure to ``--figure`` (when given), the page to ``--report`` (the one
+    path of every report, :func:`tendyn.report.publish`), print the JSON or the table."""
     from tendyn.io import atomic_write_text, save_png, to_jsonable
 
     if args.out is not None:
         atomic_write_text(args.out, json.dumps(to_jsonable(doc), indent=2) + "\n")
     if args.figure is not None:
         save_png(result.plot(), args.figure)
+    if args.report is not None:
+        from tendyn.report import publish
+
+        command = args.command_name
+        publish(args, doc, result.table(), {what: result}, args.report, f"{what}.json", f"{what}.txt",
+                command=command, logs=list(args.logs) + list(getattr(args, "validate", None) or []),
+                title=f"tendyn {command}")
+        for name, path in ((what, args.out), ("figure", args.figure)):
+            if path is not None and not args.json:
+                print(f"{name}: {path}")
+        return 0
     if args.json:
         _print_json(doc)
         return 0
@@ -102,8 +126,10 @@ def add_frf_arguments(sub) -> None:
     p.add_argument("--band", type=_band, default=None, metavar="LO,HI", help="keep LO…HI [Hz]")
     p.add_argument("--out", type=_out(".json"), default=None, help="write the FRF as JSON")
     p.add_argument("--figure", type=_out(".png"), default=None, help="magnitude with band, phase, coherence (PNG)")
+    p.add_argument("--report", type=_report_dir, default=None, metavar="DIR",
+                   help="write report.html (figure, table, warnings), data.json, data.txt and data.png into DIR")
     p.add_argument("--json", action="store_true", help="print the FRF as one JSON document on stdout")
-    p.set_defaults(func=run_frf)
+    p.set_defaults(func=run_frf, command_name="frf")
 
 
 def run_frf(args) -> int:
@@ -150,8 +176,10 @@ def add_identify_bench_arguments(sub) -> None:
                         "time on, 1 when it was held up to its time (the twins' logs); default 0")
     p.add_argument("--out", type=_out(".json"), default=None, help="write the model as JSON")
     p.add_argument("--figure", type=_out(".png"), default=None, help="measured vs simulated validation output")
+    p.add_argument("--report", type=_report_dir, default=None, metavar="DIR",
+                   help="write report.html (figure, table, warnings), model.json, model.txt and model.png into DIR")
     p.add_argument("--json", action="store_true", help="print the model as one JSON document on stdout")
-    p.set_defaults(func=run_identify_bench)
+    p.set_defaults(func=run_identify_bench, command_name="identify-bench")
 
 
 def run_identify_bench(args) -> int:

@@ -429,7 +429,9 @@ def read_json(path, **kw):
 
 
 def to_jsonable(value):
-    """numpy arrays and scalars → lists and floats, recursively."""
+    """numpy arrays and scalars → lists and floats, paths → strings, recursively."""
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
     if isinstance(value, dict):
         return {str(k): to_jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
