@@ -4,8 +4,8 @@ The computing model is the core's ``TendonModel`` (``include/tendyn/tendons.hpp`
 [m/s], joint torques τ = Kᵀ t [N·m] from tensions t ≥ 0 [N] (virtual work), motor torques C_m = R_m t [N·m], and
 the feedforward t = P τ + λ h: the minimum-norm tensions P τ (P = pinv(Kᵀ)) plus the least internal tension λ
 [N] along the null vector h (Kᵀh = 0, max 1, h > 0: tension closure) that keeps every tension at or above its
-floor (the device file's ``pretension`` of each tendon). Lossless: branch losses along N+1 tendons are not
-modelled yet.
+floor (the device file's ``pretension`` of each tendon). Given the joint velocities, the branch losses of S0 eq. 12
+(τ0 sgn(Ṡ) + ν Ṡ per branch) are climbed along each tendon and the floors hold at every point of it.
 
 >>> from tendyn.devices import bundled
 >>> from tendyn.device import load_device
@@ -25,12 +25,16 @@ from tendyn import _core
 
 @dataclass(frozen=True)
 class TendonForces:
-    """One feedforward: ``tension`` (m,) [N] ≥ the floors, ``motor_torque`` (m,) [N·m], ``internal_tension`` λ [N]
-    (the scale of h added to the minimum-norm tensions)."""
+    """One feedforward: ``tension`` (m,) [N] at the motors, ``motor_torque`` (m,) [N·m] = R_m t,
+    ``internal_tension`` λ [N] (the scale of h added to the minimum-norm tensions), ``tension_joint`` (m, n) [N]
+    (tendon i at joint j, 0 past its last joint) and ``tension_end`` (m,) [N] (at its last joint); every tension
+    along every tendon ≥ its floor. Lossless, all three are equal."""
 
     tension: np.ndarray
     motor_torque: np.ndarray
     internal_tension: float
+    tension_joint: np.ndarray
+    tension_end: np.ndarray
 
 
 class Tendons:
@@ -102,11 +106,14 @@ class Tendons:
         return np.array(self.model.tension_from_torque)
 
     # ---- the calls ---------------------------------------------------------------------------
-    def feedforward(self, tau) -> TendonForces:
-        """Joint torques τ (n,) [N·m] → tensions ≥ floors [N] and motor torques [N·m] (lossless)."""
-        _core.tendon_feedforward(self.model, np.asarray(tau, float), self._data)
+    def feedforward(self, tau, qd=None) -> TendonForces:
+        """Joint torques τ (n,) [N·m] → tensions ≥ floors [N] and motor torques [N·m]; with the joint velocities
+        q̇ (n,) [rad/s], the branch losses of S0 eq. 12 along each tendon (None: lossless, every branch at rest)."""
+        _core.tendon_feedforward(self.model, np.asarray(tau, float), self._data,
+                                 None if qd is None else np.asarray(qd, float))
         d = self._data
-        return TendonForces(np.array(d.tension), np.array(d.motor_torque), float(d.internal_tension))
+        return TendonForces(np.array(d.tension), np.array(d.motor_torque), float(d.internal_tension),
+                            np.array(d.tension_joint), np.array(d.tension_end))
 
     def joint_torque(self, tension) -> np.ndarray:
         """Tensions (m,) [N] → joint torques Kᵀ t (n,) [N·m]."""

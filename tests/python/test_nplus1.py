@@ -102,6 +102,50 @@ def test_finger_virtual_work_by_finite_differences():
     np.testing.assert_allclose(td.motor_velocity(qd), J @ qd / 0.008, rtol=1e-8)
 
 
+def test_finger_losses_along_each_tendon_balance_the_power():
+    """S0 eq. 12 along each tendon, checked by hand: branch b of tendon i slides at Ṡ_ib = Σ_{l≥b} K_il q̇_l and
+    loses τ0 sgn(Ṡ) + ν Ṡ (the finger's friction entries). The joints see the tensions at their pulleys
+    (τ_j = Σ_i K_ij T_ij, S0 eq. 4); the motors' power exceeds the joints' by exactly Σ τ0|Ṡ| + ν Ṡ²; every point
+    of every tendon keeps its 2 N floor, one on it; at rest (q̇ = 0) the lossless tensions come back."""
+    td = Tendons.from_device(load_device(bundled("tendon_finger")))
+    tau0 = np.array([[0.05, 0, 0], [0.05, 0.04, 0], [0.05, 0.04, 0.03], [0.05, 0.04, 0.03]])
+    nu = np.array([[0.5, 0, 0], [0.5, 0.4, 0], [0.5, 0.4, 0.3], [0.5, 0.4, 0.3]])
+    last = [0, 1, 2, 2]
+    rng = np.random.default_rng(11)
+    for _ in range(50):
+        tau, qd = rng.uniform(-0.2, 0.2, 3), rng.uniform(-2, 2, 3)
+        out = td.feedforward(tau, qd)
+        Sdot = np.zeros((4, 3))
+        for i in range(4):
+            for b in range(last[i] + 1):
+                Sdot[i, b] = sum(K_FINGER[i, l] * qd[l] for l in range(b, 3))
+        drop = np.sign(Sdot) * tau0 + nu * Sdot           # T_up − T_down of each branch
+        for i in range(4):                                # climb from the end: T at joint b−1 = T at joint b + drop
+            for b in range(last[i], 0, -1):
+                assert out.tension_joint[i, b - 1] == pytest.approx(out.tension_joint[i, b] + drop[i, b], abs=1e-12)
+            assert out.tension[i] == pytest.approx(out.tension_joint[i, 0] + drop[i, 0], abs=1e-12)
+        np.testing.assert_allclose((K_FINGER * out.tension_joint).sum(axis=0), tau, atol=1e-12)
+        dissipated = float(np.sum(tau0 * np.abs(Sdot) + nu * Sdot ** 2))
+        motor_power = float(out.motor_torque @ (Sdot[:, 0] / 0.008))
+        assert motor_power == pytest.approx(tau @ qd + dissipated, abs=1e-12)
+        points = [out.tension_joint[i, b] for i in range(4) for b in range(last[i] + 1)] + list(out.tension)
+        assert min(points) == pytest.approx(FLOOR, abs=1e-9)
+    lossless = td.feedforward(tau)
+    np.testing.assert_allclose(td.feedforward(tau, np.zeros(3)).tension, lossless.tension, atol=0)
+    np.testing.assert_allclose(lossless.tension_end, lossless.tension, atol=0)
+
+
+def test_n_plus_one_refuses_losses_it_does_not_model(tmp_path):
+    text = _finger_text().replace("friction = [{tau0 = 0.05, nu = 0.5}, {tau0 = 0.04, nu = 0.4}]   # [ASSUMPTION]",
+                                  "friction = [{tau0 = 0.05, nu = 0.5}, {tau0 = 0.04, nu = 0.4, beta = 0.01}]")
+    err = _bad(tmp_path, text)
+    assert err.field == "transmissions[2].friction[2].beta" and "flexor_2" in err.problem
+    text = _finger_text().replace('name = "flexor_1"\n', 'name = "flexor_1"\nreducer_ratio = 2.0\n'
+                                  'reducer_efficiency = 0.9\n')
+    err = _bad(tmp_path, text)
+    assert err.field == "transmissions[1].reducer_efficiency" and "flexor_1" in err.problem
+
+
 def test_finger_minimum_pretension_is_the_worst_vertex():
     td = Tendons.from_device(load_device(bundled("tendon_finger")))
     for box in ([0.1, 0.05, 0.02], [0.3, 0.0, 0.1], [0.0, 0.0, 0.0]):

@@ -746,6 +746,18 @@ class _Parser:
                 raise self.err(f"{path}.name", f"duplicate transmission name {t.name!r} "
                                                f"(also transmissions[{names[t.name]}])")
             names[t.name] = i + 1
+            for b, fr in enumerate(t.friction):
+                if fr.beta != 0.0:
+                    raise self.err(f"{path}.friction[{b + 1}].beta", f"must be 0 on an N+1 tendon (got {fr.beta:g}): "
+                                   f"transmission {t.name}: the tension-proportional loss of S0 eq. 11 is not modelled "
+                                   "along N+1 tendons (τ0 and ν, S0 eq. 12, are)")
+            if any(br is not None and br.count > 0 for br in t.bearings):
+                raise self.err(f"{path}.bearings", f"transmission {t.name}: bearings are not modelled along N+1 "
+                                                   "tendons (put their friction in the branch's τ0 and ν)")
+            if t.reducer_efficiency != 1.0:
+                raise self.err(f"{path}.reducer_efficiency", f"must be 1 on an N+1 tendon (got "
+                                                             f"{t.reducer_efficiency:g}): transmission {t.name}: "
+                                                             "reducer losses are not modelled along N+1 tendons")
             if t.antagonistic:
                 raise self.err(f"{path}.antagonistic", f"transmission {t.name}: an N+1 routing is made of single "
                                                        "tendons (each pulls one way); antagonistic pairs are a 2N "

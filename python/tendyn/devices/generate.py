@@ -30,8 +30,8 @@ def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, b
     n_plus_one: n + 1 tendons on the n joints (``[device] routing = "n_plus_one"``, issue 19): flexor i ends on
     joint i and crosses joints 1…i−1 with positive radii; one extensor crosses every joint with negative radii
     chosen from a drawn internal tension h (h_extensor = 1, the flexors' in [0.1, 0.9]) so that Kᵀh = 0 and h > 0
-    (tension closure): |e_j| = Σ_i L_ij h_i over the flexors i. Floors (pretension) 1 N, no reducers, no bearings
-    (differential and bearings are ignored)."""
+    (tension closure): |e_j| = Σ_i L_ij h_i over the flexors i. Floors (pretension) 1 N, branch losses τ0 and ν
+    (S0 eq. 12), no β, reducers or bearings (differential, bearings, beta and reducers are ignored)."""
     rng = np.random.default_rng(seed)
     if n_plus_one:
         differential = bearings = False
@@ -61,7 +61,7 @@ def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, b
                   f"mass = {mass!r}", f"com = {com!r}",
                   f"inertia = [{inertia!r}, {inertia!r}, {inertia!r}, 0.0, 0.0, 0.0]"]
     if n_plus_one:
-        return "\n".join(lines + _tendon_lines(n, rng, rotor_inertia, beta)) + "\n"
+        return "\n".join(lines + _tendon_lines(n, rng, rotor_inertia)) + "\n"
     pair_radius = {}
     for i in range(n):
         ratio = float(rng.choice([1.0, 4.0, 6.0])) if reducers else 1.0
@@ -96,7 +96,7 @@ def cable_device_toml(n: int, *, name: str | None = None, planar: bool = True, b
     return "\n".join(lines) + "\n"
 
 
-def _tendon_lines(n: int, rng, rotor_inertia: float, beta: bool) -> list[str]:
+def _tendon_lines(n: int, rng, rotor_inertia: float) -> list[str]:
     """The [[transmissions]] of an N+1 routing (see cable_device_toml): n flexors and one extensor."""
     L = np.zeros((n, n))                                   # flexor i (row) on joint j (column), lower-triangular
     for i in range(n):
@@ -108,8 +108,7 @@ def _tendon_lines(n: int, rng, rotor_inertia: float, beta: bool) -> list[str]:
     rows.append(("extensor", n, list(range(1, n)), [float(r) for r in ext[:-1]], float(ext[-1])))
     lines = []
     for tname, joint, crosses, radii, driven in rows:
-        fr = ", ".join(f"{{tau0 = {float(rng.uniform(0.02, 0.08))!r}, nu = {float(rng.uniform(0.2, 0.6))!r}"
-                       + (f", beta = {float(rng.uniform(0.005, 0.02))!r}" if beta else "") + "}"
+        fr = ", ".join(f"{{tau0 = {float(rng.uniform(0.02, 0.08))!r}, nu = {float(rng.uniform(0.2, 0.6))!r}}}"
                        for _ in range(joint))
         lines += ["[[transmissions]]", f'name = "{tname}"', f"joint = {joint}", "motor_radius = 0.008",
                   f"crosses = {crosses}", f"crossed_radii = {radii}", f"driven_radius = {driven!r}",
