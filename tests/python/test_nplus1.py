@@ -214,6 +214,22 @@ def test_rank_deficient_names_the_tendon(tmp_path):
     assert err.field == "transmissions[4]" and "every joint direction" in err.problem and "extensor" in err.problem
 
 
+def test_a_joint_no_tendon_wraps_is_named(tmp_path):
+    # flexor_3 and the extensor stop at joint 2: joint 3 (dip) has no tendon
+    text = (_finger_text()
+            .replace("joint = 3\nmotor_radius = 0.008             # m [ASSUMPTION]\ncrosses = [1, 2]\n"
+                     "crossed_radii = [0.008, 0.008]   # m [ASSUMPTION]",
+                     "joint = 2\nmotor_radius = 0.008\ncrosses = [1]\ncrossed_radii = [0.008]")
+            .replace("joint = 3                        # ends on joint 3 too, wound the other way on every joint\n"
+                     "motor_radius = 0.008             # m [ASSUMPTION]\ncrosses = [1, 2]\n"
+                     "crossed_radii = [-0.010, -0.009] # m [ASSUMPTION]",
+                     "joint = 2\nmotor_radius = 0.008\ncrosses = [1]\ncrossed_radii = [-0.010]")
+            .replace("friction = [{tau0 = 0.05, nu = 0.5}, {tau0 = 0.04, nu = 0.4}, {tau0 = 0.03, nu = 0.3}]",
+                     "friction = [{tau0 = 0.05, nu = 0.5}, {tau0 = 0.04, nu = 0.4}]"))
+    err = _bad(tmp_path, text)
+    assert err.field == "transmissions" and "joint 3 is wrapped by no tendon" in err.problem
+
+
 def test_wrong_count_antagonistic_floors_and_kind(tmp_path):
     # three tendons on three joints
     head, *rest = _finger_text().split('[[transmissions]]\nname = "extensor"')
