@@ -35,5 +35,6 @@ void expose_rigid_body(nb::module_& m);
 void expose_sim(nb::module_& m);
 void expose_tendon_bench(nb::module_& m);
 void expose_compensator(nb::module_& m);
+void expose_tendons(nb::module_& m);
 
 }  // namespace tendyn::py

@@ -14,5 +14,6 @@ NB_MODULE(_core, m) {
   tendyn::py::expose_sim(m);
   tendyn::py::expose_tendon_bench(m);
   tendyn::py::expose_compensator(m);
+  tendyn::py::expose_tendons(m);
   tendyn::py::expose_regressor(m);
 }

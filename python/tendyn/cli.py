@@ -79,6 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
     show = rsub.add_parser("show", help="print the routing table and the four matrices")
     show.add_argument("device", help="device file (.toml) or bundled twin name (lexos, …)")
     show.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    show.add_argument("--max-joint-torque", default=None, metavar="TAU[,TAU…]",
+                      help="N+1 devices: the joint torque box |τ_j| ≤ TAU_j [N·m] (one value, or one per joint) "
+                           "whose minimum pretension is reported (default: the largest uniform box the motors' "
+                           "peak tensions serve)")
     show.set_defaults(func=cmd_routing_show)
     imp = rsub.add_parser("import", help="write an [[actuators]] device file from a coupling matrix file (dVRK, "
                                          "libbarrett, iCub or plain)")
@@ -173,7 +177,11 @@ def cmd_routing_show(args) -> int:
     c = coupling(dev)
     doc = c.to_dict()
     head: list[str] = []
-    if c.actuation == "transmissions":
+    if getattr(dev, "n_plus_one", False):
+        head = _tendon_lines(dev, doc, args.max_joint_torque)
+    elif args.max_joint_torque is not None:
+        raise UsageError("is for N+1 devices ([device] routing = \"n_plus_one\")", "max_joint_torque")
+    elif c.actuation == "transmissions":
         head = _routing_lines(dev, doc)
     elif c.actuation == "drives":
         head = _drive_lines(dev, doc)
@@ -273,6 +281,53 @@ def _routing_lines(dev, doc: dict) -> list[str]:
                      f"{row['reducer_efficiency']:6.2f} {1 / row['joint_per_motor_ratio']:7.4f}")
     lines.append("\nR_m q_m = K q (S0 eqs. 1–2, corrected); G = R_m⁻¹K; τ_J = Kᵀ t, C_m = R_m t (eq. 5, corrected)")
     lines.append(_matrix_text("K", np.asarray(doc["K"]), "m"))
+    return lines
+
+
+def _tendon_lines(dev, doc: dict, max_joint_torque: str | None) -> list[str]:
+    """An N+1 device: the tendons, K, P, the null vector h and the minimum pretension of a joint torque box."""
+    import numpy as np
+
+    from tendyn.tendons import Tendons
+
+    td = Tendons.from_device(dev)
+    if max_joint_torque is None:
+        box = np.full(td.n, td.largest_torque_box())
+        how = "the largest uniform box the motors' peak tensions serve"
+    else:
+        try:
+            vals = [float(v) for v in max_joint_torque.split(",")]
+        except ValueError:
+            raise UsageError(f"expected numbers [N·m] separated by commas (got {max_joint_torque!r})",
+                             "max_joint_torque") from None
+        if len(vals) not in (1, td.n) or not all(np.isfinite(v) and v >= 0 for v in vals):
+            raise UsageError(f"one value or {td.n} values (one per joint), finite and >= 0 [N·m] (got "
+                             f"{max_joint_torque!r})", "max_joint_torque")
+        box = np.broadcast_to(np.array(vals), (td.n,)).copy()
+        how = "given"
+    tdoc = td.to_dict(box)
+    tdoc["peak_tension"] = td.peak_tension.tolist()
+    doc["tendons"] = tdoc
+    doc["units"].update({"null_vector": "-", "tension_from_torque": "1/m", "minimum_pretension": "N",
+                         "max_joint_torque": "N·m", "tension_min": "N", "peak_tension": "N"})
+    h = td.null_vector
+    lines = [f"{dev.name}: {td.m} tendons share {td.n} joints (N+1, [device] routing = \"n_plus_one\"); tendon i = "
+             "row i, sorted by the joint it ends on",
+             f"{'tendon':>12} {'r_m [mm]':>9}  {'signed radius at joints 1…n [mm]':<34} {'floor [N]':>9} "
+             f"{'peak [N]':>9} {'h':>8}"]
+    K = td.K
+    for i, name in enumerate(td.names):
+        radii = " ".join(f"{1e3 * r:+7.1f}" for r in K[i])
+        lines.append(f"{name:>12} {1e3 * td.motor_radius[i]:9.2f}  {radii:<34} {td.tension_min[i]:9.3g} "
+                     f"{td.peak_tension[i]:9.4g} {h[i]:8.4f}")
+    lines.append("\nℓ̇ = K q̇; τ_J = Kᵀ t, C_m = R_m t (virtual work); t = P τ + λ h with P = pinv(Kᵀ), Kᵀ h = 0, "
+                 "h > 0 (tension closure)")
+    lines.append(_matrix_text("K", K, "m"))
+    lines.append(_matrix_text("P = pinv(Kᵀ)", td.tension_from_torque, "1/m"))
+    lines.append(_matrix_text("null vector h", h[None, :], "-"))
+    lam = tdoc["minimum_pretension"]
+    lines.append(f"  minimum pretension λ for |τ_j| ≤ [{', '.join(f'{v:.4g}' for v in box)}] N·m ({how}): "
+                 f"{lam:.6g} N; tensions at rest λh = [{', '.join(f'{v:.4g}' for v in lam * h)}] N")
     return lines
 
 

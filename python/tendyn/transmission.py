@@ -196,7 +196,10 @@ class Transmission:
     @classmethod
     def from_device(cls, device, losses: bool = True) -> "Transmission":
         """Build from a loaded :class:`tendyn.device.Device`; ``losses=False`` gives the same routing with
-        every loss off (:func:`without_losses`)."""
+        every loss off (:func:`without_losses`). An N+1 device is refused (DeviceError: its K is not square)."""
+        from tendyn.device.schema import require_one_per_joint
+
+        require_one_per_joint(device, "the transmission model (statics with losses)")
         arrays = device.routing_arrays()
         if not losses:
             arrays = without_losses(arrays)

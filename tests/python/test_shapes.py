@@ -271,6 +271,7 @@ ALLOWED = {
     "transmission": {"transmission", "_core", "device.schema"},
     "capstan": {"capstan"},
     "coupling": {"coupling"},
+    "tendons": {"tendons", "_core", "device"},
     "interop": {"interop", "coupling", "device", "transmission", "_core"},
     "errors": {"errors"},
     "progress": {"progress"},

@@ -183,6 +183,9 @@ def compile_device(device: Device | CompiledDevice) -> CompiledDevice:
                         f"(got {type(device).__name__})")
     compiled = device.__dict__.get(_CACHE_ATTR)
     if compiled is None:
+        from .schema import require_one_per_joint
+
+        require_one_per_joint(device, "the computing models (simulator, compensator, identification, exports)")
         compiled = CompiledDevice(device)
         object.__setattr__(device, _CACHE_ATTR, compiled)  # devices are frozen; the cache is not a field
     return compiled

@@ -274,6 +274,9 @@ class _Parser:
             raise self.err("drives", "not allowed together with [[transmissions]]: a device has cable "
                                      "transmissions or elastic capstan drives, not both")
         actuators: tuple = ()
+        if dev["routing"] != "one_per_joint" and top["transmissions"] is None:
+            raise self.err("device.routing", f"routing {dev['routing']!r} needs [[transmissions]] (tendons with "
+                                             "radii): [[drives]] and [[actuators]] have one motor per joint")
         if top["actuators"] is not None:
             other = "transmissions" if top["transmissions"] is not None else "drives" if top["drives"] is not None else None
             if other:
@@ -283,7 +286,7 @@ class _Parser:
         elif top["drives"] is not None:
             drives = self.drives(top["drives"], kin)
         elif top["transmissions"] is not None:
-            trans = self.transmissions(top["transmissions"], kin)
+            trans = self.transmissions(top["transmissions"], kin, dev["routing"])
         else:
             raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
                                             "joint (or [[drives]] for elastic capstan drives)")
@@ -300,7 +303,8 @@ class _Parser:
         terms = self.terms(top["terms"], kin)
         return SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
                             kinematics=kin, transmissions=trans, drives=drives, actuators=actuators,
-                            bandwidth_hz=dev["bandwidth_hz"], home_pose=home, terms=terms)
+                            bandwidth_hz=dev["bandwidth_hz"], home_pose=home, terms=terms,
+                            routing=dev["routing"])
 
     _TERM_NEEDS = {"functions": ("joint", "functions"), "polynomial": ("joint", "degree"),
                    "table": ("joint", "knots"), "spring": ("link_a", "point_a", "link_b", "point_b"),
@@ -689,9 +693,11 @@ class _Parser:
                 raise self.err(f"{where} <inertia>", "ixx … iyz must be finite numbers [kg m^2]")
             self.inertia(tuple(vals), f"{where} <inertia>")
 
-    def transmissions(self, raw: Any, kin: Kinematics) -> tuple[TransmissionSpec, ...]:
+    def transmissions(self, raw: Any, kin: Kinematics, routing: str = "one_per_joint") -> tuple[TransmissionSpec, ...]:
         if not raw:
             raise self.err("transmissions", "must list at least one transmission ([[transmissions]])")
+        if routing == "n_plus_one":
+            return self.tendons(raw, kin)
         driven_by: dict[int, tuple[int, str]] = {}
         names: dict[str, int] = {}
         out = []
@@ -707,8 +713,8 @@ class _Parser:
                 raise self.err(f"{path}.joint", f"joint {t.joint} is driven twice: by transmission {other} "
                                                 f"(transmissions[{k}]) and by {t.name}; each joint must be "
                                                 "driven exactly once (an antagonistic pair is one transmission "
-                                                "with antagonistic = true; N+1 routings are analysed with "
-                                                "tendyn.device.routing_checks.tendon_coupling, not in device files)")
+                                                "with antagonistic = true; n + 1 tendons on n joints are "
+                                                "written with [device] routing = \"n_plus_one\")")
             driven_by[t.joint] = (i + 1, t.name)
             out.append(t)
         for num, js in enumerate(kin.joints, start=1):
@@ -722,6 +728,51 @@ class _Parser:
         except routing_checks.RoutingProblem as p:
             raise self.err(f"transmissions[{file_index[p.transmission]}]" + (f".{p.key}" if p.key else ""),
                            p.problem) from None
+        return out
+
+    def tendons(self, raw: Any, kin: Kinematics) -> tuple[TransmissionSpec, ...]:
+        """[[transmissions]] of an N+1 routing: n + 1 tendons on the n actuated joints; `joint` is the joint a
+        tendon ends on (several may end on the same one); checked by routing_checks.check_tendons."""
+        active = [num for num, js in enumerate(kin.joints, start=1) if js.actuated and js.sigma != 2]
+        if len(active) != kin.n_joints:
+            raise self.err("device.routing", "an N+1 routing needs every joint actuated (no passive joints or "
+                                             "cut frames)")
+        names: dict[str, int] = {}
+        out = []
+        for i, item in enumerate(raw):
+            path = f"transmissions[{i + 1}]"
+            t = self.transmission(item, path, kin)
+            if t.name in names:
+                raise self.err(f"{path}.name", f"duplicate transmission name {t.name!r} "
+                                               f"(also transmissions[{names[t.name]}])")
+            names[t.name] = i + 1
+            for b, fr in enumerate(t.friction):
+                if fr.beta != 0.0:
+                    raise self.err(f"{path}.friction[{b + 1}].beta", f"must be 0 on an N+1 tendon (got {fr.beta:g}): "
+                                   f"transmission {t.name}: the tension-proportional loss of S0 eq. 11 is not modelled "
+                                   "along N+1 tendons (τ0 and ν, S0 eq. 12, are)")
+            if any(br is not None and br.count > 0 for br in t.bearings):
+                raise self.err(f"{path}.bearings", f"transmission {t.name}: bearings are not modelled along N+1 "
+                                                   "tendons (put their friction in the branch's τ0 and ν)")
+            if t.reducer_efficiency != 1.0:
+                raise self.err(f"{path}.reducer_efficiency", f"must be 1 on an N+1 tendon (got "
+                                                             f"{t.reducer_efficiency:g}): transmission {t.name}: "
+                                                             "reducer losses are not modelled along N+1 tendons")
+            if t.antagonistic:
+                raise self.err(f"{path}.antagonistic", f"transmission {t.name}: an N+1 routing is made of single "
+                                                       "tendons (each pulls one way); antagonistic pairs are a 2N "
+                                                       "routing (routing = \"one_per_joint\")")
+            out.append(t)
+        n = len(active)
+        if len(out) != n + 1:
+            raise self.err("transmissions", f"an N+1 routing needs n + 1 = {n + 1} tendons for its {n} actuated "
+                                            f"joints, got {len(out)} [[transmissions]]")
+        out = tuple(sorted(out, key=lambda t: t.joint))   # stable: tendons ending on one joint keep file order
+        try:
+            routing_checks.check_tendons(out, n)
+        except routing_checks.RoutingProblem as p:
+            where = f"transmissions[{names[p.transmission]}]" if p.transmission in names else "transmissions"
+            raise self.err(where + (f".{p.key}" if p.key else ""), p.problem) from None
         return out
 
     def transmission(self, raw: dict, path: str, kin: Kinematics) -> TransmissionSpec:

@@ -6,9 +6,11 @@ wraps (crossed joints before or after its driven joint, the driven radius on the
 :func:`check_transmissions`; the core (``include/tendyn/routing.hpp``) finds the structure (blocks, the first
 dependent transmission), Python only words the problem for the file.
 
-:func:`tendon_coupling` analyses routings with more cables than joints, which device files do not hold:
-N+1 (n + 1 cables share n joints) and 2N (a pair of cables per joint): rank, tension closure and the minimum
-pretension that keeps every cable taut over a box of joint torques.
+:func:`check_tendons` checks an N+1 routing (``[device] routing = "n_plus_one"``: n + 1 tendons share n joints)
+through the core's ``tendyn._core.TendonModel`` (``include/tendyn/tendons.hpp``): full row rank of the joint map
+Kᵀ, tension closure (a null vector h > 0 of Kᵀ), virtual work, and tension floors within the motors' reach.
+:func:`tendon_coupling` analyses any routing with more cables than joints (N+1, 2N, …) by a linear programme:
+rank, tension closure and the minimum pretension that keeps every cable taut over a box of joint torques.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from tendyn import _core
+
+from .schema import require_one_per_joint  # noqa: F401 (re-exported: the N+1 refusal)
 
 
 class RoutingProblem(ValueError):
@@ -94,6 +98,102 @@ def check_transmissions(transmissions, n_joints: int) -> None:
                 raise RoutingProblem(t.name, "pretension", f"must be >= {need:.6g} N (got {t.pretension:g}): "
                                      "below it a cable of the antagonistic pair goes slack before the motor "
                                      "reaches its peak torque (P >= peak_torque / (2 motor_radius))")
+
+
+def tendon_model(transmissions, n_joints: int):
+    """The core's ``TendonModel`` of N+1 tendons (sorted as the device holds them): K (n + 1, n) [m], motor radii
+    [m], tension floors = the tendons' ``pretension`` [N], each tendon's last joint and its branch losses τ0 [N], ν
+    [N·s/m] (S0 eq. 12). ValueError (0-based tendon) when the core refuses it."""
+    m = len(transmissions)
+    tau0, nu = np.zeros((m, n_joints)), np.zeros((m, n_joints))
+    for i, t in enumerate(transmissions):
+        for b, fr in enumerate(t.friction):
+            tau0[i, b], nu[i, b] = fr.tau0, fr.nu
+    return _core.TendonModel(routing_matrix(transmissions, n_joints),
+                             np.array([t.motor_radius for t in transmissions], float),
+                             np.array([t.pretension for t in transmissions], float),
+                             np.array([t.last_joint - 1 for t in transmissions], dtype=np.int32), tau0, nu)
+
+
+def _names(transmissions, idx) -> str:
+    return ", ".join(transmissions[i].name for i in idx)
+
+
+def check_tendons(transmissions, n_joints: int) -> None:
+    """Raise :class:`RoutingProblem` naming the tendon (transmission) when an N+1 routing cannot work.
+
+    Checks, in order: every joint wrapped by some tendon; full row rank of Kᵀ (rank n: the tendons reach every
+    joint direction; the first tendon whose row adds no direction is named); tension closure (the null vector h
+    of Kᵀ, Kᵀh = 0, is > 0 on every tendon: the tendons where it is not are named, they cannot be kept taut);
+    virtual work (τᵀq̇ = tᵀℓ̇ for the core's maps τ = Kᵀt and ℓ̇ = Kq̇, and the minimum-norm tensions deliver
+    the torques, Kᵀ P = I, to 1e-9); the tension floors (``pretension``) reachable at rest within each motor's
+    peak tension peak_torque / motor_radius.
+    """
+    K = routing_matrix(transmissions, n_joints)
+    m, n = K.shape
+    for j in range(n):
+        if not np.any(K[:, j]):
+            raise RoutingProblem("", "", f"joint {j + 1} is wrapped by no tendon: an N+1 routing needs every "
+                                 "joint in some tendon's crosses or joint")
+    rank, basis = 0, np.zeros((0, n))
+    for i in range(m):
+        trial = np.vstack([basis, K[i]])
+        r = int(np.linalg.matrix_rank(trial, tol=1e-12 * max(1.0, np.abs(K).max())))
+        if r > rank:
+            rank, basis = r, trial
+        elif rank + (m - 1 - i) < n:      # the remaining tendons cannot make up the missing directions
+            t = transmissions[i]
+            raise RoutingProblem(t.name, "", f"the tendons do not reach every joint direction (Kᵀ has rank < {n}, "
+                                 f"full row rank needed): the row of K of tendon {t.name} "
+                                 f"({np.array2string(K[i], precision=4)} m) is a combination of the rows of "
+                                 f"{_names(transmissions, range(i)) or 'none'}")
+    h = np.linalg.svd(K.T)[2][-1]          # the null vector of Kᵀ (rank n, m = n + 1: one); numpy, no scipy
+    if h.sum() < 0:
+        h = -h
+    h = h / np.abs(h).max()
+    bad = [i for i in range(m) if not h[i] > 1e-9]
+    if bad:
+        t = transmissions[bad[0]]
+        raise RoutingProblem(t.name, "", "no tension closure: the only tensions that load no joint are multiples of "
+                             f"h = {np.array2string(h, precision=4)} (Kᵀh = 0, tendons in the order "
+                             f"{_names(transmissions, range(m))}), which is not > 0 on tendon(s) "
+                             f"{_names(transmissions, bad)}: no pretension keeps every tendon taut (reverse the "
+                             f"winding of {t.name} on a joint, or route it over other joints)")
+    try:
+        model = tendon_model(transmissions, n)
+    except ValueError as exc:    # the core's own rank/closure test disagrees with the one above: report it as is
+        raise RoutingProblem(transmissions[0].name, "", str(exc)) from None
+    res = tendon_virtual_work_residual(model)
+    if not res < 1e-9:
+        raise RoutingProblem(transmissions[0].name, "", f"the routing is not power-consistent: τᵀq̇ and tᵀℓ̇ "
+                             f"differ by {res:.3g} (relative), or the minimum-norm tensions miss the torques; "
+                             f"Kᵀ is too ill-conditioned (condition {model.condition:.3g})")
+    h = np.asarray(model.null_vector)
+    floors = np.array([t.pretension for t in transmissions])
+    lam = float(np.max(floors / h))
+    for i, t in enumerate(transmissions):
+        peak = t.motor.peak_torque / t.motor_radius
+        if lam * h[i] > peak * (1 + 1e-12):
+            raise RoutingProblem(t.name, "pretension", f"the tendons' floors cannot be held at rest: keeping every "
+                                 f"tendon at or above its pretension needs the internal tension {lam:.6g} N · h, "
+                                 f"i.e. {lam * h[i]:.6g} N on tendon {t.name}, above its motor's peak tension "
+                                 f"peak_torque / motor_radius = {peak:.6g} N")
+
+
+def tendon_virtual_work_residual(model) -> float:
+    """Largest relative mismatch of the N+1 core maps over unit vectors: |τᵀq̇ − tᵀℓ̇| with τ = Kᵀt and
+    ℓ̇ = Kq̇ (virtual work), |KᵀP − I| (the minimum-norm tensions deliver the torques) and |Kᵀh| (h loads no
+    joint), each relative to the size of K."""
+    n, m = model.n, model.m
+    speeds = np.column_stack([np.asarray(_core.tendon_velocity(model, np.eye(n)[j])) for j in range(n)])   # (m, n)
+    torques = np.column_stack([np.asarray(_core.tendon_joint_torque(model, np.eye(m)[i])) for i in range(m)])  # (n, m)
+    scale = float(np.abs(speeds).max())
+    K = np.asarray(model.K)
+    P = np.asarray(model.tension_from_torque)
+    h = np.asarray(model.null_vector)
+    return max(float(np.abs(torques.T - speeds).max()) / scale,
+               float(np.abs(K.T @ P - np.eye(n)).max()),
+               float(np.abs(K.T @ h).max()) / scale)
 
 
 @dataclass(frozen=True)

@@ -164,6 +164,10 @@ TOP_FIELDS = (
 DEVICE_KINDS = ("serial", "tendon_bench_2n")
 """Device kinds: a serial/tree mechanism described here, or the S1 tendon bench (its own loader)."""
 
+ROUTINGS = ("one_per_joint", "n_plus_one")
+"""How the ``[[transmissions]]`` share the joints: one cable (or antagonistic pair) per actuated joint, K square;
+or N+1: n + 1 tendons on n actuated joints, K (n + 1, n) (issue 19; :mod:`tendyn.tendons`)."""
+
 DEVICE_FIELDS = (
     _spec("name", "str", "", "device name (non-empty)"),
     _spec("description", "str", "", "free text", required=False, default=""),
@@ -174,6 +178,9 @@ DEVICE_FIELDS = (
     _spec("home_pose", "float_list", "rad", "joint positions where the hand and wall experiments start "
       "(pipeline s0, demo), one per joint, inside the limits (absent: the pose of best handle mobility on a "
       "grid of the joint ranges)", required=False),
+    _spec("routing", "str", "", "how the [[transmissions]] share the joints: \"one_per_joint\" (one cable or "
+      "antagonistic pair drives each actuated joint) or \"n_plus_one\" (n + 1 tendons share the n actuated joints)",
+      required=False, default="one_per_joint", choices=ROUTINGS),
 )
 
 KINEMATICS_FIELDS = (
@@ -792,7 +799,9 @@ class SerialDevice(Device):
     name, description : str
     path : Path of the device file
     kinematics : :class:`Kinematics`
-    transmissions : tuple of :class:`TransmissionSpec`, sorted by driven joint (empty for a drive device)
+    transmissions : tuple of :class:`TransmissionSpec`, sorted by driven joint (empty for a drive device); an N+1
+        routing holds n + 1 of them, those ending on the same joint in the file's order
+    routing : "one_per_joint" or "n_plus_one" (``[device] routing``)
     drives : tuple of :class:`Drive`, sorted by driven joint (empty for a transmission device)
     actuators : tuple of :class:`Actuator` in the file's order: motor i is the i-th ``[[actuators]]`` entry
     kind : "serial" (class attribute; see :class:`tendyn.device.base.Device`)
@@ -808,6 +817,7 @@ class SerialDevice(Device):
     actuators: tuple[Actuator, ...] = field(default_factory=tuple)
     bandwidth_hz: float | None = None
     home_pose: tuple | None = None
+    routing: str = "one_per_joint"
     terms: tuple[Term, ...] = field(default_factory=tuple)
     kind: ClassVar[str] = "serial"
     experiments: ClassVar[tuple[str, ...]] = ("constant-velocity", "exciting", "blocked-link", "stepped-sine",
@@ -826,6 +836,11 @@ class SerialDevice(Device):
     @property
     def n_transmissions(self) -> int:
         return len(self.transmissions)
+
+    @property
+    def n_plus_one(self) -> bool:
+        """True for an N+1 routing (``[device] routing = "n_plus_one"``): n + 1 tendons on n actuated joints."""
+        return self.routing == "n_plus_one"
 
     def motor_joint_matrix(self) -> np.ndarray:
         """G (n_motors, n_active) [rad/rad] with q_motor = G q_active (active joints in tree order).
@@ -911,3 +926,17 @@ class SerialDevice(Device):
                 for name in BEARING_ARRAY_NAMES:
                     out[BEARING_PREFIX + name][i, b] = getattr(br, name)
         return out
+
+
+def require_one_per_joint(device, what: str) -> None:
+    """Refuse ``what`` (a simulator, an export, the compiled device …) on an N+1 device, with a DeviceError (the
+    command line's exit 2) naming the limit: the square statics with losses of the core (routing.hpp, losses.hpp)
+    and everything built on them need one cable per joint; N+1 tendons have their own lossless core
+    (include/tendyn/tendons.hpp, :mod:`tendyn.tendons`)."""
+    if getattr(device, "routing", None) == "n_plus_one":
+        raise DeviceError(f"{what}: one cable (or antagonistic pair) per joint needed, K square; this device's "
+                          f"{len(device.transmissions)} tendons share its {device.n_joints} joints (N+1). N+1 "
+                          "devices are read, checked and shown (`tendyn routing show`) and their tendon tensions "
+                          "computed by tendyn.tendons.Tendons; the simulator, the S0 compensator, identification "
+                          "and the exports do not take them yet (docs/device-file.md, 'N+1 routings')",
+                          file=device.path.name if getattr(device, "path", None) else None, field="device.routing")
