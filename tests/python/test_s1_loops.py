@@ -119,20 +119,22 @@ def test_frf_from_logs_measures_after_the_logs_settle_s():
 
 # ---- the log route equals the in-memory route -----------------------------------------------------------
 
-MAG_REL = 5e-3
-"""|H| of the log route vs the in-memory route: 1 kHz logs vs 20 kHz arrays (harmonics above 500 Hz fold, a
-different sample set of the same noisy run), measured ≤ 1.6e-3 on the McGill twin."""
-PHASE_DEG = 1.0
-"""Phase: the log keeps the half-step lag 180 f/20 kHz (0.54° at 60 Hz) the in-memory route removes."""
+MAG_REL = 2e-3
+"""|H| of the log route vs the in-memory route: 1 kHz logs vs 20 kHz arrays (harmonics above 500 Hz fold, another
+sample set of the same noisy run); measured ≤ 7.6e-4 (McGill twin and the generated benches)."""
+PHASE_DEG = 0.1
+"""Phase [deg], once the half-step lag the log keeps (r held over a step, F_m read at its end: 180 f/20 kHz, 0.54°
+at 60 Hz) is put back on the in-memory route, which removes it; measured ≤ 0.023°."""
 
 
 def compare(bench, name, amplitude):
+    """(log route, in-memory H [-], |H| relative difference, phase difference [deg]) at OMEGA."""
     ctrl, T0 = controllers(bench)[name]
     logs = s1_loops.stepped_sine_frf(bench, ctrl, omega=OMEGA, amplitude_N=amplitude, T0=T0, **CYC)
     mem = tb.loop_stepped_sine(bench, ctrl, omega=OMEGA, amplitude_N=amplitude, **CYC)
     h_mem = mem.ratio / T0
     rel = np.abs(np.abs(logs.ratio) - np.abs(h_mem)) / np.abs(h_mem)
-    dph = np.degrees(np.abs(np.angle(logs.ratio / h_mem)))
+    dph = np.degrees(np.abs(np.angle(logs.ratio / (h_mem * np.exp(-0.5j * OMEGA / 20000.0)))))
     return logs, h_mem, rel, dph
 
 
@@ -189,13 +191,13 @@ def test_a_loop_that_does_not_follow_its_reference_is_flagged_by_the_logs_cohere
                                                 ("high_gain", 0.2, 0.31, 1), ("open", 10.0, 2.0, 2)])
 def test_C24_C28_loop_areas_from_logs_equal_the_in_memory_route(mcgill, name, f, a, cycles):
     """The input/output loop of a sine log (its measured cycles, after options.settle_s) has the area and the
-    dead-band of loop_io's record at 20 kHz within 5e-3 (the log samples each 20th step)."""
+    gain of loop_io's record at 20 kHz (the log samples each 20th step)."""
     ctrl, T0 = controllers(mcgill)[name]
     rec = s1_loops.sine_loop(mcgill, ctrl, freq_hz=f, amplitude_N=a, cycles=cycles)
     mem = tb.loop_io(mcgill, ctrl, freq_hz=f, amplitude_N=a, cycles=cycles, settle_cycles=1, decimate=1)
     assert rec.time[0] > 1.0 / f and rec.time.size == pytest.approx(mem.time.size / 20, abs=1)
-    assert loop_area(rec.u, rec.force / T0) == pytest.approx(loop_area(mem.u, mem.force / T0), abs=5e-3)
-    assert rec.gain() == pytest.approx(mem.gain(), rel=5e-3)
+    assert loop_area(rec.u, rec.force / T0) == pytest.approx(loop_area(mem.u, mem.force / T0), abs=1e-3)  # ≤ 2e-4
+    assert rec.gain() == pytest.approx(mem.gain(), rel=1e-4)                                             # ≤ 2e-6
 
 
 # ---- C28 through logs: the pipeline's numbers ----------------------------------------------------------
@@ -208,8 +210,8 @@ def s1_json(claims_ctx):
 
 
 def test_C28_pipeline_numbers_come_from_logs(s1_json):
-    """`tendyn pipeline s1 --quick --json`: every response is counted in `logs` (per group, 1 kHz), coherent,
-    and C28's picture holds through logs: S1's design keeps a spread > 1 dB and a loop area > 0.1 at
+    """`tendyn pipeline s1 --quick --json`: every response is counted in `logs` (per group, 1 kHz), coherent but
+    where the loop sticks (S1 §4.4's exact inverse), and C28's picture holds through logs: S1's design keeps a spread > 1 dB and a loop area > 0.1 at
     0.2 Hz / 0.31 N, the high-gain loop reaches ≤ 1 dB and < 0.1."""
     lg = s1_json["logs"]
     groups = lg["groups"]
@@ -218,7 +220,10 @@ def test_C28_pipeline_numbers_come_from_logs(s1_json):
         assert groups.get(g, 0) > 0, g
     assert lg["log_rate_hz"] == 1000.0 and lg["noise_log_rate_hz"] == 10000.0 and lg["folder"] is None
     assert lg["count"] == sum(groups.values()) > 500
-    assert lg["coherence_min"] > 0.9
+    coh = lg["coherence_min"]
+    for design in ("open_loop", "proportional", "closed_s1", "closed_integral", "closed_high_gain"):
+        assert coh[design] > 0.99, design
+    assert coh["closed_exact_inverse"] < 0.01       # its stuck points: no tone at the output (stuck_points > 0)
     assert s1_json["closed_loop_spread_db"] > 1.0 and s1_json["loop_area"] > 0.1
     h = s1_json["closed_loop_high_gain"]
     assert h["spread_db"] <= 1.0 and abs(h["loop_area"]) < 0.1

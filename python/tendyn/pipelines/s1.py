@@ -186,6 +186,8 @@ class S1Report(Result):
               f"{s['closed_loop_high_gain']['spread_db']:.2f} dB, loop area {s['closed_loop_high_gain']['loop_area']:.3f}, "
               f"robust performance {s['closed_loop_high_gain']['robust_performance']:.2f}, command noise above 40 Hz "
               f"{s['closed_loop_high_gain']['noise_amplification_db']:+.1f} dB vs S1's")
+        if "logs" in s:
+            t += f"\nevery response above from {s['logs']['count']} logs of the twin ({s['logs']['log_rate_hz']:g} Hz)"
         return t
 
 
@@ -437,8 +439,10 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
                        "noise_log_rate_hz": SIM_RATE_HZ / s1_loops.NOISE_LOG_EVERY,
                        "groups": {k: v["count"] for k, v in book.groups.items()},
                        "folder": None if logs_dir is None else str(logs_dir),
-                       "coherence_min": min(float(r.meta["coherence_min"]) for d in (
-                           open_loop, proportional, closed, closed_i, closed_k, closed_h) for r in d.values()),
+                       "coherence_min": {name: min(float(r.meta["coherence_min"]) for r in d.values()) for name, d in (
+                           ("open_loop", open_loop), ("proportional", proportional), ("closed_s1", closed),
+                           ("closed_exact_inverse", closed_x), ("closed_integral", closed_i),
+                           ("closed_gain_scaled", closed_k), ("closed_high_gain", closed_h))},
                        "note": "every FRF and loop area above is estimated from these logs (tendyn.pipelines.s1_loops)"}
     summary["closed_loop_high_gain"]["noise_amplification_db"] = 20 * math.log10(noise["high_gain"]["u"] / noise["40"]["u"])
 
