@@ -273,3 +273,25 @@ def test_logs_option_is_refused_by_a_pipeline_that_writes_none(tmp_path):
     (tmp_path / "f").write_text("x")
     code, _, err = run_cli(["pipeline", "s1", "--logs", str(tmp_path / "f")])
     assert code == 2 and "not a folder" in err
+
+
+def test_pipeline_s1_logs_dir_holds_the_logs_its_numbers_came_from(tmp_path, s1_json):
+    """`tendyn pipeline s1 --quick --logs DIR --json`: DIR holds every counted log with its truth; the closed-loop
+    logs read back give the reported peaks, and their meta rebuilds the controller that ran; the JSON is the
+    one without --logs (the logs do not change the numbers)."""
+    code, out, err = run_cli(["pipeline", "s1", "--quick", "--json", "--logs", str(tmp_path / "logs")])
+    assert code == 0, err[-500:]
+    doc = json.loads(out)
+    index = json.loads((tmp_path / "logs" / "index.json").read_text())
+    assert index["logs"] == doc["logs"]["count"] == s1_json["logs"]["count"]
+    assert len(list((tmp_path / "logs").rglob("*.parquet"))) == index["logs"]
+    assert len(list((tmp_path / "logs").rglob("*.truth.json"))) == index["logs"]
+    assert doc["closed_loop_spread_db"] == s1_json["closed_loop_spread_db"]
+    group = index["groups"]["closed_s1_2N"]
+    logs = [read_log(tmp_path / "logs" / p) for p in group["files"]]
+    fr = frf_from_logs(logs, "force_ref", "force_tendon")
+    peak = fr.freq_hz[int(np.argmax(np.abs(fr.h1)))]
+    assert peak == {p["amplitude_N"]: p["peak_hz"] for p in doc["closed_loop_peaks"]}[2.0]
+    ctrl = tb.Controller.from_dict(logs[0].meta["options"]["controller"])
+    assert ctrl.label == group["controller"] == "C = L/P̂, 40 Hz" and ctrl.control_hz == CONTROL_HZ
+    assert read_truth(tmp_path / "logs" / group["files"][0])["name"] == doc["device"]
