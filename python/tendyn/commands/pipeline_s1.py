@@ -21,7 +21,7 @@ def run(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind} device; pipeline s1 needs a tendon bench", "device")
     out = _check_out_folder(args.report, "report") if args.report else None
     logs = _check_out_folder(args.logs, "logs") if getattr(args, "logs", None) else None
-    report = run_s1(dev, quick=args.quick, progress=say, logs_dir=logs)
+    report = run_s1(dev, quick=args.quick, progress=say, **({"logs_dir": logs} if logs is not None else {}))
     return publish(args, dict(report.summary), report.table(), {"s1_frf": report, **report.figures}, out, "s1.json",
                    device=dev, title=f"S1 pipeline on {dev.name}")
 
