@@ -30,6 +30,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from tendyn.device import compile_device
 from tendyn.results import FrequencyResponse
 from tendyn.sim import tendon_bench as tb
 
@@ -47,7 +48,7 @@ class LogBook:
     changes) and ``folder/index.json`` (group → experiment, controller label, files)."""
 
     def __init__(self, bench, folder=None):
-        self.bench = tb._bench(bench)
+        self.bench = compile_device(bench).device
         self.folder = None if folder is None else Path(folder)
         self.groups: dict = {}
 
