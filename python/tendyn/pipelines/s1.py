@@ -25,12 +25,9 @@ from tendyn.control.loop_shaping import (LOOP_OMEGA_N, closed_loop, discretise, 
                                          loop_shaping_controller, robust_performance, sensitivity_gain, target_loop)
 from tendyn.device import compile_device
 from tendyn.pipelines import s1_loops
-from tendyn.pipelines.s1_logs import s1_from_logs
+from tendyn.pipelines.s1_logs import SIM_RATE_HZ, s1_from_logs
 from tendyn.results import FrequencyResponse, Result, format_table, new_figure
 from tendyn.sim.tendon_bench import Controller, simulate_closed_loop
-
-SIM_RATE_HZ = 20000.0
-"""Step rate of the twin [Hz]."""
 
 __all__ = ["S1Report", "run_s1", "controller_gain_band", "loop_area", "s1_controller", "spread_db", "wiener_response",
            "fit_dead_band"]
@@ -271,8 +268,8 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # and PRBS logs through the FRF and block-model estimators; G(s) and the node friction only as the truth
     say("identification from the twin's logs")
     from_logs, fit, wiener_fit, from_logs_logs = s1_from_logs(bench, freqs_hz=omega / (2 * math.pi),
-                                                 large_amplitude_N=LARGE_AMPLITUDE_N, truth_G=G,
-                                                 dead_band_truth_N=2.0 * bench.friction_at_rest)
+                                                              large_amplitude_N=LARGE_AMPLITUDE_N, truth_G=G,
+                                                              dead_band_truth_N=2.0 * bench.friction_at_rest)
     summary["from_logs"] = from_logs
     for group, logs in from_logs_logs.items():
         book.add(f"identification_{group}", logs)
