@@ -265,6 +265,7 @@ def test_logbook_writes_logs_with_truth_and_index_readable_by_frf(mcgill, tmp_pa
     np.testing.assert_allclose(back.h1 / T0, fr.ratio, rtol=1e-12)
     noise = tmp_path / "logs" / index["groups"]["noise_40"]["files"][0]
     assert read_truth(noise)["noise_force"] == 0.02 and read_log(noise).meta["rate_hz"] == 10000.0
+    assert "noise_force" not in json.dumps(read_log(noise).meta)          # the twin's setting: truth, not log
 
 
 def test_logs_option_is_refused_by_a_pipeline_that_writes_none(tmp_path):

@@ -127,7 +127,8 @@ def sine_loop(bench, controller, *, freq_hz: float, amplitude_N: float, cycles: 
 def noise_log(bench, controller, reference, *, seed: int, book: LogBook | None = None, group: str = "noise",
               **changes):
     """The closed-loop run of ``reference`` (one value per 20 kHz step) with bench ``changes`` (e.g. sensor
-    noise), logged at the controller's rate (:data:`NOISE_LOG_EVERY`)."""
-    log = tb.loop_log(bench, controller, reference, experiment="closed_loop_noise",
-                      options={"changes": dict(changes)}, log_every=NOISE_LOG_EVERY, seed=seed, **changes)
+    noise), logged at the controller's rate (:data:`NOISE_LOG_EVERY`). The changes are the twin's: they go to the
+    truth sidecar (:class:`LogBook`), not into the log."""
+    log = tb.loop_log(bench, controller, reference, experiment="closed_loop_noise", log_every=NOISE_LOG_EVERY,
+                      seed=seed, **changes)
     return _add(book, group, log, **changes)[0]
