@@ -26,7 +26,8 @@ from tendyn.ident.frf import frf_from_logs, tone_spectra  # noqa: E402
 from tendyn.io import make_log, read_log, read_truth, write_log  # noqa: E402
 from tendyn.io.logs import column_spec  # noqa: E402
 from tendyn.pipelines import s1_loops  # noqa: E402
-from tendyn.pipelines.s1 import CONTROL_HZ, loop_area, s1_controller, spread_db  # noqa: E402
+from tendyn.pipelines.s1 import (CONTROL_HZ, HIGH_GAIN, LEAD_HZ, ROLL_OFF_HZ, loop_area, s1_controller,  # noqa: E402
+                                  spread_db)
 from tendyn.sim import tendon_bench as tb  # noqa: E402
 
 CYC = dict(cycles=4, settle_cycles=6, settle_s=0.4)       # run_s1's quick plan
@@ -44,10 +45,11 @@ def controllers(bench):
     w = 2 * math.pi * np.arange(6.0, 46.0, 2.0)
     fit = fit_plant_frf(w, freqresp(G, omega=w), amplitude_N=2.0)
     _, s1, T0 = s1_controller(fit, label="C = L/P̂")
-    CH = lead_compensator(10.0 * 300 / 60, 2 * math.pi * 60, 2 * math.pi * 300) * control.tf([1.0], [1 / (2 * math.pi * 2000), 1])
+    (z, p), K = LEAD_HZ, HIGH_GAIN
+    CH = lead_compensator(K * p / z, 2 * math.pi * z, 2 * math.pi * p) * control.tf([1.0], [1 / (2 * math.pi * ROLL_OFF_HZ), 1])
     high = tb.Controller.from_realisation(discretise(CH, 1.0 / CONTROL_HZ), label="K = 10 with lead")
     return {"s1": (s1, T0), "K=1": (tb.Controller.gain(1.0, CONTROL_HZ, label="K = 1"), 0.5),
-            "high_gain": (high, 10 / 11), "open": (None, 1.0)}
+            "high_gain": (high, K / (1 + K)), "open": (None, 1.0)}
 
 
 # ---- the log a bench records ----------------------------------------------------------------------------
