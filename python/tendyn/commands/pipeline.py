@@ -15,12 +15,14 @@ from tendyn.errors import UsageError
 
 @dataclass(frozen=True)
 class Pipeline:
-    """A registered pipeline: ``run(args) -> int`` (parses nothing itself), its default device and help."""
+    """A registered pipeline: ``run(args) -> int`` (parses nothing itself), its default device and help;
+    ``writes_logs``: it accepts ``--logs DIR`` (writes the logs it used there)."""
 
     name: str
     run: Callable
     default_device: str
     help: str = ""
+    writes_logs: bool = False
 
 
 PIPELINES: dict[str, Pipeline] = {}
@@ -38,10 +40,15 @@ def _dispatch(args) -> int:
         raise UsageError(f"unknown pipeline {args.name!r} (known: {', '.join(sorted(PIPELINES)) or 'none'})", "name")
     if args.device is None:
         args.device = p.default_device
-    if args.report is not None:                 # before the work: a file or an unwritable place is exit 2
-        from tendyn.cli import _check_out_folder
+    if getattr(args, "logs", None) is not None and not p.writes_logs:
+        known = ", ".join(sorted(k for k, v in PIPELINES.items() if v.writes_logs)) or "none"
+        raise UsageError(f"pipeline {p.name} writes no logs (--logs: {known})", "logs")
+    from tendyn.cli import _check_out_folder
 
+    if args.report is not None:                 # before the work: a file or an unwritable place is exit 2
         _check_out_folder(args.report, "report")
+    if getattr(args, "logs", None) is not None:
+        _check_out_folder(args.logs, "logs")
     try:
         return p.run(args)
     finally:
@@ -72,6 +79,9 @@ def register(subparsers) -> None:
     p.add_argument("device", nargs="?", default=None, help="device file or bundled twin [default: the pipeline's]")
     p.add_argument("--report", default=None, metavar="DIR", help="write report.html (figures, tables, warnings), the data (JSON) and PNGs into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON document on stdout")
+    p.add_argument("--logs", default=None, metavar="DIR",
+                   help="write every log the pipeline used (with its truth sidecar and index.json) into DIR "
+                        f"[pipelines: {', '.join(sorted(k for k, v in PIPELINES.items() if v.writes_logs))}]")
     p.add_argument("--quick", action="store_true", help="coarser grids and shorter runs (tests)")
     p.set_defaults(func=_dispatch)
 

@@ -1,5 +1,5 @@
-"""`tendyn pipeline s1 [DEVICE] [--report DIR] [--json]` (default device ``mcgill_bench``): S1 items 2–7 of
-issue 11 (:func:`tendyn.pipelines.s1.run_s1`). Registers ``s1`` into :mod:`tendyn.commands.pipeline`."""
+"""`tendyn pipeline s1 [DEVICE] [--report DIR] [--logs DIR] [--json]` (default device ``mcgill_bench``): S1 items 2–7 of
+issue 11 (:func:`tendyn.pipelines.s1.run_s1`), every response from the twin's logs; ``--logs DIR`` writes them. Registers ``s1`` into :mod:`tendyn.commands.pipeline`."""
 
 from __future__ import annotations
 
@@ -20,12 +20,14 @@ def run(args) -> int:
     if dev.kind != "tendon_bench_2n":
         raise UsageError(f"{dev.name} is a {dev.kind} device; pipeline s1 needs a tendon bench", "device")
     out = _check_out_folder(args.report, "report") if args.report else None
-    report = run_s1(dev, quick=args.quick, progress=say)
+    logs = _check_out_folder(args.logs, "logs") if getattr(args, "logs", None) else None
+    report = run_s1(dev, quick=args.quick, progress=say, **({"logs_dir": logs} if logs is not None else {}))
     return publish(args, dict(report.summary), report.table(), {"s1_frf": report, **report.figures}, out, "s1.json",
                    device=dev, title=f"S1 pipeline on {dev.name}")
 
 
-register_pipeline(Pipeline("s1", run, "mcgill_bench", "S1 McGill bench: sensitivities, loops, loop shaping"))
+register_pipeline(Pipeline("s1", run, "mcgill_bench", "S1 McGill bench: sensitivities, loops, loop shaping",
+                           writes_logs=True))
 
 
 def register(subparsers) -> None:

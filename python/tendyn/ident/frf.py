@@ -109,25 +109,39 @@ def tone_frequency(u, rate_hz: float) -> float | None:
 
 
 def tone_spectra(u, y, rate_hz: float, freq_hz: float, *, cycles_per_segment: int = 2,
-                 skip: float = 0.5) -> Spectra:
-    """Spectra at one tone ``freq_hz`` [Hz] (a stepped-sine log): the first ``skip`` fraction of the record is
-    dropped (the transient from rest), the rest cut into segments of ``cycles_per_segment`` whole cycles,
-    rectangular window, no overlap, and the single-bin DFT of each segment averaged (as ``csd``/``welch`` do)."""
+                 skip: float = 0.5, start: int | None = None) -> Spectra:
+    """Spectra at one tone ``freq_hz`` [Hz] (a stepped-sine log): the samples before ``start`` (default: the
+    first ``skip`` fraction of the record, the transient from rest) are dropped, the rest cut into segments of
+    ``cycles_per_segment`` cycles (as many as fit, sharing the samples evenly), no overlap, and the phasors of
+    each segment averaged (as ``csd``/``welch`` do: S_uu = ⟨|U|²⟩, S_yy = ⟨|Y|²⟩, S_uy = ⟨conj(U) Y⟩).
+
+    The phasor of a segment of N samples is the three-parameter least-squares sine fit x ≈ a cos ωt + b sin ωt
+    + c (IEEE Std 1057), scaled as a DFT bin: X = (N/2)(a − j b). On whole cycles it equals the single-bin DFT
+    with a rectangular window; unlike it, it stays exact when the rate is not a multiple of the tone (a segment
+    of 2 cycles of 6 Hz at 1 kHz holds 333.3 samples), where the DFT bin leaks the tone's negative-frequency
+    image into the estimate."""
     u, y = _check(u, y, rate_hz)
-    start = int(round(skip * u.size))
+    if start is None:
+        start = int(round(skip * u.size))
+    start = int(start)
+    if not 0 <= start < u.size:
+        raise ValueError(f"start must be in [0, {u.size}) (got {start})")
     per = cycles_per_segment * rate_hz / freq_hz
-    n_seg = int((u.size - start) // per)
+    span = u.size - start
+    n_seg = int((span + 1) // per)                    # a record one sample short of whole segments keeps them
     if n_seg < 1:
-        raise ValueError(f"the record holds less than {cycles_per_segment} cycles of {freq_hz:g} Hz after the "
-                         f"first {skip:.0%}")
+        raise ValueError(f"the record holds less than {cycles_per_segment} cycles of {freq_hz:g} Hz after its "
+                         f"first {start} samples")
+    w = 2 * math.pi * freq_hz / rate_hz
     uu = yy = 0.0
     uy = 0.0j
     for s in range(n_seg):
-        a = start + int(round(s * per))
-        b = start + int(round((s + 1) * per))
-        kernel = np.exp(-2j * math.pi * freq_hz * np.arange(b - a) / rate_hz)
-        U = np.dot(u[a:b] - u[a:b].mean(), kernel)
-        Y = np.dot(y[a:b] - y[a:b].mean(), kernel)
+        a = start + int(round(s * span / n_seg))          # the segments share the measured samples evenly
+        b = start + int(round((s + 1) * span / n_seg))
+        k = np.arange(b - a)
+        basis = np.column_stack([np.cos(w * k), np.sin(w * k), np.ones(k.size)])
+        coef = np.linalg.lstsq(basis, np.column_stack([u[a:b], y[a:b]]), rcond=None)[0]
+        U, Y = 0.5 * (b - a) * (coef[0] - 1j * coef[1])
         uu += abs(U) ** 2
         yy += abs(Y) ** 2
         uy += np.conj(U) * Y
@@ -281,7 +295,8 @@ def frf_from_logs(logs, input: str, output: str, *, estimator: str = "h1", npers
     """H1/H2 of ``output`` over ``input`` (column names or the names of ``meta.signals``) from one or more logs.
 
     A log whose input is one tone (:func:`tone_frequency`; a stepped sine) gives the estimate at that tone
-    (:func:`tone_spectra`); any other log (PRBS, chirp, multisine, noise) every excited Welch bin
+    (:func:`tone_spectra`) after its settling: ``meta.options["settle_s"]`` [s] when the log says it (samples
+    whose ``time`` exceeds it are measured), else the first ``skip`` fraction; any other log (PRBS, chirp, multisine, noise) every excited Welch bin
     (:func:`spectra`). The spectra of all logs are pooled (bins of the same frequency stay separate points).
     ``band_hz`` = (lo, hi) keeps that band only. All logs must have the same units for the two signals."""
     from tendyn.io import Log, read_log
@@ -304,8 +319,12 @@ def frf_from_logs(logs, input: str, output: str, *, estimator: str = "h1", npers
         given = (lg.meta.get("options") or {}).get("freq_hz")
         if f0 is not None and isinstance(given, (int, float)) and abs(given - f0) < 0.05 * given:
             f0 = float(given)                          # the planned tone, when the log says it
+        settle = (lg.meta.get("options") or {}).get("settle_s")
+        start = None
+        if isinstance(settle, (int, float)) and not isinstance(settle, bool):
+            start = int(np.searchsorted(lg.time, float(settle), side="right"))   # the planned settling, not skip
         if f0 is not None:
-            sp = tone_spectra(u, y, rate, f0, cycles_per_segment=cycles_per_segment, skip=skip)
+            sp = tone_spectra(u, y, rate, f0, cycles_per_segment=cycles_per_segment, skip=skip, start=start)
             kinds.append("stepped_sine")
         else:
             sp = spectra(u, y, rate, nperseg=nperseg, window=window, overlap=overlap)

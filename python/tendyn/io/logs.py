@@ -197,6 +197,7 @@ COLUMNS: tuple[ColumnSpec, ...] = (
     ColumnSpec("torque_joint_ext_<j>", "N·m", "external torque applied on joint j (blocked-link tests, user)"),
     ColumnSpec("force_cmd", "N", "commanded tendon force (McGill tendon bench)"),
     ColumnSpec("force_tendon", "N", "sensed differential tendon force (McGill tendon bench)"),
+    ColumnSpec("force_ref", "N", "tendon force reference of a closed loop (McGill tendon bench; controller in meta.options)"),
     ColumnSpec("x_tendon", "m", "sensed tendon displacement (McGill tendon bench)"),
     ColumnSpec("current_cmd", "A", "commanded motor current (McGill tendon bench)"),
     ColumnSpec("input_<k>", "*", "generic input signal k of a bench (any unit: its name and unit in meta.signals)"),

@@ -3,9 +3,12 @@ friction measured (stepped sines with an H1 estimator at several amplitudes, inp
 model beside it), Ĝ_L identified at large amplitude, loop shaping C = L/P̂ run on the nonlinear twin,
 robust performance and noise amplification. :func:`run_s1` returns one :class:`S1Report`.
 
-Every closed loop runs inside the C++ bench step (:func:`tendyn.sim.tendon_bench.loop_stepped_sine`), fed
-by the sensed tendon force. Closed-loop responses are reported normalised by T(0) = 0.5 (S1 eq. 10,
-corrected: ERRATA).
+Every closed loop runs inside the C++ bench step (:func:`tendyn.sim.tendon_bench.simulate_closed_loop`), fed
+by the sensed tendon force. Every frequency response and input/output loop is estimated from the logs those
+runs leave (reference, command, sensed force: :mod:`tendyn.pipelines.s1_loops`), Ĝ_L, the dead-band and the
+low-speed loop area from the open-loop logs (:mod:`tendyn.pipelines.s1_logs`); the twin's internals (G(s), its
+node friction, the noise-free force) are only the truth beside them. Closed-loop responses are reported
+normalised by T(0) = 0.5 (S1 eq. 10, corrected: ERRATA).
 """
 
 from __future__ import annotations
@@ -21,9 +24,10 @@ from tendyn.analysis.s1_plant import (PlantParams, TendonDrivePlant, ratio_trade
 from tendyn.control.loop_shaping import (LOOP_OMEGA_N, closed_loop, discretise, freqresp, lead_compensator,
                                          loop_shaping_controller, robust_performance, sensitivity_gain, target_loop)
 from tendyn.device import compile_device
-from tendyn.pipelines.s1_logs import s1_from_logs
+from tendyn.pipelines import s1_loops
+from tendyn.pipelines.s1_logs import SIM_RATE_HZ, s1_from_logs
 from tendyn.results import FrequencyResponse, Result, format_table, new_figure
-from tendyn.sim.tendon_bench import Controller, loop_io, loop_stepped_sine, simulate_closed_loop
+from tendyn.sim.tendon_bench import Controller, simulate_closed_loop
 
 __all__ = ["S1Report", "run_s1", "controller_gain_band", "loop_area", "s1_controller", "spread_db", "wiener_response",
            "fit_dead_band"]
@@ -179,6 +183,8 @@ class S1Report(Result):
               f"{s['closed_loop_high_gain']['spread_db']:.2f} dB, loop area {s['closed_loop_high_gain']['loop_area']:.3f}, "
               f"robust performance {s['closed_loop_high_gain']['robust_performance']:.2f}, command noise above 40 Hz "
               f"{s['closed_loop_high_gain']['noise_amplification_db']:+.1f} dB vs S1's")
+        if "logs" in s:
+            t += f"\nevery response above from {s['logs']['count']} logs of the twin ({s['logs']['log_rate_hz']:g} Hz)"
         return t
 
 
@@ -186,11 +192,14 @@ def _peaks(frs: dict) -> list:
     return [{"amplitude_N": float(a), "peak_hz": float(r.peak_hz())} for a, r in frs.items()]
 
 
-def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: bool = False, progress=None) -> S1Report:
-    """Items 2–7 of issue 11 on ``device`` (a TendonBench, its compiled form or a loaded device).
+def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: bool = False, progress=None,
+           logs_dir=None) -> S1Report:
+    """Items 2–7 of issue 11 on ``device`` (a TendonBench, its compiled form or a loaded device), every response
+    and loop from the twin's logs (module docstring).
 
     ``omega`` [rad/s] is the stepped-sine grid (default 6…45 Hz every 1 Hz; ``quick`` halves the cycles and
-    uses every 2 Hz, for tests).
+    uses every 2 Hz, for tests). ``logs_dir``: write every log used, with its truth, there
+    (:class:`tendyn.pipelines.s1_loops.LogBook`; ``summary["logs"]`` counts them either way).
     """
     say = progress or (lambda msg: None)
     compiled = compile_device(device)
@@ -207,6 +216,15 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     G = plant.tf()
     summary: dict = {"device": bench.name}
     figures: dict = {}
+    book = s1_loops.LogBook(bench, logs_dir)
+
+    def frf(ctrl, a, group, T0=1.0, w=omega):
+        return s1_loops.stepped_sine_frf(compiled, ctrl, omega=w, amplitude_N=a, T0=T0, book=book,
+                                         group=f"{group}_{a:g}N", **cyc)
+
+    def sine(ctrl, f, a, group, cycles=1, settle_cycles=1):
+        return s1_loops.sine_loop(compiled, ctrl, freq_hz=f, amplitude_N=a, cycles=cycles,
+                                  settle_cycles=settle_cycles, book=book, group=group)
 
     # 2. sensitivities (C15–C18)
     say("sensitivities")
@@ -242,17 +260,19 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
 
     # 5. in-loop friction measured: open-loop stepped sines (H1) at several amplitudes
     say("open-loop stepped sines")
-    open_loop = {float(a): loop_stepped_sine(compiled, None, omega=omega, amplitude_N=a, **cyc) for a in amplitudes}
+    open_loop = {float(a): frf(None, a, "open_loop") for a in amplitudes}
     summary["open_loop_peaks"] = _peaks(open_loop)
     summary["open_loop_spread_db"] = spread_db(list(open_loop.values()), 30.0)
 
     # 6. Ĝ_L at large amplitude, the dead-band and the loop area from the twin's logs (issue 21): stepped-sine
     # and PRBS logs through the FRF and block-model estimators; G(s) and the node friction only as the truth
     say("identification from the twin's logs")
-    from_logs, fit, wiener_fit, _ = s1_from_logs(bench, freqs_hz=omega / (2 * math.pi),
-                                                 large_amplitude_N=LARGE_AMPLITUDE_N, truth_G=G,
-                                                 dead_band_truth_N=2.0 * bench.friction_at_rest)
+    from_logs, fit, wiener_fit, from_logs_logs = s1_from_logs(bench, freqs_hz=omega / (2 * math.pi),
+                                                              large_amplitude_N=LARGE_AMPLITUDE_N, truth_G=G,
+                                                              dead_band_truth_N=2.0 * bench.friction_at_rest)
     summary["from_logs"] = from_logs
+    for group, logs in from_logs_logs.items():
+        book.add(f"identification_{group}", logs)
     figures["plant_fit"] = fit
     figures["wiener_validation"] = wiener_fit
     summary["plant_fit"] = fit.to_dict() | {"source": "stepped-sine logs at %g N (tendyn.ident.frf)" % LARGE_AMPLITUDE_N}
@@ -269,8 +289,8 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # model minimises the summed area over several frequencies (0.2 Hz alone is quasi-static: every model
     # gives the same loop there, which is the dead-band's own hysteresis-like loop)
     say("low-speed loops")
-    slow = loop_io(compiled, None, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
-    probes = [loop_io(compiled, None, freq_hz=f, amplitude_N=LARGE_AMPLITUDE_N, cycles=2, settle_cycles=4, decimate=1)
+    slow = sine(None, 0.2, 0.31, "open_loop_0.2Hz")
+    probes = [sine(None, f, LARGE_AMPLITUDE_N, f"model_probe_{f:g}Hz", cycles=2, settle_cycles=4)
               for f in (5.0, 10.0, 20.0)]
     areas = {}
     for scale in (0.85, 0.95, 1.0, 1.05, 1.15):
@@ -288,10 +308,9 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # 3 (twin). proportional control on the nonlinear twin (C23)
     say("proportional loop on the twin")
     prop = Controller.gain(1.0, CONTROL_HZ, label="K = 1")
-    proportional = {float(a): loop_stepped_sine(compiled, prop, omega=omega, amplitude_N=a, **cyc)
-                    for a in (min(amplitudes), LARGE_AMPLITUDE_N)}
+    proportional = {float(a): frf(prop, a, "proportional") for a in (min(amplitudes), LARGE_AMPLITUDE_N)}
     summary["proportional_peaks"] = _peaks(proportional)
-    slow_p = loop_io(compiled, prop, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
+    slow_p = sine(prop, 0.2, 0.31, "proportional_0.2Hz")
     summary["dead_band_open_N"] = slow.dead_band_N()
     summary["dead_band_proportional_N"] = slow_p.dead_band_N()
     summary["proportional_gain_0p2hz"] = slow_p.gain() / 0.5
@@ -312,7 +331,7 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # but the nominal robust performance is lost, which is why it is not S1's design.
     say("loop shaping on the twin")
     C40, ctrl, T0 = s1_controller(fit, label="C = L/P̂, 40 Hz")
-    closed = _closed_loop_frfs(compiled, ctrl, omega_cl, amplitudes, T0, cyc)
+    closed = {float(a): frf(ctrl, a, "closed_s1", T0, omega_cl) for a in amplitudes}
     summary["closed_loop_peaks"] = _peaks(closed)
     summary["closed_loop_spread_db"] = spread_db(list(closed.values()), 30.0)
     summary["normalisation"] = "closed-loop responses divided by T(0) = 0.5 (S1 eq. 10, corrected: ERRATA)"
@@ -322,7 +341,7 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     # S1 §4.4 as printed (exact P̂ inverted): robust on paper, but |C| ≈ 0.15 at the identified resonance
     # leaves small-amplitude commands inside the dead-band there (F_m ≈ 0: "stuck" grid points)
     _, ctrl_x, _ = s1_controller(fit, inverse_zeta=None, label="C = L/P̂ (exact P̂)")
-    closed_x = _closed_loop_frfs(compiled, ctrl_x, omega_cl, amplitudes, T0, cyc)
+    closed_x = {float(a): frf(ctrl_x, a, "closed_exact_inverse", T0, omega_cl) for a in amplitudes}
     summary["closed_loop_exact_inverse"] = {
         "peaks": _peaks(closed_x), "spread_db": spread_db(list(closed_x.values()), 30.0),
         "stuck_points": {f"{a:g}": int(np.sum(r.magnitude * T0 < 1e-2)) for a, r in closed_x.items()}}
@@ -336,14 +355,14 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     summary["inverse_zeta_tradeoff"] = tradeoff
     # beside it: the same design with integral action below INTEGRAL_HZ (L(0) = inf, T(0) = 1), not S1's
     CI, ctrl_i, T0_i = s1_controller(fit, integral_hz=INTEGRAL_HZ, label="C = L(1 + ω_i/s)/P̂")
-    closed_i = _closed_loop_frfs(compiled, ctrl_i, omega_cl, amplitudes, T0_i, cyc)
+    closed_i = {float(a): frf(ctrl_i, a, "closed_integral", T0_i, omega_cl) for a in amplitudes}
     summary["closed_loop_integral"] = {"integral_hz": INTEGRAL_HZ, "peaks": _peaks(closed_i),
                                        "spread_db": spread_db(list(closed_i.values()), 30.0),
                                        "controller_gain_band": controller_gain_band(CI),
                                        "robust_performance": robust_performance(CI * P_hat).value}
     # and with the target scaled: |C| ≈ CLOSED_LOOP_GAIN, T(0) = k/(1 + k)
     CK, ctrl_k, T0_k = s1_controller(fit, gain=CLOSED_LOOP_GAIN, label=f"C = {CLOSED_LOOP_GAIN:g} L/P̂")
-    closed_k = _closed_loop_frfs(compiled, ctrl_k, omega_cl, amplitudes, T0_k, cyc)
+    closed_k = {float(a): frf(ctrl_k, a, "closed_gain_scaled", T0_k, omega_cl) for a in amplitudes}
     summary["closed_loop_gain_scaled"] = {"gain": CLOSED_LOOP_GAIN, "T0": T0_k, "peaks": _peaks(closed_k),
                                           "spread_db": spread_db(list(closed_k.values()), 30.0),
                                           "controller_gain_band": controller_gain_band(CK),
@@ -357,8 +376,8 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
         * ct.tf([1.0], [1.0 / (2 * math.pi * ROLL_OFF_HZ), 1.0])
     ctrl_h = Controller.from_realisation(discretise(CH, 1.0 / CONTROL_HZ), label=f"K = {HIGH_GAIN:g} with lead")
     T0_h = HIGH_GAIN / (1.0 + HIGH_GAIN)
-    closed_h = _closed_loop_frfs(compiled, ctrl_h, omega_cl, amplitudes, T0_h, cyc)
-    slow_h = loop_io(compiled, ctrl_h, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
+    closed_h = {float(a): frf(ctrl_h, a, "closed_high_gain", T0_h, omega_cl) for a in amplitudes}
+    slow_h = sine(ctrl_h, 0.2, 0.31, "closed_high_gain_0.2Hz")
     gm_h, pm_h, _, _ = ct.margin(CH * P_hat)
     summary["closed_loop_high_gain"] = {
         "gain": HIGH_GAIN, "lead_hz": list(LEAD_HZ), "roll_off_hz": ROLL_OFF_HZ, "T0": T0_h,
@@ -382,9 +401,9 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     summary["robust_performance_weights"] = "W1 = 0.6/(s/(2pi 30) + 1); W2 = 0.15 (s/(2pi 12) + 1)/(s/(2pi 600) + 1)"
 
     # loop area in closed loop: 0.2 Hz / 0.31 N and 1 Hz / large amplitude (C28)
-    cl_slow = loop_io(compiled, ctrl, freq_hz=0.2, amplitude_N=0.31, cycles=1, settle_cycles=1)
-    cl_fast = loop_io(compiled, ctrl, freq_hz=1.0, amplitude_N=LARGE_AMPLITUDE_N, cycles=2, settle_cycles=1)
-    ol_fast = loop_io(compiled, None, freq_hz=1.0, amplitude_N=LARGE_AMPLITUDE_N, cycles=2, settle_cycles=1)
+    cl_slow = sine(ctrl, 0.2, 0.31, "closed_s1_0.2Hz")
+    cl_fast = sine(ctrl, 1.0, LARGE_AMPLITUDE_N, "closed_s1_1Hz", cycles=2)
+    ol_fast = sine(None, 1.0, LARGE_AMPLITUDE_N, "open_loop_1Hz", cycles=2)
     summary["loop_area"] = loop_area(cl_slow.u, cl_slow.force / T0)
     summary["open_loop_area"] = loop_area(slow.u, slow.force)
     summary["loop_area_1hz"] = {"closed": loop_area(cl_fast.u, cl_fast.force / T0), "open": loop_area(ol_fast.u, ol_fast.force)}
@@ -399,24 +418,32 @@ def run_s1(device: Any, *, amplitudes=OPEN_LOOP_AMPLITUDES, omega=None, quick: b
     n = int(1.0 * 20000) if quick else int(2.0 * 20000)
     r = 0.5 * np.sin(2 * math.pi * 2.0 * (np.arange(n) + 0.5) / 20000.0)
     for name, c in (("40", ctrl), ("80", ctrl80), ("high_gain", ctrl_h)):
-        run = simulate_closed_loop(compiled, c, r, seed=3, noise_force=0.02)
-        noise[name] = {"u": _band_rms(run.u[n // 4:], 20000.0, 40.0, 400.0),
-                       "force": _band_rms(run.force_true[n // 4:], 20000.0, 40.0, 400.0)}
+        lg = s1_loops.noise_log(compiled, c, r, seed=3, book=book, group=f"noise_{name}", noise_force=0.02)
+        k = lg.n_samples // 4
+        rate = float(lg.meta["rate_hz"])
+        truth = simulate_closed_loop(compiled, c, r, seed=3, noise_force=0.02).force_true   # the twin's, not logged
+        noise[name] = {"u": _band_rms(lg["force_cmd"][k:], rate, 40.0, 400.0),
+                       "force_sensed": _band_rms(lg["force_tendon"][k:], rate, 40.0, 400.0),
+                       "force": _band_rms(truth[n // 4:], 20000.0, 40.0, 400.0)}
     summary["noise_rms_above_40hz_N"] = noise
     summary["noise_amplification_db"] = 20 * math.log10(noise["80"]["u"] / noise["40"]["u"])
     summary["noise_amplification_force_db"] = 20 * math.log10(noise["80"]["force"] / noise["40"]["force"])
+    summary["noise_note"] = ("u and force_sensed [N] from the logs (force_cmd, force_tendon at the 10 kHz control "
+                             "rate); force: the twin's noise-free F_m (its internal truth, not a bench signal)")
+
+    book.close()
+    summary["logs"] = {"count": book.count, "log_rate_hz": SIM_RATE_HZ / s1_loops.LOG_EVERY,
+                       "noise_log_rate_hz": SIM_RATE_HZ / s1_loops.NOISE_LOG_EVERY,
+                       "groups": {k: v["count"] for k, v in book.groups.items()},
+                       "folder": None if logs_dir is None else str(logs_dir),
+                       "coherence_min": {name: min(float(r.meta["coherence_min"]) for r in d.values()) for name, d in (
+                           ("open_loop", open_loop), ("proportional", proportional), ("closed_s1", closed),
+                           ("closed_exact_inverse", closed_x), ("closed_integral", closed_i),
+                           ("closed_gain_scaled", closed_k), ("closed_high_gain", closed_h))},
+                       "note": "every FRF and loop area above is estimated from these logs (tendyn.pipelines.s1_loops)"}
     summary["closed_loop_high_gain"]["noise_amplification_db"] = 20 * math.log10(noise["high_gain"]["u"] / noise["40"]["u"])
 
     return S1Report(bench.name, summary, open_loop, closed, proportional, wiener, figures)
-
-
-def _closed_loop_frfs(compiled, ctrl, omega, amplitudes, T0, cyc) -> dict:
-    out = {}
-    for a in amplitudes:
-        fr = loop_stepped_sine(compiled, ctrl, omega=omega, amplitude_N=a, **cyc)
-        out[float(a)] = FrequencyResponse(fr.omega, fr.ratio / T0, output="F_m", input="T(0) r", method=fr.method,
-                                          amplitude=fr.amplitude, label=fr.label + " / T(0)", meta=fr.meta)
-    return out
 
 
 def _band_rms(x: np.ndarray, rate_hz: float, f_lo: float, f_hi: float) -> float:

@@ -38,6 +38,10 @@ __all__ = [
     "Controller",
     "h1_estimate",
     "loop_io",
+    "loop_log",
+    "loop_sine_log",
+    "loop_stepped_sine_logs",
+    "io_record",
     "loop_stepped_sine",
     "simulate_closed_loop",
     "FrequencyResponse",
@@ -430,6 +434,25 @@ class Controller:
         return cls(np.asarray(real.A, float), np.asarray(real.B, float), np.asarray(real.C, float), float(real.D),
                    1.0 / float(real.dt), **kw)
 
+    def to_dict(self) -> dict[str, Any]:
+        """JSON form (a log's ``meta.options["controller"]``): ``A`` (rows), ``B``, ``C`` lists, ``D``,
+        ``control_hz`` [Hz], ``u_limit`` [N] (None: unlimited), ``label``. :meth:`from_dict` reads it back."""
+        n = len(np.ravel(self.B))
+        A = np.asarray(self.A, float).reshape(n, n) if n else np.zeros((0, 0))
+        return {"A": A.tolist(), "B": np.ravel(np.asarray(self.B, float)).tolist(),
+                "C": np.ravel(np.asarray(self.C, float)).tolist(), "D": float(self.D),
+                "control_hz": float(self.control_hz),
+                "u_limit": float(self.u_limit) if math.isfinite(self.u_limit) else None, "label": self.label}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Controller":
+        """The controller of :meth:`to_dict` (bit-exact: floats survive JSON)."""
+        n = len(d["B"])
+        A = np.asarray(d["A"], float).reshape(n, n) if n else ()
+        return cls(A, np.asarray(d["B"], float) if n else (), np.asarray(d["C"], float) if n else (), float(d["D"]),
+                   float(d["control_hz"]), math.inf if d.get("u_limit") is None else float(d["u_limit"]),
+                   str(d.get("label", "")))
+
     def core_model(self, rate_hz: float) -> "_core.BenchControllerModel":
         dec = rate_hz / self.control_hz
         if abs(dec - round(dec)) > 1e-9 * dec or round(dec) < 1:
@@ -481,6 +504,30 @@ def simulate_closed_loop(bench: TendonBench | CompiledDevice, controller: Contro
     fm, u, ft = np.empty(n), np.empty(n), np.empty(n)
     _core.run_closed_loop(model, data, cm, cd, r, fm, u, ft)
     return ClosedLoopRun(time, r, u, fm, ft, float(rate_hz), int(seed))
+
+
+def loop_log(bench: TendonBench | CompiledDevice, controller: Controller | None, reference: Any, *,
+             experiment: str, options: dict | None = None, rate_hz: float = 20000.0, log_every: int = 20,
+             seed: int = 0, **changes: Any):
+    """A closed-loop run (:func:`simulate_closed_loop`: ``reference`` [N], one value per step, from rest) as the
+    log a bench records every ``log_every`` steps (tendyn.io.logs schema): ``force_ref`` r [N] (closed loop
+    only), ``force_cmd`` the command u [N] and ``force_tendon`` the sensed F_m [N]; ``time`` [s] is the end of
+    the logged step, r and u the values held during it. ``meta.options`` holds ``options`` and the controller
+    (:meth:`Controller.to_dict`, None in open loop); ``changes`` (bench fields) belong to the truth, not the log.
+    The noise-free F_m is the twin's internal truth and is not logged."""
+    run = simulate_closed_loop(bench, controller, reference, rate_hz, seed, **changes)
+    every = int(log_every)
+    if every < 1:
+        raise ValueError(f"log_every must be >= 1 (got {log_every!r})")
+    sl = slice(every - 1, None, every)
+    cols = {"time": run.time[sl]}
+    if controller is not None:
+        cols["force_ref"] = run.reference[sl]
+    cols |= {"force_cmd": run.u[sl], "force_tendon": run.force[sl]}
+    opts = dict(options or {})
+    opts["controller"] = None if controller is None else controller.to_dict()
+    return make_log(cols, device=_bench(bench).name, rate_hz=run.rate_hz / every, seed=run.seed,
+                    experiment=experiment, options=opts)
 
 
 def h1_estimate(x: np.ndarray, y: np.ndarray, freq_hz: float, rate_hz: float, cycles_per_segment: int = 2) -> complex:
@@ -545,3 +592,51 @@ def loop_io(bench: TendonBench | CompiledDevice, controller: Controller | None, 
     sl = slice(n0, n1, max(1, int(decimate)))
     return LowSpeedLoop(run.time[sl], run.reference[sl], run.force[sl], run.u[sl], float(freq_hz), float(amplitude_N),
                         _bench(bench).name)
+
+
+def loop_stepped_sine_logs(bench: TendonBench | CompiledDevice, controller: Controller | None, *,
+                           omega: Sequence[float], amplitude_N: float, cycles: int = 8, settle_cycles: int = 10,
+                           settle_s: float = 0.5, rate_hz: float = 20000.0, log_every: int = 20, seed: int = 0,
+                           **changes: Any) -> list:
+    """The runs of :func:`loop_stepped_sine` (same plan, references and seeds ``seed + i``) as the logs a bench
+    records (:func:`loop_log`), one per frequency of ``omega`` [rad/s], each the whole run from rest.
+    ``meta.options``: ``freq_hz`` [Hz], ``amplitude_N`` [N], ``cycles``, ``settle_s`` [s] (the measured cycles
+    are the samples whose time exceeds it; :func:`tendyn.ident.frf.frf_from_logs` honours it) and the
+    controller. Experiment ``"stepped_sine"`` (open loop) or ``"closed_loop_stepped_sine"``."""
+    freqs, windows = _stepped_sine_plan(omega, amplitude_N, cycles, settle_cycles, settle_s, rate_hz)
+    experiment = "stepped_sine" if controller is None else "closed_loop_stepped_sine"
+    out = []
+    for i, (f, (n0, n1)) in enumerate(zip(freqs, windows)):
+        opts = {"freq_hz": float(f), "amplitude_N": float(amplitude_N), "cycles": int(cycles),
+                "settle_s": n0 / float(rate_hz)}
+        out.append(loop_log(bench, controller, _sine_command(amplitude_N, f, n1, rate_hz), experiment=experiment,
+                            options=opts, rate_hz=rate_hz, log_every=log_every, seed=int(seed) + i, **changes))
+    return out
+
+
+def loop_sine_log(bench: TendonBench | CompiledDevice, controller: Controller | None, *, freq_hz: float,
+                  amplitude_N: float, cycles: int = 2, settle_cycles: int = 1, rate_hz: float = 20000.0,
+                  log_every: int = 20, seed: int = 0, **changes: Any):
+    """The run of :func:`loop_io` (same plan, reference and seed) as the log a bench records
+    (:func:`loop_log`): ``settle_cycles`` then ``cycles`` cycles of a sine of ``freq_hz`` [Hz] and
+    ``amplitude_N`` [N]; ``meta.options`` as :func:`loop_stepped_sine_logs` (``settle_s`` [s]: the measured cycles
+    start after it). Experiment ``"sine_loop"``; :func:`io_record` reads it back."""
+    n0 = int(round(settle_cycles / freq_hz * rate_hz))
+    n1 = int(round((settle_cycles + cycles) / freq_hz * rate_hz))
+    opts = {"freq_hz": float(freq_hz), "amplitude_N": float(amplitude_N), "cycles": int(cycles),
+            "settle_s": n0 / float(rate_hz)}
+    return loop_log(bench, controller, _sine_command(amplitude_N, freq_hz, n1, rate_hz), experiment="sine_loop",
+                    options=opts, rate_hz=rate_hz, log_every=log_every, seed=seed, **changes)
+
+
+def io_record(log) -> LowSpeedLoop:
+    """The input/output record of a sine log (:func:`loop_sine_log`, or any log with ``force_cmd``,
+    ``force_tendon`` and ``meta.options`` ``freq_hz``, ``amplitude_N``): the samples after ``settle_s``, ``u`` the
+    reference (``force_ref``, or ``force_cmd`` in open loop), ``force`` the sensed F_m, ``position`` the
+    command [N] — the layout of :func:`loop_io`."""
+    opts = log.meta.get("options") or {}
+    start = int(np.searchsorted(log.time, float(opts.get("settle_s", 0.0)), side="right"))
+    ref = log["force_ref"] if "force_ref" in log else log["force_cmd"]
+    sl = slice(start, None)
+    return LowSpeedLoop(log.time[sl], ref[sl], log["force_tendon"][sl], log["force_cmd"][sl],
+                        float(opts["freq_hz"]), float(opts["amplitude_N"]), str(log.meta.get("device", "")))
