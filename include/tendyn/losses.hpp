@@ -545,14 +545,19 @@ inline double branch_upstream_piece(double x, double sdot, double kappa, double 
 /// factor), a singular pattern — the Newton iteration solve_pair solves the block (out of line) and
 /// d.pair_fallbacks counts it. force ≥ 0 imposes pattern `force` (tests: a wrong pattern must fall back).
 template <bool Bearings>
-[[gnu::always_inline]] inline Status solve_pair_direct(const TransmissionModel& m, TransmissionData& d, int a, const double* known,
-                                int force = -1) {
+[[gnu::always_inline]] inline Status solve_pair_direct(const TransmissionModel& m, TransmissionData& d, int a,
+                                                       const double* known, double* tension_a, double* tension_b,
+                                                       int force = -1) {
   const int b = a + 1, slot = d.statics.pair_slot(a);
   const PairLaw la = pair_law<Bearings>(m, d, a, b), lb = pair_law<Bearings>(m, d, b, b);
-  if ((slot < 0) | (la.sdot == 0.0) | (lb.sdot == 0.0)) {  // no table, or a branch at rest (stuck)
+  const auto fallback = [&] {
     ++d.pair_fallbacks;
-    return solve_pair<Bearings>(m, d, a, known);
-  }
+    const Status st = solve_pair<Bearings>(m, d, a, known);
+    *tension_a = d.tension(a, a);
+    *tension_b = d.tension(b, a);
+    return st;
+  };
+  if ((slot < 0) | (la.sdot == 0.0) | (lb.sdot == 0.0)) return fallback();  // no table, or a branch at rest (stuck)
   const double Kaa = m.K(a, a), Kbb = m.K(b, b);
   const double qa = scalar(d.qd(a)), qb = scalar(d.qd(b));  // scalar: stored one by one just before
   const double ka = scalar(known[a]), kb = scalar(known[b]);
@@ -574,16 +579,15 @@ template <bool Bearings>
   const int found = pa | pb << 2 | (power_a < 0.0) << 4 | (power_b < 0.0) << 5;
   // no power at a driven joint with K ≠ 0: the reducer's factor is 1 there (reducer_factor), in no pattern
   const bool undecided = ((power_a == 0.0) & (Kaa != 0.0)) | ((power_b == 0.0) & (Kbb != 0.0));
-  if ((found != pattern) | undecided | (e[6] == 0.0)) {
-    ++d.pair_fallbacks;
-    return solve_pair<Bearings>(m, d, a, known);
-  }
+  if ((found != pattern) | undecided | (e[6] == 0.0)) return fallback();
   d.tension(a, b) = ta;
   d.tension(b, b) = tb;
   d.tension(a, a) = Taa;
   d.tension(b, a) = Tba;
   d.stuck(a, b) = 0;
   d.stuck(b, b) = 0;
+  *tension_a = Taa;
+  *tension_b = Tba;
   return Status::Ok;
 }
 
@@ -615,6 +619,62 @@ inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, d
     if (b > 0) tension[ib - n] = t;
   }
   d.tension_motor(i) = t;
+}
+
+/// climb_rest for the two cables a, a + 1 of a pair at once, from their tensions ta, tb at joint `from`: the same
+/// law (branch_tension_upstream_q) in the two lanes of an SSE2 register, the branch constants of the two cables
+/// being neighbours in the column-major arrays; a branch where either cable is at rest or has bearings takes
+/// the scalar laws. Writes what climb_rest writes for both cables.
+template <bool Bearings>
+inline void climb_rest_pair(const TransmissionModel& m, TransmissionData& d, int a, double ta, double tb, int from) {
+#if defined(__SSE2__)
+  const int n = m.n;
+  const double *Sdot = d.Sdot.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *beta = m.beta.data();
+  const double *q_plus = d.statics.inv_one_plus_beta.data(), *q_minus = d.statics.inv_one_minus_beta.data();
+  const double* count = m.bearing_count.data();
+  double* tension = d.tension.data();
+  int* stuck = d.stuck.data();
+  const __m128d sign_mask = _mm_set1_pd(-0.0), zero = _mm_setzero_pd();
+  __m128d t = _mm_set_pd(tb, ta);
+  for (int b = from; b >= 0; --b) {
+    const int ib = a + b * n;
+    const __m128d sdot = _mm_loadu_pd(Sdot + ib);
+    const bool scalar_branch = _mm_movemask_pd(_mm_cmpeq_pd(sdot, zero)) != 0 ||
+                               (Bearings && (count[ib] > 0.0 || count[ib + 1] > 0.0));
+    if (scalar_branch) {  // rare: a cable at rest here, or bearings
+      double tt[2];
+      _mm_storeu_pd(tt, t);
+      for (int l = 0; l < 2; ++l) {
+        const double sd = Sdot[ib + l];
+        stuck[ib + l] = sd == 0.0;
+        if (sd == 0.0) continue;
+        tt[l] = Bearings && count[ib + l] > 0.0
+                    ? branch_tension_upstream(tt[l], sd, branch_friction(m, a + l, b, sd), nu[ib + l])
+                    : branch_tension_upstream_q(tt[l], sd, tau0[ib + l] + nu[ib + l] * std::abs(sd), beta[ib + l],
+                                                q_plus[ib + l], q_minus[ib + l]);
+      }
+      t = _mm_loadu_pd(tt);
+    } else {
+      stuck[ib] = 0;
+      stuck[ib + 1] = 0;
+      const __m128d sign = _mm_and_pd(sdot, sign_mask);
+      const __m128d kappa = _mm_add_pd(_mm_loadu_pd(tau0 + ib), _mm_mul_pd(_mm_loadu_pd(nu + ib),
+                                                                           _mm_andnot_pd(sign_mask, sdot)));
+      const __m128d z = _mm_xor_pd(t, sign), c = _mm_add_pd(z, kappa);
+      const __m128d y1 = _mm_mul_pd(c, _mm_loadu_pd(q_plus + ib)), y2 = _mm_mul_pd(c, _mm_loadu_pd(q_minus + ib));
+      const __m128d y3 = _mm_add_pd(c, _mm_mul_pd(_mm_loadu_pd(beta + ib), _mm_andnot_pd(sign_mask, z)));
+      t = _mm_xor_pd(_mm_max_pd(_mm_max_pd(y1, y2), y3), sign);
+    }
+    if (b > 0) _mm_storeu_pd(tension + ib - n, t);
+  }
+  double tt[2];
+  _mm_storeu_pd(tt, t);
+  d.tension_motor(a) = tt[0];
+  d.tension_motor(a + 1) = tt[1];
+#else
+  climb_rest<Bearings>(m, d, a, ta, from);
+  climb_rest<Bearings>(m, d, a + 1, tb, from);
+#endif
 }
 
 /// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one; the later
@@ -680,11 +740,11 @@ inline Status feedforward_general_b(const TransmissionModel& m, TransmissionData
       continue;
     }
     if (Pairs && end == begin + 1) {
-      const Status sp = solve_pair_direct<Bearings>(m, d, begin, known);
+      double ta, tb;  // the pair's tensions at joint `begin`
+      const Status sp = solve_pair_direct<Bearings>(m, d, begin, known, &ta, &tb);
       if (sp == Status::InvalidModel) return sp;
       if (sp != Status::Ok) status = worst(status, sp);
-      climb_rest<Bearings>(m, d, begin, d.tension(begin, begin), begin);  // on to the motors from joint `begin`
-      climb_rest<Bearings>(m, d, end, d.tension(end, begin), begin);
+      climb_rest_pair<Bearings>(m, d, begin, ta, tb, begin);  // on to the motors from joint `begin`
       end = begin - 1;
       continue;
     }

@@ -310,7 +310,8 @@ static void wrong_pattern_falls_back(const tendyn::TransmissionModel& m) {
     int own = 0;
     for (int p = 0; p < 64; ++p) {
       d.pair_fallbacks = 0;
-      tendyn::detail::solve_pair_direct<true>(m, d, a, known.data(), p);
+      double ta, tb;
+      tendyn::detail::solve_pair_direct<true>(m, d, a, known.data(), &ta, &tb, p);
       own += d.pair_fallbacks == 0;
       const double got[4] = {d.tension(a, a + 1), d.tension(a + 1, a + 1), d.tension(a, a), d.tension(a + 1, a)};
       const double want[4] = {want_a, want_b, want_aa, want_ba};
