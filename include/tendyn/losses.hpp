@@ -531,8 +531,9 @@ inline double branch_upstream_piece(double x, double sdot, double kappa, double 
   const double sign = sign_bit(sdot), z = flip(x, sign), c = z + kappa;
   const double y1 = c * q_plus, y2 = c * q_minus, y3 = c + b * std::abs(z);
   const double y12 = larger(y1, y2), y = larger(y12, y3);
-  const int p12 = y2 > y1, p3 = 2 + std::signbit(z);
-  *piece = y3 > y12 ? p3 : p12;
+  // arithmetic, not ?: (which compilers turn into a jump on a random sign)
+  const int p12 = y2 > y1, p3 = 2 + std::signbit(z), third = y3 > y12;
+  *piece = p12 + third * (p3 - p12);
   return flip(y, sign);
 }
 
