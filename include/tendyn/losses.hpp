@@ -189,7 +189,9 @@ inline bool all_finite_n(const V& v) {
 inline double piece_slope(int piece, double b) {
   return piece == 0 ? 1.0 / (1.0 + b) : piece == 1 ? 1.0 / (1.0 - b) : piece == 2 ? 1.0 + b : 1.0 - b;
 }
-inline double piece_gain(int piece, double b) { return piece == 0 ? 1.0 / (1.0 + b) : piece == 1 ? 1.0 / (1.0 - b) : 1.0; }
+inline double piece_gain(int piece, double b) {
+  return piece == 0 ? 1.0 / (1.0 + b) : piece == 1 ? 1.0 / (1.0 - b) : 1.0;
+}
 
 /// The table of the 2×2 block a, a + 1 (a differential pair: both cables end at joint a + 1, each climbs its
 /// branch a + 1 to joint a) into slot `slot` of c.pair_table. Pattern p = piece_a + 4 piece_b + 16 [power at joint

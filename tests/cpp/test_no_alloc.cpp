@@ -297,7 +297,11 @@ static void wrong_pattern_falls_back(const tendyn::TransmissionModel& m) {
   std::normal_distribution<double> N(0.0, 1.0);
   Eigen::VectorXd tau(m.n), qd(m.n);
   const int a = 2;  // the pair on joints 2-3
-  if (m.block_end(a) != a + 1 || !d.statics.pair_slot.size()) { std::puts("PHYSICS FAIL no pair at joint 2"); ++physics_failures; return; }
+  if (m.block_end(a) != a + 1 || !d.statics.pair_slot.size()) {
+    std::puts("PHYSICS FAIL no pair at joint 2");
+    ++physics_failures;
+    return;
+  }
   int checked = 0;
   for (int k = 0; k < 200; ++k) {
     for (int i = 0; i < m.n; ++i) { tau(i) = 5.0 * N(rng); qd(i) = N(rng); }
