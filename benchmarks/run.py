@@ -99,7 +99,8 @@ def bench_differential_feedforward(results: list, calls: int = 1_000_000) -> Non
     differential pairs at joints 2-3 and 6-7, every branch lossy, no bearings) against the L-EXOS feedforward
     (serial, S0's recursion) timed in the same process (benchmarks/routing_timer.cpp: interleaved rounds, one
     thread-CPU timer around `calls` calls, median of 7). The ratio is L-EXOS time / differential time (< 1: the
-    coupled blocks cost more). The peers cannot do it at all: the plain Eigen and numpy statics of the other
+    coupled blocks cost more). block_steps_per_call: Newton steps per call (only the 2x2 blocks whose pattern from
+    the table failed its check take any); pair_fallbacks_per_call: such 2x2 blocks per call (2 pairs a call). The peers cannot do it at all: the plain Eigen and numpy statics of the other
     entries are S0's serial recursion, and MuJoCo's fixed tendons carry no tension-dependent losses."""
     from tendyn.devices.generate import write_cable_device
 
@@ -117,7 +118,10 @@ def bench_differential_feedforward(results: list, calls: int = 1_000_000) -> Non
     results.append(dict(name="diff7_feedforward_mean", value=t["general_mean_ns"] / 1e3, unit="us/call",
                         baseline="L-EXOS feedforward (serial, 4 transmissions, same run)",
                         baseline_value=t["serial_mean_ns"] / 1e3, ratio=t["serial_mean_ns"] / t["general_mean_ns"],
-                        goal_us=0.2, newton_steps_per_call=t["general_iterations_mean"],
+                        goal_us=0.2, block_steps_per_call=t["general_iterations_mean"],
+                        pair_fallbacks_per_call=t["general_pair_fallbacks_mean"],
+                        method="2x2 blocks: the pattern's solve from a table (64 patterns), checked; Newton when "
+                               "the check fails",
                         max_rel_roundtrip=t["max_rel_roundtrip"], calls=t["calls"], rounds=t["rounds"],
                         timer="one thread-CPU timer around 1M calls, median of 7 interleaved rounds"))
 

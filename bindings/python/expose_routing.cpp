@@ -167,6 +167,7 @@ void expose_routing(nb::module_& m) {
       .def_ro("tension", &D::tension)
       .def_ro("tension_motor", &D::tension_motor)
       .def_ro("block_iterations", &D::block_iterations)
+      .def_ro("pair_fallbacks", &D::pair_fallbacks)
       .def_ro("torque_motor", &D::torque_motor)
       .def_ro("torque_joint", &D::torque_joint)
       .def_ro("stuck", &D::stuck)

@@ -183,6 +183,48 @@ inline bool all_finite_n(const V& v) {
   }
 }
 
+/// The pieces of the branch law y(x) of branch_tension_upstream as lines y = slope·x + gain·sgn(Ṡ)·κ, in the
+/// order branch_upstream_piece numbers them: 0 y' = c/(1 + b), 1 y' = c/(1 − b), 2 y' = c + b z (z ≥ 0),
+/// 3 y' = c − b z (z < 0), with c = z + κ, z = sgn(Ṡ) x, y = sgn(Ṡ) y' (b: the branch's β with its bearing terms).
+inline double piece_slope(int piece, double b) {
+  return piece == 0 ? 1.0 / (1.0 + b) : piece == 1 ? 1.0 / (1.0 - b) : piece == 2 ? 1.0 + b : 1.0 - b;
+}
+inline double piece_gain(int piece, double b) {
+  return piece == 0 ? 1.0 / (1.0 + b) : piece == 1 ? 1.0 / (1.0 - b) : 1.0;
+}
+
+/// The table of the 2×2 block a, a + 1 (a differential pair: both cables end at joint a + 1, each climbs its
+/// branch a + 1 to joint a) into slot `slot` of c.pair_table. Pattern p = piece_a + 4 piece_b + 16 [power at joint
+/// a < 0] + 32 [power at joint a + 1 < 0]: the pieces of the two branch laws (branch_upstream_piece) and the
+/// reducers' directions (S0 eqs. 9–10: factor η_d driving, η_d/(2η_d − 1) back-driven). In a pattern the joint
+/// equations of the block are linear in the end tensions t_a, t_b:
+///   τ_a = K_aa e_a (σ_a t_a + g_a s_a κ_a) + K_ba (σ_b t_b + g_b s_b κ_b),   τ_b = K_ab t_a + K_bb e_b t_b
+/// (σ, g: piece_slope, piece_gain; s = sgn(Ṡ); κ = a + ν|Ṡ| the call's constant term). Column: the inverse of
+/// [[K_aa e_a σ_a, K_ba σ_b], [K_ab, K_bb e_b]] (row-major), K_aa e_a g_a, K_ba g_b, and 1 (0: a singular pattern).
+inline void take_pair_table(const TransmissionModel& m, TransmissionData::StaticsConstants& c, int a, int slot) {
+  const int b = a + 1;
+  const double Kaa = m.K(a, a), Kab = m.K(a, b), Kba = m.K(b, a), Kbb = m.K(b, b);
+  const double beta_a = branch_friction(m, a, b, 1.0).b, beta_b = branch_friction(m, b, b, 1.0).b;  // sliding
+  for (int p = 0; p < 64; ++p) {
+    const int pa = p & 3, pb = (p >> 2) & 3;
+    const double ea = (p >> 4) & 1 ? c.back_factor(a) : m.reducer_efficiency(a);
+    const double eb = (p >> 5) & 1 ? c.back_factor(b) : m.reducer_efficiency(b);
+    const double A00 = Kaa * ea * piece_slope(pa, beta_a), A01 = Kba * piece_slope(pb, beta_b);
+    const double A10 = Kab, A11 = Kbb * eb;
+    const double det = A00 * A11 - A01 * A10;
+    const bool valid = std::isfinite(det) && std::abs(det) > 1e-12 * (std::abs(A00 * A11) + std::abs(A01 * A10));
+    double* col = c.pair_table.data() + 8 * (64 * slot + p);
+    col[0] = valid ? A11 / det : 0.0;
+    col[1] = valid ? -A01 / det : 0.0;
+    col[2] = valid ? -A10 / det : 0.0;
+    col[3] = valid ? A00 / det : 0.0;
+    col[4] = Kaa * ea * piece_gain(pa, beta_a);
+    col[5] = Kba * piece_gain(pb, beta_b);
+    col[6] = valid ? 1.0 : 0.0;
+    col[7] = 0.0;
+  }
+}
+
 /// Take the constants of the feedforward from model m into d.statics (no allocation; d was made for m.n).
 inline void take_statics_constants(const TransmissionModel& m, TransmissionData& d) {
   auto& c = d.statics;
@@ -225,6 +267,13 @@ inline void take_statics_constants(const TransmissionModel& m, TransmissionData&
       }
       begin = end + 1;
     }
+    c.pair_slot.setConstant(-1);  // the 2×2 blocks' tables of patterns (solve_pair_direct)
+    int slot = 0;
+    for (int a = 0; a < m.n; a = m.block_end(a) + 1)
+      if (m.block_end(a) == a + 1) {
+        take_pair_table(m, c, a, slot);
+        c.pair_slot(a) = slot++;
+      }
   }
   c.model = &m;
 }
@@ -397,6 +446,20 @@ inline double climb_branch(const TransmissionModel& m, const TransmissionData& d
                                d.statics.inv_one_plus_beta(i, b), d.statics.inv_one_minus_beta(i, b), slope);
 }
 
+/// The constants of branch b of cable i in a call (they do not depend on the tension), as climb_branch takes them:
+/// Ṡ [m/s], κ = a + ν|Ṡ| [N], b [-] and its reciprocals 1/(1 ± b).
+struct PairLaw { double sdot, kappa, beta, q_plus, q_minus; };
+template <bool Bearings>
+inline PairLaw pair_law(const TransmissionModel& m, const TransmissionData& d, int i, int b) {
+  const double sdot = d.Sdot(i, b);
+  if (Bearings && m.bearing_count(i, b) > 0.0) {
+    const BranchFriction f = branch_friction(m, i, b, sdot);
+    return PairLaw{sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b), 1.0 / (1.0 - f.b)};
+  }
+  return PairLaw{sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b), d.statics.inv_one_plus_beta(i, b),
+                 d.statics.inv_one_minus_beta(i, b)};
+}
+
 /// A 2×2 block (a differential pair: cables a and a+1, joints a and a+1, both cables end at joint a+1) solved by
 /// the Newton iteration of feedforward_general written out for two unknowns, in registers: the same operations
 /// in the same order (lossless start, residual and Jacobian, Gaussian elimination with partial pivoting as
@@ -404,8 +467,9 @@ inline double climb_branch(const TransmissionModel& m, const TransmissionData& d
 /// the pivot branch. Each cable climbs one branch (a+1) inside the block. Writes the block's tensions, stuck
 /// flags and d.block_iterations; returns false (NotConverged) after 30 steps, InvalidModel on a zero pivot.
 /// Bearings: d.statics.bearings (without, the laws take no call and the iteration keeps its values in registers).
+/// Out of line: solve_pair_direct's fallback, off the path of the calls that take the table.
 template <bool Bearings>
-inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a, const double* known) {
+[[gnu::noinline]] Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a, const double* known) {
   const int b = a + 1;
   const double Kaa = m.K(a, a), Kab = m.K(a, b), Kba = m.K(b, a), Kbb = m.K(b, b);
   const double qa = scalar(d.qd(a)), qb = scalar(d.qd(b));  // scalar: stored one by one just before
@@ -417,19 +481,8 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
   double ta = 0.0 + X(a, a) * ka + X(a, b) * kb;  // lossless start (K_Bᵀ)⁻¹ τ_B
   double tb = 0.0 + X(b, a) * ka + X(b, b) * kb;
   double Taa = 0.0, Tba = 0.0;
-  // the constants of branch b of each cable (they do not depend on the tension), as climb_branch takes them
-  struct Law { double sdot, kappa, beta, q_plus, q_minus; };
-  const auto law = [&](int i) {
-    const double sdot = d.Sdot(i, b);
-    if (Bearings && m.bearing_count(i, b) > 0.0) {
-      const BranchFriction f = branch_friction(m, i, b, sdot);
-      return Law{sdot, f.a + m.nu(i, b) * std::abs(sdot), f.b, 1.0 / (1.0 + f.b), 1.0 / (1.0 - f.b)};
-    }
-    return Law{sdot, m.tau0(i, b) + m.nu(i, b) * std::abs(sdot), m.beta(i, b), d.statics.inv_one_plus_beta(i, b),
-               d.statics.inv_one_minus_beta(i, b)};
-  };
-  const Law la = law(a), lb = law(b);
-  const auto climb = [](const Law& l, double t, double* slope) {
+  const PairLaw la = pair_law<Bearings>(m, d, a, b), lb = pair_law<Bearings>(m, d, b, b);
+  const auto climb = [](const PairLaw& l, double t, double* slope) {
     if (l.sdot == 0.0) { *slope = 1.0; return t; }  // at rest: passes the tension (stuck)
     return branch_upstream_slope(t, l.sdot, l.kappa, l.beta, l.q_plus, l.q_minus, slope);
   };
@@ -472,6 +525,75 @@ inline Status solve_pair(const TransmissionModel& m, TransmissionData& d, int a,
   return status;
 }
 
+/// branch_upstream_slope's law y(x) with, instead of the slope, the piece it takes (numbered as piece_slope:
+/// 0 y' = c/(1 + b), 1 y' = c/(1 − b), 2 y' = c + b z for z ≥ 0, 3 y' = c − b z for z < 0; c = z + κ, z = sgn(Ṡ) x),
+/// with the same choice on a tie.
+inline double branch_upstream_piece(double x, double sdot, double kappa, double b, double q_plus, double q_minus,
+                                    int* piece) {
+  const double sign = sign_bit(sdot), z = flip(x, sign), c = z + kappa;
+  const double y1 = c * q_plus, y2 = c * q_minus, y3 = c + b * std::abs(z);
+  const double y12 = larger(y1, y2), y = larger(y12, y3);
+  // arithmetic, not ?: (which compilers turn into a jump on a random sign)
+  const int p12 = y2 > y1, p3 = 2 + std::signbit(z), third = y3 > y12;
+  *piece = p12 + third * (p3 - p12);
+  return flip(y, sign);
+}
+
+/// A 2×2 block (a differential pair, as solve_pair) solved directly: the pattern (take_pair_table: the pieces of
+/// the two branch laws inside the block and the directions of power at its two driven joints) is read at the
+/// lossless start (K_Bᵀ)⁻¹τ_B, the block's equations of that pattern are solved with its inverse from the table
+/// (no division), and the solution is checked to have the same pattern. Then it is the solution of the
+/// piecewise-linear equations (to rounding: within 1e-12 relative of the Newton iteration's, not bit for bit).
+/// Otherwise — a wrong pattern at the lossless start, a branch at rest, no power at a driven joint (undecided
+/// factor), a singular pattern — the Newton iteration solve_pair solves the block (out of line) and
+/// d.pair_fallbacks counts it. force ≥ 0 imposes pattern `force` (tests: a wrong pattern must fall back).
+template <bool Bearings>
+[[gnu::always_inline]] inline Status solve_pair_direct(const TransmissionModel& m, TransmissionData& d, int a,
+                                                       const double* known, double* tension_a, double* tension_b,
+                                                       int force = -1) {
+  const int b = a + 1, slot = d.statics.pair_slot(a);
+  const PairLaw la = pair_law<Bearings>(m, d, a, b), lb = pair_law<Bearings>(m, d, b, b);
+  const auto fallback = [&] {
+    ++d.pair_fallbacks;
+    const Status st = solve_pair<Bearings>(m, d, a, known);
+    *tension_a = d.tension(a, a);
+    *tension_b = d.tension(b, a);
+    return st;
+  };
+  if ((slot < 0) | (la.sdot == 0.0) | (lb.sdot == 0.0)) return fallback();  // no table, or a branch at rest (stuck)
+  const double Kaa = m.K(a, a), Kbb = m.K(b, b);
+  const double qa = scalar(d.qd(a)), qb = scalar(d.qd(b));  // scalar: stored one by one just before
+  const double ka = scalar(known[a]), kb = scalar(known[b]);
+  const auto& X = d.statics.block_inverse;
+  const double ta0 = X(a, a) * ka + X(a, b) * kb, tb0 = X(b, a) * ka + X(b, b) * kb;  // lossless start
+  int pa0, pb0;
+  const double Taa0 = branch_upstream_piece(ta0, la.sdot, la.kappa, la.beta, la.q_plus, la.q_minus, &pa0);
+  branch_upstream_piece(tb0, lb.sdot, lb.kappa, lb.beta, lb.q_plus, lb.q_minus, &pb0);
+  const int guess = pa0 | pb0 << 2 | (Kaa * Taa0 * qa < 0.0) << 4 | (Kbb * tb0 * qb < 0.0) << 5;
+  const int pattern = force >= 0 ? force : guess;
+  const double* e = d.statics.pair_table.data() + 8 * (64 * slot + pattern);
+  // the pattern's equations: constant terms sgn(Ṡ) κ of the two laws moved to the right of joint a's
+  const double ra = ka - e[4] * flip(la.kappa, sign_bit(la.sdot)) - e[5] * flip(lb.kappa, sign_bit(lb.sdot));
+  const double ta = e[0] * ra + e[1] * kb, tb = e[2] * ra + e[3] * kb;
+  int pa, pb;  // the pattern of the solution
+  const double Taa = branch_upstream_piece(ta, la.sdot, la.kappa, la.beta, la.q_plus, la.q_minus, &pa);
+  const double Tba = branch_upstream_piece(tb, lb.sdot, lb.kappa, lb.beta, lb.q_plus, lb.q_minus, &pb);
+  const double power_a = Kaa * Taa * qa, power_b = Kbb * tb * qb;
+  const int found = pa | pb << 2 | (power_a < 0.0) << 4 | (power_b < 0.0) << 5;
+  // no power at a driven joint with K ≠ 0: the reducer's factor is 1 there (reducer_factor), in no pattern
+  const bool undecided = ((power_a == 0.0) & (Kaa != 0.0)) | ((power_b == 0.0) & (Kbb != 0.0));
+  if ((found != pattern) | undecided | (e[6] == 0.0)) return fallback();
+  d.tension(a, b) = ta;
+  d.tension(b, b) = tb;
+  d.tension(a, a) = Taa;
+  d.tension(b, a) = Tba;
+  d.stuck(a, b) = 0;
+  d.stuck(b, b) = 0;
+  *tension_a = Taa;
+  *tension_b = Tba;
+  return Status::Ok;
+}
+
 /// The climb of cable i from the tension t at joint `from` (after branch from + 1) to its motor, branches from … 0
 /// (S0 eq. 6), without slopes. Writes d.tension(i, from − 1 … 0), d.stuck(i, from … 0), d.tension_motor(i).
 /// Column-major (n, n) arrays read through raw pointers (entry [i, b] at i + b n). Bearings: some branch of the
@@ -502,6 +624,62 @@ inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, d
   d.tension_motor(i) = t;
 }
 
+/// climb_rest for the two cables a, a + 1 of a pair at once, from their tensions ta, tb at joint `from`: the same
+/// law (branch_tension_upstream_q) in the two lanes of an SSE2 register, the branch constants of the two cables
+/// being neighbours in the column-major arrays; a branch where either cable is at rest or has bearings takes
+/// the scalar laws. Writes what climb_rest writes for both cables.
+template <bool Bearings>
+inline void climb_rest_pair(const TransmissionModel& m, TransmissionData& d, int a, double ta, double tb, int from) {
+#if defined(__SSE2__)
+  const int n = m.n;
+  const double *Sdot = d.Sdot.data(), *tau0 = m.tau0.data(), *nu = m.nu.data(), *beta = m.beta.data();
+  const double *q_plus = d.statics.inv_one_plus_beta.data(), *q_minus = d.statics.inv_one_minus_beta.data();
+  const double* count = m.bearing_count.data();
+  double* tension = d.tension.data();
+  int* stuck = d.stuck.data();
+  const __m128d sign_mask = _mm_set1_pd(-0.0), zero = _mm_setzero_pd();
+  __m128d t = _mm_set_pd(tb, ta);
+  for (int b = from; b >= 0; --b) {
+    const int ib = a + b * n;
+    const __m128d sdot = _mm_loadu_pd(Sdot + ib);
+    const bool scalar_branch = _mm_movemask_pd(_mm_cmpeq_pd(sdot, zero)) != 0 ||
+                               (Bearings && (count[ib] > 0.0 || count[ib + 1] > 0.0));
+    if (scalar_branch) {  // rare: a cable at rest here, or bearings
+      double tt[2];
+      _mm_storeu_pd(tt, t);
+      for (int l = 0; l < 2; ++l) {
+        const double sd = Sdot[ib + l];
+        stuck[ib + l] = sd == 0.0;
+        if (sd == 0.0) continue;
+        tt[l] = Bearings && count[ib + l] > 0.0
+                    ? branch_tension_upstream(tt[l], sd, branch_friction(m, a + l, b, sd), nu[ib + l])
+                    : branch_tension_upstream_q(tt[l], sd, tau0[ib + l] + nu[ib + l] * std::abs(sd), beta[ib + l],
+                                                q_plus[ib + l], q_minus[ib + l]);
+      }
+      t = _mm_loadu_pd(tt);
+    } else {
+      stuck[ib] = 0;
+      stuck[ib + 1] = 0;
+      const __m128d sign = _mm_and_pd(sdot, sign_mask);
+      const __m128d kappa = _mm_add_pd(_mm_loadu_pd(tau0 + ib), _mm_mul_pd(_mm_loadu_pd(nu + ib),
+                                                                           _mm_andnot_pd(sign_mask, sdot)));
+      const __m128d z = _mm_xor_pd(t, sign), c = _mm_add_pd(z, kappa);
+      const __m128d y1 = _mm_mul_pd(c, _mm_loadu_pd(q_plus + ib)), y2 = _mm_mul_pd(c, _mm_loadu_pd(q_minus + ib));
+      const __m128d y3 = _mm_add_pd(c, _mm_mul_pd(_mm_loadu_pd(beta + ib), _mm_andnot_pd(sign_mask, z)));
+      t = _mm_xor_pd(_mm_max_pd(_mm_max_pd(y1, y2), y3), sign);
+    }
+    if (b > 0) _mm_storeu_pd(tension + ib - n, t);
+  }
+  double tt[2];
+  _mm_storeu_pd(tt, t);
+  d.tension_motor(a) = tt[0];
+  d.tension_motor(a + 1) = tt[1];
+#else
+  climb_rest<Bearings>(m, d, a, ta, from);
+  climb_rest<Bearings>(m, d, a + 1, tb, from);
+#endif
+}
+
 /// Feedforward of a general routing (not serial), run-time n. Blocks of K from the distal one; the later
 /// blocks' cables are known by then, their torques at this block's joints subtracted once (block_residual
 /// keeps τ_j minus them). A 1×1 block (its cable ends at its own joint) is S0's closed form: the reducer, then
@@ -510,8 +688,9 @@ inline void climb_rest(const TransmissionModel& m, TransmissionData& d, int i, d
 /// iteration on the pieces, from the lossless tensions, ends exactly once it has the right pieces (checked on the residual,
 /// 1e-13 relative). The iteration climbs only the branches between the block's joints (the tensions its
 /// equations read); once it ends, each cable climbs the rest of the way to its motor. Status NotConverged
-/// after 30 steps. Pairs: a 2×2 block takes solve_pair (the same iteration written out, same numbers; false: the
-/// run-time loops for every block, kept as the reference the tests compare it with).
+/// after 30 steps. Pairs: a 2×2 block takes solve_pair_direct (its pattern's linear solve from a table, checked;
+/// the same iteration written out, solve_pair, when the check fails), within 1e-12 relative of the iteration;
+/// false: the run-time loops for every block, kept as the reference the tests compare it with.
 template <bool Pairs, bool Bearings, class V1, class V2>
 inline Status feedforward_general_b(const TransmissionModel& m, TransmissionData& d, const V1& torque_joint,
                                     const V2& qd) {
@@ -536,6 +715,7 @@ inline Status feedforward_general_b(const TransmissionModel& m, TransmissionData
   }
   Status status = Status::Ok;
   d.block_iterations = 0;
+  d.pair_fallbacks = 0;
   double* known = d.block_step.data();  // τ_j minus the later blocks' cables, per joint of the block
   const double* tension = d.tension.data();
   for (int end = n - 1; end >= 0;) {
@@ -563,11 +743,11 @@ inline Status feedforward_general_b(const TransmissionModel& m, TransmissionData
       continue;
     }
     if (Pairs && end == begin + 1) {
-      const Status sp = solve_pair<Bearings>(m, d, begin, known);
+      double ta, tb;  // the pair's tensions at joint `begin`
+      const Status sp = solve_pair_direct<Bearings>(m, d, begin, known, &ta, &tb);
       if (sp == Status::InvalidModel) return sp;
       if (sp != Status::Ok) status = worst(status, sp);
-      climb_rest<Bearings>(m, d, begin, d.tension(begin, begin), begin);  // on to the motors from joint `begin`
-      climb_rest<Bearings>(m, d, end, d.tension(end, begin), begin);
+      climb_rest_pair<Bearings>(m, d, begin, ta, tb, begin);  // on to the motors from joint `begin`
       end = begin - 1;
       continue;
     }

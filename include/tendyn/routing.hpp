@@ -313,6 +313,9 @@ struct TransmissionData {
   Eigen::MatrixXd slope, block_jacobian;
   Eigen::VectorXd block_residual, block_step;
   int block_iterations = 0;           ///< Newton iterations of the last feedforward (all coupled blocks)
+  /// 2×2 blocks (differential pairs) of the last feedforward whose pattern from the lossless start was wrong (or
+  /// undecided: a branch at rest, no power at a driven joint): solved by the Newton iteration instead (losses.hpp)
+  int pair_fallbacks = 0;
 
   /// Constants motor_torque_feedforward derives from the model, so that the call divides nothing (losses.hpp):
   /// taken by the first call with a model object and again whenever a call gets another one (sized here, no
@@ -327,6 +330,13 @@ struct TransmissionData {
     /// lossless end tensions t_B = (K_Bᵀ)⁻¹ τ_B start the block's Newton iteration.
     Eigen::MatrixXd block_inverse;
     Eigen::VectorXd back_factor;  ///< η_d/(2η_d − 1) [-]: the reducer's back-driven factor (general routings)
+    /// Slot of the 2×2 block (differential pair) that begins at joint a in pair_table, −1 for none, [a].
+    Eigen::VectorXi pair_slot;
+    /// Per 2×2 block, its linear solve for each of its 64 patterns (the pieces of the two branch laws inside the
+    /// block × the direction of power at the two driven joints), one column of 8 per pattern: the inverse of the
+    /// pattern's 2×2 matrix (4 entries, [1/m]), the two gains of the branch laws' constant terms in joint a's
+    /// equation [m], a valid flag (0: singular pattern); column 64 slot + pattern (losses.hpp, solve_pair_direct).
+    Eigen::MatrixXd pair_table;
     bool bearings = false;                     ///< some branch has bearings (speed-dependent terms)
   } statics;
 
@@ -348,6 +358,8 @@ struct TransmissionData {
     statics.inv_one_minus_beta.setZero(m.n, m.n);
     statics.block_inverse.setZero(m.n, m.n);
     statics.back_factor.setZero(m.n);
+    statics.pair_slot.setConstant(m.n, -1);
+    statics.pair_table.setZero(8, 64 * (m.n / 2));  // at most n/2 pairs
   }
 };
 
