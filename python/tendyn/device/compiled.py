@@ -153,11 +153,26 @@ class CompiledDevice:
     # ---- transmission -------------------------------------------------------------------------
     @cached_property
     def transmission(self) -> Any:
+        """The square statics with losses (:class:`tendyn.transmission.Transmission`); None without
+        transmissions. An N+1 device raises DeviceError (exit 2): the compensator, identification and the exports
+        built on it take one cable per joint (the simulator takes N+1 through :attr:`tendons`)."""
         if self.kind != "serial" or not self.device.transmissions:
             return None
+        from .schema import require_one_per_joint
+
+        require_one_per_joint(self.device, "the S0 statics with losses (compensator, identification, exports)")
         from tendyn.transmission import Transmission
 
         return Transmission.from_device(self.device)
+
+    @cached_property
+    def tendons(self) -> Any:
+        """The N+1 tendons (:class:`tendyn.tendons.Tendons`, branch losses of S0 eq. 12); None otherwise."""
+        if not getattr(self.device, "n_plus_one", False):
+            return None
+        from tendyn.tendons import Tendons
+
+        return Tendons.from_device(self.device)
 
     def __getstate__(self):  # the compiled models are rebuilt after unpickling, not pickled
         return {"device": self.device}
@@ -183,10 +198,7 @@ def compile_device(device: Device | CompiledDevice) -> CompiledDevice:
                         f"(got {type(device).__name__})")
     compiled = device.__dict__.get(_CACHE_ATTR)
     if compiled is None:
-        from .schema import require_one_per_joint
-
-        require_one_per_joint(device, "the computing models (simulator, compensator, identification, exports)")
-        compiled = CompiledDevice(device)
+        compiled = CompiledDevice(device)   # N+1: the simulator takes it; .transmission refuses (exit 2)
         object.__setattr__(device, _CACHE_ATTR, compiled)  # devices are frozen; the cache is not a field
     return compiled
 
