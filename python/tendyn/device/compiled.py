@@ -155,7 +155,7 @@ class CompiledDevice:
     def transmission(self) -> Any:
         """The square statics with losses (:class:`tendyn.transmission.Transmission`); None without
         transmissions. An N+1 device raises DeviceError (exit 2): the compensator, identification and the exports
-        built on it take one cable per joint (the simulator takes N+1 through :attr:`tendons`)."""
+        built on it take one cable per joint (the simulator takes N+1 through :attr:`tendon_model`)."""
         if self.kind != "serial" or not self.device.transmissions:
             return None
         from .schema import require_one_per_joint
@@ -166,13 +166,14 @@ class CompiledDevice:
         return Transmission.from_device(self.device)
 
     @cached_property
-    def tendons(self) -> Any:
-        """The N+1 tendons (:class:`tendyn.tendons.Tendons`, branch losses of S0 eq. 12); None otherwise."""
+    def tendon_model(self) -> Any:
+        """The core's ``TendonModel`` of an N+1 device (K, motor radii, floors, branch losses of S0 eq. 12; wrapped
+        by :class:`tendyn.tendons.Tendons`); None otherwise."""
         if not getattr(self.device, "n_plus_one", False):
             return None
-        from tendyn.tendons import Tendons
+        from .routing_checks import tendon_model
 
-        return Tendons.from_device(self.device)
+        return tendon_model(self.device.transmissions, self.device.n_joints)
 
     def __getstate__(self):  # the compiled models are rebuilt after unpickling, not pickled
         return {"device": self.device}

@@ -440,8 +440,8 @@ def planned_test(device, o: dict):
     """The constant-velocity test of a cable device planned by :func:`tendyn.protocols.plan_test` from the
     options (the same rule ``tendyn plan`` and ``identify-friction`` use), or None for a capstan-drive device
     (its back-and-forth passes from q0 at the given speeds)."""
-    if not getattr(device, "transmissions", None):
-        return None
+    if not getattr(device, "transmissions", None) or getattr(device, "n_plus_one", False):
+        return None   # N+1: constant_velocity's own stroke inside the joint's limits (no S0 statics to plan with)
     from tendyn.protocols import plan_test
 
     return plan_test(device, o["transmission"], o["strategy"], o["speeds"], q0=o.get("q0"), loads=o["loads"],

@@ -196,11 +196,21 @@ def constant_velocity(device, transmission: int | None = None, speeds=None, stra
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
     _check_index(transmission, na, "transmission")
+    given_q0 = q0
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
     if m.drive == _core.DriveKind.Tendons and (strategy == "S1" or (test is not None and test.strategy == "S1")):
         raise UsageError("S1 holds every other motor still: with N+1 rigid tendons n motors already fix every "
                          "joint; use --strategy S2 (joint space)", "strategy")
     Gm = np.array(m.Gm) if m.drive != _core.DriveKind.Elastic else np.diag(m.ratio)
+    if m.drive == _core.DriveKind.Tendons and test is None:
+        # N+1 (S2): joint `transmission` strokes over at most 80 % of its range from 10 % above its lower limit,
+        # the other joints held mid-range; travel is on the fastest motor of that joint (protocols' scale)
+        j = transmission - 1
+        lo, hi = _active_limits(device)
+        if given_q0 is None:
+            q0 = 0.5 * (lo + hi)
+            q0[j] = lo[j] + 0.1 * (hi[j] - lo[j])
+        travel = min(travel, 0.8 * (hi[j] - lo[j]) * np.abs(Gm[:, j]).max())
     if test is None:
         ref_q, ref_qd, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0,
                                                             m.dt)

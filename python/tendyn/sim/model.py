@@ -49,7 +49,7 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
     m.control_decimation = int(round(decim))
     drives = device.drives
     if getattr(device, "n_plus_one", False):   # N+1 tendons (sim.hpp, DriveKind::Tendons)
-        tm = compiled.tendons.model
+        tm = compiled.tendon_model
         m.drive = _core.DriveKind.Tendons
         m.tendons = tm if friction else _core.TendonModel(tm.K, tm.motor_radius, tm.tension_min, tm.last_joint)
         motors = [t.motor for t in device.transmissions]
