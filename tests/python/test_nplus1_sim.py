@@ -337,6 +337,7 @@ def test_statics_compensator_exports_still_refuse_n_plus_one(tmp_path, capsys):
             call()
         assert exc.value.field == "device.routing" and "N+1" in exc.value.problem
     for argv in (["export", "mjcf", "tendon_finger", "--out", str(tmp_path / "x.xml")],
-                 ["export", "transmission", "tendon_finger", "--out", str(tmp_path / "x.model")]):
+                 ["export", "transmission", "tendon_finger", "--out", str(tmp_path / "x.model")],
+                 ["plan", "exciting", "tendon_finger", "--out", str(tmp_path / "p.csv")]):
         assert main(argv) == 2, argv
         assert "N+1" in capsys.readouterr().err
