@@ -18,7 +18,10 @@ void expose_sim(nb::module_& m) {
   using OutVec = Eigen::Ref<Eigen::VectorXd>;
   using OutMat = Eigen::Ref<RowMat>;
 
-  nb::enum_<DriveKind>(m, "DriveKind").value("Tendon", DriveKind::Tendon).value("Elastic", DriveKind::Elastic);
+  nb::enum_<DriveKind>(m, "DriveKind")
+      .value("Tendon", DriveKind::Tendon)
+      .value("Elastic", DriveKind::Elastic)
+      .value("Tendons", DriveKind::Tendons);
   nb::enum_<ControlMode>(m, "ControlMode")
       .value("Torque", ControlMode::Torque)
       .value("JointPID", ControlMode::JointPID)
@@ -38,6 +41,12 @@ void expose_sim(nb::module_& m) {
       .def_ro("na", &M::na)
       .def_rw("drive", &M::drive)
       .def_rw("tendon", &M::tendon)
+      .def_rw("tendons", &M::tendons)
+      .def_rw("tendon_loss_compensation", &M::tendon_loss_compensation)
+      .def_ro("nm", &M::nm)
+      .def_ro("Gm", &M::Gm, "(nm, na) motor velocities from joint velocities (slaved motors)")
+      .def_prop_ro("n_ref", &M::n_ref)
+      .def_prop_ro("n_ff", &M::n_ff)
       .def_rw("ratio", &M::ratio)
       .def_rw("stiffness_motor", &M::stiffness_motor)
       .def_rw("damping_motor", &M::damping_motor)
@@ -106,8 +115,8 @@ void expose_sim(nb::module_& m) {
 
   m.def("step",
         [](const M& mo, D& d, VecRef ref_q, VecRef ref_v, VecRef ff, VecRef ext) {
-          if (ref_q.size() != mo.na || ref_v.size() != mo.na || ff.size() != mo.na || ext.size() != mo.na)
-            throw nb::value_error("step: inputs must have na entries");
+          if (ref_q.size() != mo.n_ref() || ref_v.size() != mo.n_ref() || ff.size() != mo.n_ff() || ext.size() != mo.na)
+            throw nb::value_error("step: ref_q, ref_v need n_ref entries, ff n_ff, torque_ext na");
           return check(step(mo, d, ref_q, ref_v, ff, ext), "step");
         },
         nb::arg("model"), nb::arg("data"), nb::arg("ref_q"), nb::arg("ref_v"), nb::arg("ff"), nb::arg("torque_ext"));
@@ -124,10 +133,14 @@ void expose_sim(nb::module_& m) {
         const long rows = (ref_q.rows() + log_every - 1) / log_every;
         if (time.size() != rows)
           throw nb::value_error("run: time must have ceil(steps / log_every) entries");
-        for (const auto* o : {&q_motor_meas, &torque_motor_meas, &torque_motor_cmd, &q_joint, &qd_joint, &q_motor,
-                              &qd_motor})
+        if (ref_q.cols() != mo.n_ref() || ref_v.cols() != mo.n_ref() || ff.cols() != mo.n_ff() || ext.cols() != mo.na)
+          throw nb::value_error("run: ref_q, ref_v need n_ref columns, ff n_ff, torque_ext na");
+        for (const auto* o : {&q_motor_meas, &torque_motor_meas, &torque_motor_cmd, &q_motor, &qd_motor})
+          if (o->rows() != rows || o->cols() != mo.nm)
+            throw nb::value_error("run: every motor log array must be (ceil(steps / log_every), nm), float64, C order");
+        for (const auto* o : {&q_joint, &qd_joint})
           if (o->rows() != rows || o->cols() != mo.na)
-            throw nb::value_error("run: every log array must be (ceil(steps / log_every), na), float64, C order");
+            throw nb::value_error("run: q_joint, qd_joint must be (ceil(steps / log_every), na), float64, C order");
         SimLog log{time, q_motor_meas, torque_motor_meas, torque_motor_cmd, q_joint, qd_joint, q_motor, qd_motor};
         Status s;
         {
@@ -140,8 +153,9 @@ void expose_sim(nb::module_& m) {
       nb::arg("torque_ext"), nb::arg("log_every"), nb::arg("time"), nb::arg("q_motor_meas"),
       nb::arg("torque_motor_meas"), nb::arg("torque_motor_cmd"), nb::arg("q_joint"), nb::arg("qd_joint"),
       nb::arg("q_motor"), nb::arg("qd_motor"),
-      "Run len(ref_q) steps; inputs (steps, na), row-major. Writes the log into the preallocated float64 arrays\n"
-      "(time (rows,), the others (rows, na), rows = ceil(steps / log_every)), the fields of C++ SimLog in order.\n"
+      "Run len(ref_q) steps; inputs row-major: ref_q, ref_v (steps, n_ref), ff (steps, n_ff), torque_ext (steps, na).\n"
+      "Writes the log into the preallocated float64 arrays (time (rows,), q_joint, qd_joint (rows, na), the motor\n"
+      "channels (rows, nm), rows = ceil(steps / log_every)), the fields of C++ SimLog in order.\n"
       "tendyn.sim.model.run_log allocates them and returns a dict.");
 
   using In3 = nb::ndarray<const double, nb::ndim<3>, nb::c_contig, nb::device::cpu>;
@@ -175,6 +189,8 @@ void expose_sim(nb::module_& m) {
           const M& mo = *mp[k];
           const D& d = *dp[k];
           if (mo.na != na) throw nb::value_error("run_batch: every model must have the same number of joints");
+          if (mo.nm != mo.na)
+            throw nb::value_error("run_batch: N+1 tendon models (nm = na + 1 motors) are run one by one (run)");
           if (d.q.size() != mo.na || d.M.rows() != mo.nv || d.p.size() != mo.n_sites)
             throw nb::value_error("run_batch: a SimData was not made for its model");
           if (log_every < 1 || log_every % mo.control_decimation != 0)

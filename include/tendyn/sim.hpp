@@ -7,6 +7,23 @@
 //     rotor inertia is reflected through the lossless map; the friction of every cable branch
 //     (S0 eqs. 11–12) and every reducer (eq. 9–10) acts where it is, on the branch velocity
 //     Ṡ_ib = Σ_{j=b..last_joint(i)} K_ij q̇_j and on the driven joint.
+//   * Tendons — N+1 tendons (issue 19; include/tendyn/tendons.hpp): nm = na + 1 rigid inextensible tendons
+//     share the na joints, K (nm, na) [m]: tendon velocities ℓ̇ = K q̇, motor velocities q̇_m = R_m⁻¹ K q̇ =: G_m q̇
+//     (G_m (nm, na), R_m = diag(motor radii)). Reduced dynamics (d'Alembert over the na joint coordinates, the
+//     motors slaved by the constraint; virtual work C_mᵀ δq_m = (G_mᵀ C_m)ᵀ δq):
+//         (M(q) + G_mᵀ I_m G_m) q̈ + b(q, q̇) = G_mᵀ C_m − Σ_ib g_ibᵀ f_ib   (+ external, terms, joint friction)
+//     with I_m = diag(rotor inertias) and, for branch b of tendon i (between joint b − 1 and joint b, branch 0
+//     from the motor pulley to joint 0), its sliding velocity Ṡ_ib = g_ib q̇, g_ib = [0 … 0 K_ib … K_i,last]
+//     (the same Ṡ as tendons.hpp and routing.hpp), and its friction force f_ib ∈ τ0_ib Sgn(Ṡ_ib) + ν_ib Ṡ_ib
+//     [N] (S0 eq. 12, motion sign restored: ERRATA; set-valued at Ṡ = 0: a stuck branch holds any
+//     |f| ≤ τ0 — the square drive's Branch site, solved by the same Moreau–Jean step below). Power:
+//     C_mᵀ q̇_m = d/dt(½ q̇ᵀ(M + G_mᵀ I_m G_m) q̇ + U) + Σ f_ib Ṡ_ib, each f_ib Ṡ_ib = τ0|Ṡ| + ν Ṡ² ≥ 0.
+//     The rigid tendons carry one internal tension the joints do not feel (Kᵀh = 0); each tendon's tension
+//     still follows from its own motor, t_i = (C_m,i − I_m,i q̈_m,i)/r_m,i (update_tensions). The tension-
+//     proportional β, bearings and reducers of the square drive are not modelled on N+1 tendons (refused by
+//     the loader). Joint-space control allocates the PID torque to tensions with tendons.hpp's feedforward
+//     (floors = the tendons' pretension; with tendon_loss_compensation, the branch losses at the reference
+//     velocity too: the S0 eq. 12 compensation in the loop).
 //   * Elastic — a capstan drive per active joint: motor inertia on a spring K_T (motor side) to
 //     the joint through ratio N (S2 §V-B); Coulomb/viscous friction on the motor.
 // Friction is solved at the velocity level every step (Moreau–Jean time stepping): each friction
@@ -40,6 +57,7 @@
 
 #include "tendyn/losses.hpp"
 #include "tendyn/rigid_body.hpp"
+#include "tendyn/tendons.hpp"
 #include "tendyn/tree_dynamics.hpp"
 
 /// SimModel has pgs_speed_tolerance (tools built against several versions of this header test it).
@@ -47,7 +65,7 @@
 
 namespace tendyn {
 
-enum class DriveKind : int { Tendon = 0, Elastic = 1 };
+enum class DriveKind : int { Tendon = 0, Elastic = 1, Tendons = 2 };
 enum class ControlMode : int { Torque = 0, JointPID = 1, MotorPID = 2 };
 enum class SiteKind : int { Branch = 0, Reducer = 1, MotorCoulomb = 2, JointCoulomb = 3, Lock = 4 };
 
@@ -87,6 +105,10 @@ struct SimModel {
   int na = 0;                   ///< active joints = motors
   DriveKind drive = DriveKind::Tendon;
   TransmissionModel tendon;     ///< Tendon drives: routing + cable/reducer losses
+  TendonModel tendons;          ///< Tendons (N+1) drives: K (na + 1, na), branch losses τ0, ν (S0 eq. 12)
+  /// Tendons drives in JointPID mode: allocate the PID torque to tensions with the branch losses of S0 eq. 12
+  /// at the reference velocity (tendon_feedforward with q̇ = ref_v); false: the lossless allocation.
+  bool tendon_loss_compensation = false;
 
   // Elastic drives (per motor): joint speed × ratio = motor speed.
   Eigen::VectorXd ratio;            ///< N [-]
@@ -146,12 +168,13 @@ struct SimModel {
   bool pgs_exact_finish = true;
 
   // ---- derived at finalize() ----
+  int nm = 0;                       ///< motors: na, or na + 1 (Tendons)
   int nv = 0;                       ///< velocity dimension: na (tendon) or 2 na (elastic)
   int n_sites = 0;
   bool identity_map = false;        ///< L = I and c = 0 (serial chain)
-  Eigen::MatrixXd Gm;               ///< (na, na) motor velocity from joint velocity (tendon)
-  Eigen::MatrixXd joint_from_motor; ///< (na, na) joint estimate from motor positions
-  Eigen::MatrixXd motor_from_joint_torque;  ///< (na, na) control: C_m from τ_J (lossless)
+  Eigen::MatrixXd Gm;               ///< (nm, na) motor velocity from joint velocity (tendon)
+  Eigen::MatrixXd joint_from_motor; ///< (na, nm) joint estimate from motor positions (N+1: least squares)
+  Eigen::MatrixXd motor_from_joint_torque;  ///< (nm, na) control: C_m from τ_J (lossless; N+1: minimum-norm)
   Eigen::MatrixXd M_rotor;          ///< constant mass added by the rotors
   Eigen::MatrixXd D;                ///< (nv, nv) implicit viscous damping
   Eigen::MatrixXd G;                ///< (n_sites, nv) site velocity Jacobians
@@ -164,6 +187,11 @@ struct SimModel {
   /// Size every default, build the site layout and the constant matrices. Allocates.
   Status finalize();
   int nq_tree() const { return body.pin.nq; }
+  /// Columns of the references ref_q, ref_v: motors (MotorPID) or joints.
+  int n_ref() const { return mode == ControlMode::MotorPID ? nm : na; }
+  /// Columns of the feedforward ff: joint torques (JointPID) or motor torques.
+  int n_ff() const { return mode == ControlMode::JointPID ? na : nm; }
+  bool slaved_motors() const { return drive == DriveKind::Tendon || drive == DriveKind::Tendons; }
 };
 
 /// Preallocated state and workspace.
@@ -194,6 +222,7 @@ struct SimData {
   Eigen::MatrixXd tension;          ///< cable tension estimate at joint b after branch b [N]
   Eigen::VectorXd tension_motor;    ///< tension leaving each motor pulley [N]
   Eigen::VectorXd qd_motor_prev;    ///< motor velocity at the previous step (rotor inertia share)
+  TendonData tendon_data;           ///< Tendons drives: the allocation of the joint-space controller
   Rng rng;
   bool first_control = true;
   // diagnostics
@@ -213,15 +242,18 @@ struct SimData {
 inline Status SimModel::finalize() {
   na = static_cast<int>(L.cols());
   if (na <= 0 || L.rows() != body.pin.nq || c.size() != body.pin.nq) return Status::InvalidModel;
-  auto fill = [&](Eigen::VectorXd& v, double def) {
-    if (v.size() != na) v = Eigen::VectorXd::Constant(na, def);
+  nm = drive == DriveKind::Tendons ? na + 1 : na;
+  auto fill_n = [](Eigen::VectorXd& v, int n, double def) {
+    if (v.size() != n) v = Eigen::VectorXd::Constant(n, def);
   };
+  auto fill = [&](Eigen::VectorXd& v, double def) { fill_n(v, na, def); };
+  auto fill_m = [&](Eigen::VectorXd& v, double def) { fill_n(v, nm, def); };
   fill(ratio, 1.0); fill(stiffness_motor, 0.0); fill(damping_motor, 0.0);
-  fill(rotor_inertia, 0.0); fill(torque_constant, 1.0); fill(peak_torque, 1e300);
-  fill(coulomb_motor, 0.0); fill(viscous_motor, 0.0);
+  fill_m(rotor_inertia, 0.0); fill_m(torque_constant, 1.0); fill_m(peak_torque, 1e300);
+  fill_m(coulomb_motor, 0.0); fill_m(viscous_motor, 0.0);
   fill(coulomb_joint, 0.0); fill(viscous_joint, 0.0); fill(offset_joint, 0.0); fill(lock_joint, 0.0);
-  fill(encoder_counts, 0.0); fill(current_noise, 0.0);
-  fill(kp, 0.0); fill(kd, 0.0); fill(ki, 0.0);
+  fill_m(encoder_counts, 0.0); fill_m(current_noise, 0.0);
+  fill_n(kp, n_ref(), 0.0); fill_n(kd, n_ref(), 0.0); fill_n(ki, n_ref(), 0.0);
   if (!(dt > 0.0) || control_decimation < 1 || !(pgs_relaxation > 0.0 && pgs_relaxation < 2.0))
     return Status::InvalidModel;
   if (term_torque.cols() > 0) {
@@ -238,6 +270,14 @@ inline Status SimModel::finalize() {
     joint_from_motor = tendon.joint_from_motor_position;
     motor_from_joint_torque = tendon.motor_from_joint_torque;
     M_rotor = Gm.transpose() * rotor_inertia.asDiagonal() * Gm;
+  } else if (drive == DriveKind::Tendons) {
+    if (tendons.n != na || tendons.m != nm || tendons.K.rows() != nm || tendons.K.cols() != na)
+      return Status::InvalidModel;
+    nv = na;
+    Gm = tendons.motor_radius.cwiseInverse().asDiagonal() * tendons.K;  // q̇_m = R_m⁻¹ K q̇
+    joint_from_motor = (Gm.transpose() * Gm).ldlt().solve(Gm.transpose());  // least squares (exact when rigid)
+    motor_from_joint_torque = tendons.motor_radius.asDiagonal() * tendons.tension_from_torque;  // R_m P
+    M_rotor = Gm.transpose() * rotor_inertia.asDiagonal() * Gm;  // Kᵀ R_m⁻¹ I_m R_m⁻¹ K
   } else {
     for (int i = 0; i < na; ++i)
       if (!(ratio(i) > 0.0) || !(stiffness_motor(i) > 0.0)) return Status::InvalidModel;
@@ -253,10 +293,12 @@ inline Status SimModel::finalize() {
   int n_branch = 0;  // cable i has branches 0 … last_joint(i) (serial: i)
   if (drive == DriveKind::Tendon)
     for (int i = 0; i < na; ++i) n_branch += tendon.last_joint(i) + 1;
+  if (drive == DriveKind::Tendons)
+    for (int i = 0; i < nm; ++i) n_branch += tendons.last_joint(i) + 1;
   const int n_red = drive == DriveKind::Tendon ? na : 0;
   int n_mc = 0, n_jc = 0, n_lock = 0;
+  for (int i = 0; i < nm; ++i) n_mc += coulomb_motor(i) > 0.0;
   for (int i = 0; i < na; ++i) {
-    n_mc += coulomb_motor(i) > 0.0;
     n_jc += coulomb_joint(i) > 0.0;
     n_lock += lock_joint(i) != 0.0;
   }
@@ -278,6 +320,15 @@ inline Status SimModel::finalize() {
     }
     D += Gm.transpose() * viscous_motor.asDiagonal() * Gm;
     D.diagonal() += viscous_joint;
+  } else if (drive == DriveKind::Tendons) {
+    for (int i = 0; i < nm; ++i)  // every branch of every tendon: g_ib = [0 … 0 K_ib … K_i,last]
+      for (int b = 0; b <= tendons.last_joint(i); ++b, ++k) {
+        for (int j = b; j <= tendons.last_joint(i); ++j) G(k, j) = tendons.K(i, j);
+        site_kind(k) = static_cast<int>(SiteKind::Branch); site_i(k) = i; site_b(k) = b;
+        D += tendons.nu(i, b) * G.row(k).transpose() * G.row(k);  // ν Ṡ², implicit
+      }
+    D += Gm.transpose() * viscous_motor.asDiagonal() * Gm;
+    D.diagonal() += viscous_joint;
   } else {
     for (int i = 0; i < na; ++i) {
       const double N = ratio(i), d = damping_motor(i);
@@ -287,9 +338,9 @@ inline Status SimModel::finalize() {
       D(na + i, i) -= d * N;
     }
   }
-  for (int i = 0; i < na; ++i)
+  for (int i = 0; i < nm; ++i)
     if (coulomb_motor(i) > 0.0) {
-      if (drive == DriveKind::Tendon) G.row(k) = Gm.row(i); else G(k, na + i) = 1.0;
+      if (slaved_motors()) G.row(k) = Gm.row(i); else G(k, na + i) = 1.0;
       site_kind(k) = static_cast<int>(SiteKind::MotorCoulomb); site_i(k) = i; site_b(k) = 0; ++k;
     }
   for (int i = 0; i < na; ++i)
@@ -319,7 +370,7 @@ inline Status SimModel::finalize() {
 inline SimData::SimData(const SimModel& m)
     : body(m.body),
       q(Eigen::VectorXd::Zero(m.na)), qd(Eigen::VectorXd::Zero(m.na)),
-      q_motor(Eigen::VectorXd::Zero(m.na)), qd_motor(Eigen::VectorXd::Zero(m.na)),
+      q_motor(Eigen::VectorXd::Zero(m.nm)), qd_motor(Eigen::VectorXd::Zero(m.nm)),
       q_tree(Eigen::VectorXd::Zero(m.nq_tree())), v_tree(Eigen::VectorXd::Zero(m.nq_tree())),
       tree(m.tree), ML(Eigen::MatrixXd::Zero(m.nq_tree(), m.na)), M(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       Mt(Eigen::MatrixXd::Zero(m.nv, m.nv)), Linv(Eigen::MatrixXd::Zero(m.nv, m.nv)),
@@ -338,27 +389,28 @@ inline SimData::SimData(const SimModel& m)
       fin_p(Eigen::VectorXd::Zero(m.n_sites)), fin_site(Eigen::VectorXi::Zero(m.nv)),
       fin_state(Eigen::VectorXi::Zero(m.n_sites)),
       v_end(Eigen::VectorXd::Zero(m.nv)),
-      q_motor_meas(Eigen::VectorXd::Zero(m.na)), torque_motor_meas(Eigen::VectorXd::Zero(m.na)),
-      torque_motor_cmd(Eigen::VectorXd::Zero(m.na)), torque_motor(Eigen::VectorXd::Zero(m.na)),
+      q_motor_meas(Eigen::VectorXd::Zero(m.nm)), torque_motor_meas(Eigen::VectorXd::Zero(m.nm)),
+      torque_motor_cmd(Eigen::VectorXd::Zero(m.nm)), torque_motor(Eigen::VectorXd::Zero(m.nm)),
       q_est(Eigen::VectorXd::Zero(m.na)), v_est(Eigen::VectorXd::Zero(m.na)),
-      q_est_prev(Eigen::VectorXd::Zero(m.na)), integral(Eigen::VectorXd::Zero(m.na)),
-      v_motor_est(Eigen::VectorXd::Zero(m.na)), qm_meas_prev(Eigen::VectorXd::Zero(m.na)),
+      q_est_prev(Eigen::VectorXd::Zero(m.na)), integral(Eigen::VectorXd::Zero(std::max(m.na, m.nm))),
+      v_motor_est(Eigen::VectorXd::Zero(m.nm)), qm_meas_prev(Eigen::VectorXd::Zero(m.nm)),
       tmp_na(Eigen::VectorXd::Zero(m.na)),
-      tension(Eigen::MatrixXd::Zero(m.na, m.na)), tension_motor(Eigen::VectorXd::Zero(m.na)),
-      qd_motor_prev(Eigen::VectorXd::Zero(m.na)) {}
+      tension(Eigen::MatrixXd::Zero(m.nm, m.na)), tension_motor(Eigen::VectorXd::Zero(m.nm)),
+      qd_motor_prev(Eigen::VectorXd::Zero(m.nm)),
+      tendon_data(m.drive == DriveKind::Tendons ? make_tendon_data(m.tendons) : TendonData{}) {}
 
 // ---- pieces of a step --------------------------------------------------------------------------
 
 /// Motor position from the state (slaved for tendon drives).
 inline void motor_state(const SimModel& m, SimData& d) {
-  if (m.drive != DriveKind::Tendon) return;
-  const int n = m.na;
+  if (!m.slaved_motors()) return;
+  const int n = m.na, nm = m.nm;
   const double* G = m.Gm.data();
-  for (int i = 0; i < n; ++i) {
+  for (int i = 0; i < nm; ++i) {
     double a = 0.0, b = 0.0;
     for (int j = 0; j < n; ++j) {
-      a += G[i + j * n] * d.q(j);
-      b += G[i + j * n] * d.qd(j);
+      a += G[i + j * nm] * d.q(j);
+      b += G[i + j * nm] * d.qd(j);
     }
     d.q_motor(i) = a;
     d.qd_motor(i) = b;
@@ -371,7 +423,7 @@ inline void motor_state(const SimModel& m, SimData& d) {
 template <class V1, class V2, class V3>
 inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref_v, const V3& ff) {
   const double Tc = m.dt * m.control_decimation;
-  for (int i = 0; i < m.na; ++i) {  // quantised motor encoders
+  for (int i = 0; i < m.nm; ++i) {  // quantised motor encoders
     const double counts = m.encoder_counts(i);
     const double qstep = counts > 0.0 ? 6.283185307179586 / counts : 0.0;
     d.q_motor_meas(i) = qstep > 0.0 ? qstep * std::floor(d.q_motor(i) / qstep + 0.5) : d.q_motor(i);
@@ -384,16 +436,15 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
   }
   const double alpha = m.velocity_cutoff_hz > 0.0
                            ? 1.0 - std::exp(-6.283185307179586 * m.velocity_cutoff_hz * Tc) : 1.0;
-  for (int i = 0; i < m.na; ++i) {
-    d.v_est(i) += alpha * ((d.q_est(i) - d.q_est_prev(i)) / Tc - d.v_est(i));
+  for (int i = 0; i < m.na; ++i) d.v_est(i) += alpha * ((d.q_est(i) - d.q_est_prev(i)) / Tc - d.v_est(i));
+  for (int i = 0; i < m.nm; ++i)
     d.v_motor_est(i) += alpha * ((d.q_motor_meas(i) - d.qm_meas_prev(i)) / Tc - d.v_motor_est(i));
-  }
   d.q_est_prev = d.q_est;
   d.qm_meas_prev = d.q_motor_meas;
 
   switch (m.mode) {
     case ControlMode::Torque:
-      for (int i = 0; i < m.na; ++i) d.torque_motor_cmd(i) = ff(i);
+      for (int i = 0; i < m.nm; ++i) d.torque_motor_cmd(i) = ff(i);
       break;
     case ControlMode::JointPID:
       for (int i = 0; i < m.na; ++i) {
@@ -401,10 +452,18 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
         d.integral(i) += e * Tc;
         d.tmp_na(i) = m.kp(i) * e + m.kd(i) * (ref_v(i) - d.v_est(i)) + m.ki(i) * d.integral(i) + ff(i);
       }
-      d.torque_motor_cmd.noalias() = m.motor_from_joint_torque.lazyProduct(d.tmp_na);
+      if (m.drive == DriveKind::Tendons) {  // tensions ≥ the floors (tendons.hpp), losses at ref_v if asked
+        if (m.tendon_loss_compensation)
+          detail::tendon_feedforward_impl(m.tendons, d.tmp_na, [&](int b) { return ref_v(b); }, d.tendon_data);
+        else
+          detail::tendon_feedforward_impl(m.tendons, d.tmp_na, [](int) { return 0.0; }, d.tendon_data);
+        d.torque_motor_cmd = d.tendon_data.motor_torque;
+      } else {
+        d.torque_motor_cmd.noalias() = m.motor_from_joint_torque.lazyProduct(d.tmp_na);
+      }
       break;
     case ControlMode::MotorPID:
-      for (int i = 0; i < m.na; ++i) {
+      for (int i = 0; i < m.nm; ++i) {
         const double e = ref_q(i) - d.q_motor_meas(i);
         d.integral(i) += e * Tc;
         d.torque_motor_cmd(i) = m.kp(i) * e + m.kd(i) * (ref_v(i) - d.v_motor_est(i)) + m.ki(i) * d.integral(i) + ff(i);
@@ -412,7 +471,7 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
       break;
   }
   if (m.hook) m.hook(m.hook_user, m, d);
-  for (int i = 0; i < m.na; ++i) {
+  for (int i = 0; i < m.nm; ++i) {
     const double lim = m.peak_torque(i);
     d.torque_motor(i) = std::max(-lim, std::min(lim, d.torque_motor_cmd(i)));
     d.torque_motor_meas(i) = d.torque_motor(i) + m.torque_constant(i) * m.current_noise(i) * d.rng.normal();
@@ -456,6 +515,11 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
         // A stuck site keeps a PGS residue of ~1e-18 m/s: it is at rest (static threshold α p, S0 eq. 7),
         // not sliding at that speed (β p + h0).
         if (std::abs(sdot) <= kRestSpeed) sdot = 0.0;
+        if (m.drive == DriveKind::Tendons) {  // S0 eq. 12: τ0 at rest (break-away) and sliding
+          hi = m.tendons.tau0(i, b);
+          lo = -hi;
+          break;
+        }
         const BranchFriction f = branch_friction(m.tendon, i, b, sdot);
         const double up = b == 0 ? d.tension_motor(i) : d.tension(i, b - 1);
         const double drive = std::max(std::abs(up), std::abs(d.tension(i, b)));
@@ -485,15 +549,18 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
 /// friction forces found on the branches (tension drop Δ = −λ + ν Ṡ, S0 eq. 6). The branch speeds are
 /// the site speeds d.u at the end of the step (branch sites come first, in this order).
 inline void update_tensions(const SimModel& m, SimData& d) {
-  if (m.drive != DriveKind::Tendon) return;
+  if (!m.slaved_motors()) return;
+  const bool np1 = m.drive == DriveKind::Tendons;
   const double h = m.dt;
   int k = 0;
-  for (int i = 0; i < m.na; ++i) {
+  for (int i = 0; i < m.nm; ++i) {
     const double accel = (d.qd_motor(i) - d.qd_motor_prev(i)) / h;
-    double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / m.tendon.motor_radius(i);
+    const double r_m = np1 ? m.tendons.motor_radius(i) : m.tendon.motor_radius(i);
+    const int last = np1 ? m.tendons.last_joint(i) : m.tendon.last_joint(i);
+    double t = (d.torque_motor(i) - m.rotor_inertia(i) * accel) / r_m;
     d.tension_motor(i) = t;
-    for (int b = 0; b <= m.tendon.last_joint(i); ++b, ++k) {
-      t -= -d.p(k) / h + m.tendon.nu(i, b) * d.u(k);
+    for (int b = 0; b <= last; ++b, ++k) {
+      t -= -d.p(k) / h + (np1 ? m.tendons.nu(i, b) : m.tendon.nu(i, b)) * d.u(k);
       d.tension(i, b) = t;
     }
   }
@@ -714,11 +781,12 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
     d.F.head(na).noalias() = -m.L.transpose().lazyProduct(nle);
   }
   for (int i = 0; i < na; ++i) F[i] += d.ext(i);
-  if (m.drive == DriveKind::Tendon) {  // Kᵀ R_m⁻¹ C_m
+  if (m.slaved_motors()) {  // Kᵀ R_m⁻¹ C_m = G_mᵀ C_m
     const double* G = m.Gm.data();
+    const int nm = m.nm;
     for (int j = 0; j < na; ++j) {
       double s = 0.0;
-      for (int i = 0; i < na; ++i) s += G[i + j * na] * d.torque_motor(i);
+      for (int i = 0; i < nm; ++i) s += G[i + j * nm] * d.torque_motor(i);
       F[j] += s;
     }
   } else {
@@ -920,7 +988,7 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   }
   motor_state(m, d);
   if (!all_finite(d.qd) || !all_finite(d.qd_motor) || !all_finite(d.q)) return Status::Diverged;
-  for (int i = 0; i < na; ++i) d.work_motor += h * d.torque_motor(i) * d.qd_motor(i);
+  for (int i = 0; i < m.nm; ++i) d.work_motor += h * d.torque_motor(i) * d.qd_motor(i);
   update_tensions(m, d);
   d.time += h;
   ++d.step_count;
@@ -934,7 +1002,7 @@ inline double mechanical_energy(const SimModel& m, SimData& d) {
   d.v_tree.noalias() = m.L * d.qd;
   double e = pinocchio::computeKineticEnergy(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
   e += pinocchio::computePotentialEnergy(m.body.pin, d.body.pin, d.q_tree);
-  for (int i = 0; i < m.na; ++i) {
+  for (int i = 0; i < m.nm; ++i) {
     e += 0.5 * m.rotor_inertia(i) * d.qd_motor(i) * d.qd_motor(i);
     if (m.drive == DriveKind::Elastic) {
       const double s = d.q_motor(i) - m.ratio(i) * d.q(i);
@@ -986,8 +1054,8 @@ inline Status run(const SimModel& m, SimData& d, const Mat& ref_q, const Mat& re
                   const Mat& torque_ext, int log_every, SimLog& log) {
   const long n_steps = ref_q.rows();
   if (log_every < 1 || log_every % m.control_decimation != 0 || ref_v.rows() != n_steps ||
-      ff.rows() != n_steps || torque_ext.rows() != n_steps || ref_q.cols() != m.na ||
-      ref_v.cols() != m.na || ff.cols() != m.na || torque_ext.cols() != m.na ||
+      ff.rows() != n_steps || torque_ext.rows() != n_steps || ref_q.cols() != m.n_ref() ||
+      ref_v.cols() != m.n_ref() || ff.cols() != m.n_ff() || torque_ext.cols() != m.na ||
       log.time.size() != (n_steps + log_every - 1) / log_every)
     return Status::SizeMismatch;
   if (!all_finite(ref_q) || !all_finite(ref_v) || !all_finite(ff) || !all_finite(torque_ext))

@@ -304,19 +304,20 @@ def constant_velocity_references(motor_from_joint, transmission: int, speeds, st
     motor_from_joint G (n, n) [-] maps joint to motor positions (R_m⁻¹ K); speeds [rad/s], travel [rad]
     and accel [rad/s²] are on the motor."""
     Gm = np.asarray(motor_from_joint, float)
-    na = Gm.shape[0]
-    j = check_index(transmission, na, "transmission") - 1
+    nm, na = Gm.shape          # N+1 tendons: nm = na + 1 motors, S2 only (transmission = the joint moved)
+    j = check_index(transmission, nm if strategy == "S1" else na, "transmission") - 1
     q0 = np.asarray(q0, float)
     q_prof, qd_prof = constant_velocity_profile(np.asarray(speeds, float), travel, accel, dt)
     n = q_prof.size
     if strategy == "S1":
         ref_q = np.tile(Gm @ q0, (n, 1))
-        ref_qd = np.zeros((n, na))
+        ref_qd = np.zeros((n, nm))
         ref_q[:, j] += q_prof
         ref_qd[:, j] = qd_prof
         return ref_q, ref_qd, "motor"
     if strategy == "S2":
-        scale = 1.0 / Gm[j, j]   # joint j speed for motor speed 1 with the other joints still
+        # joint j speed for motor speed 1 with the other joints still (N+1: the fastest motor of joint j)
+        scale = 1.0 / Gm[j, j] if nm == na else 1.0 / np.abs(Gm[:, j]).max()
         ref_q = np.tile(q0, (n, 1))
         ref_qd = np.zeros((n, na))
         ref_q[:, j] += q_prof * scale

@@ -195,6 +195,29 @@ static tendyn::SimModel differential_chain() {
   return m;
 }
 
+// The chain moved by N+1 tendons (issue 19; sim.hpp, DriveKind::Tendons): 4 tendons on 3 joints, the finger's
+// routing of python/tendyn/devices/tendon_finger.toml scaled by 2.5 (h = [1/12, 1/5, 7/8, 1] > 0), branch losses
+// tau0 1 N, nu 10 N s/m on every branch (S0 eq. 12), floors 5 N, the PID torque allocated with the losses at the
+// reference velocity (tendon_loss_compensation).
+static tendyn::SimModel n_plus_one_chain() {
+  tendyn::SimModel m = chain(tendyn::DriveKind::Tendons);
+  Eigen::MatrixXd K(4, 3);
+  K << 0.03, 0, 0, 0.025, 0.025, 0, 0.02, 0.02, 0.02, -0.025, -0.0225, -0.0175;
+  Eigen::MatrixXd tau0 = Eigen::MatrixXd::Zero(4, 3), nu = Eigen::MatrixXd::Zero(4, 3);
+  const int last[4] = {0, 1, 2, 2};
+  for (int i = 0; i < 4; ++i)
+    for (int b = 0; b <= last[i]; ++b) { tau0(i, b) = 1.0; nu(i, b) = 10.0; }
+  const std::string issue = tendyn::make_tendon_model(K, Eigen::VectorXd::Constant(4, 0.008),
+                                                      Eigen::VectorXd::Constant(4, 5.0), m.tendons,
+                                                      Eigen::VectorXi(), tau0, nu);
+  if (!issue.empty()) std::printf("n_plus_one_chain: %s\n", issue.c_str());
+  m.rotor_inertia = Eigen::VectorXd::Constant(4, 1e-5);
+  m.encoder_counts = Eigen::VectorXd::Constant(4, 16384);
+  m.current_noise = Eigen::VectorXd::Constant(4, 0.01);
+  m.tendon_loss_compensation = true;
+  return m;
+}
+
 int main(int argc, char** argv) {
   tree_dynamics_matches_pinocchio();
   step_on_pinocchio_matches();
@@ -204,11 +227,13 @@ int main(int argc, char** argv) {
   if (physics_failures) return 1;
   const long steps = argc > 1 ? std::atol(argv[1]) : 20000;
   int failures = 0;
-  for (int c = 0; c < 3; ++c) {
-    const auto kind = c == 1 ? tendyn::DriveKind::Elastic : tendyn::DriveKind::Tendon;
-    tendyn::SimModel m = c == 2 ? differential_chain() : chain(kind);
+  for (int c = 0; c < 4; ++c) {
+    const auto kind = c == 1 ? tendyn::DriveKind::Elastic : c == 3 ? tendyn::DriveKind::Tendons
+                                                                    : tendyn::DriveKind::Tendon;
+    tendyn::SimModel m = c == 2 ? differential_chain() : c == 3 ? n_plus_one_chain() : chain(kind);
     if (tendyn::is_error(m.finalize())) { std::puts("finalize failed"); return 1; }
     if (c == 2 && m.n_sites != (1 + 3 + 3) + 3) { std::puts("differential: cable 2 must have 3 branch sites"); return 1; }
+    if (c == 3 && (m.nm != 4 || m.n_sites != 1 + 2 + 3 + 3)) { std::puts("N+1: 4 motors, 9 branch sites"); return 1; }
     tendyn::SimData d(m);
     d.reset(Eigen::VectorXd::Constant(m.na, 0.2), 42);
     Eigen::VectorXd ref = Eigen::VectorXd::Constant(m.na, 0.5), zero = Eigen::VectorXd::Zero(m.na);
@@ -217,11 +242,19 @@ int main(int argc, char** argv) {
     for (long s = 0; s < steps; ++s) tendyn::step(m, d, ref, zero, zero, zero);
     counting::armed = false;
     std::printf("%s: %ld steps, %ld allocations, q = %.4f %.4f %.4f\n",
-                c == 2 ? "tendon, differential" : kind == tendyn::DriveKind::Tendon ? "tendon" : "elastic", steps,
+                c == 2 ? "tendon, differential" : c == 3 ? "N+1 tendons" : kind == tendyn::DriveKind::Tendon ? "tendon"
+                                                                                                   : "elastic", steps,
                 counting::count, d.q(0), d.q(1), d.q(2));
     if (counting::count != 0) ++failures;
     // the joint PID moves the differential's joints from 0.2 toward their reference 0.5 (against gravity and
     // friction, as on the serial chain): the coupled cables drive both joints the right way
+    // N+1: as on the serial chain the weak PID leaves joint 1 low against gravity; joints 2-3 move toward 0.5,
+    // and every tendon's motor pulls at least its floor (the allocation of tendons.hpp in the loop)
+    if (c == 3 && !(d.q(1) > 0.25 && d.q(1) < 0.6 && d.q(2) > 0.25 && d.q(2) < 0.6 &&
+                    (d.torque_motor.array() / 0.008 > 5.0 - 1e-9).all())) {
+      std::puts("N+1 chain: the PID did not move joints 2-3 toward 0.5 with every tendon at or above its floor");
+      ++failures;
+    }
     if (c == 2 && !(d.q(1) > 0.25 && d.q(1) < 0.6 && d.q(2) > 0.25 && d.q(2) < 0.6)) {
       std::puts("differential chain: the PID did not move the differential's joints toward the reference");
       ++failures;

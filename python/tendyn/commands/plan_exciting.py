@@ -41,6 +41,9 @@ def run(args, load_device) -> int:
     dev = load_device(args.device)
     if getattr(dev, "kind", None) != "serial":
         raise UsageError(f"{dev.name} is a {dev.kind}: an exciting trajectory needs a rigid serial device", "device")
+    from tendyn.device.schema import require_one_per_joint
+
+    require_one_per_joint(dev, "plan exciting (the identification's motor torque limits through G⁻ᵀ)")
     try:
         plan = plan_exciting(dev, harmonics=args.harmonics, base_hz=args.base_hz, max_speed=args.max_speed,
                              iterations=args.iterations, seed=args.seed)

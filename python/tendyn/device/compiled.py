@@ -153,11 +153,27 @@ class CompiledDevice:
     # ---- transmission -------------------------------------------------------------------------
     @cached_property
     def transmission(self) -> Any:
+        """The square statics with losses (:class:`tendyn.transmission.Transmission`); None without
+        transmissions. An N+1 device raises DeviceError (exit 2): the compensator, identification and the exports
+        built on it take one cable per joint (the simulator takes N+1 through :attr:`tendon_model`)."""
         if self.kind != "serial" or not self.device.transmissions:
             return None
+        from .schema import require_one_per_joint
+
+        require_one_per_joint(self.device, "the S0 statics with losses (compensator, identification, exports)")
         from tendyn.transmission import Transmission
 
         return Transmission.from_device(self.device)
+
+    @cached_property
+    def tendon_model(self) -> Any:
+        """The core's ``TendonModel`` of an N+1 device (K, motor radii, floors, branch losses of S0 eq. 12; wrapped
+        by :class:`tendyn.tendons.Tendons`); None otherwise."""
+        if not getattr(self.device, "n_plus_one", False):
+            return None
+        from .routing_checks import tendon_model
+
+        return tendon_model(self.device.transmissions, self.device.n_joints)
 
     def __getstate__(self):  # the compiled models are rebuilt after unpickling, not pickled
         return {"device": self.device}
@@ -183,10 +199,7 @@ def compile_device(device: Device | CompiledDevice) -> CompiledDevice:
                         f"(got {type(device).__name__})")
     compiled = device.__dict__.get(_CACHE_ATTR)
     if compiled is None:
-        from .schema import require_one_per_joint
-
-        require_one_per_joint(device, "the computing models (simulator, compensator, identification, exports)")
-        compiled = CompiledDevice(device)
+        compiled = CompiledDevice(device)   # N+1: the simulator takes it; .transmission refuses (exit 2)
         object.__setattr__(device, _CACHE_ATTR, compiled)  # devices are frozen; the cache is not a field
     return compiled
 

@@ -931,12 +931,13 @@ class SerialDevice(Device):
 def require_one_per_joint(device, what: str) -> None:
     """Refuse ``what`` (a simulator, an export, the compiled device …) on an N+1 device, with a DeviceError (the
     command line's exit 2) naming the limit: the square statics with losses of the core (routing.hpp, losses.hpp)
-    and everything built on them need one cable per joint; N+1 tendons have their own lossless core
-    (include/tendyn/tendons.hpp, :mod:`tendyn.tendons`)."""
+    and everything built on them need one cable per joint; N+1 tendons have their own core (include/tendyn/tendons.hpp,
+    :mod:`tendyn.tendons`) and simulator drive (sim.hpp, DriveKind::Tendons)."""
     if getattr(device, "routing", None) == "n_plus_one":
         raise DeviceError(f"{what}: one cable (or antagonistic pair) per joint needed, K square; this device's "
                           f"{len(device.transmissions)} tendons share its {device.n_joints} joints (N+1). N+1 "
-                          "devices are read, checked and shown (`tendyn routing show`) and their tendon tensions "
-                          "computed by tendyn.tendons.Tendons; the simulator, the S0 compensator, identification "
-                          "and the exports do not take them yet (docs/device-file.md, 'N+1 routings')",
+                          "devices are read, checked and shown (`tendyn routing show`), simulated (`tendyn simulate`: "
+                          "constant-velocity S2, exciting) and their tendon tensions computed by "
+                          "tendyn.tendons.Tendons; the S0 compensator, identification and the exports do not take "
+                          "them yet (docs/device-file.md, 'N+1 routings')",
                           file=device.path.name if getattr(device, "path", None) else None, field="device.routing")

@@ -143,6 +143,9 @@ EXPERIMENTS: dict[tuple[str, str], Experiment] = {(e.kind, e.name): e for e in (
                "0.2 Hz sine: dead-band and friction loop (S1 Fig. 10b)",
                note=" (a tendon bench has no controller and no joints)"),
 )}
+N_PLUS_ONE_EXPERIMENTS = ("constant-velocity", "exciting")
+"""The chain experiments an N+1 device runs (joint-space PID); blocked-link, stepped-sine and swept-sine drive one
+motor in torque mode, which the square twin's per-motor options do not express for n + 1 motors yet."""
 EXPERIMENT_NAMES = tuple(dict.fromkeys(e.name for e in EXPERIMENTS.values()))
 
 
@@ -274,6 +277,9 @@ def resolve(device, experiment: str, given: dict[str, Any]) -> dict[str, Any]:
         what = "a tendon bench" if kind == _BENCH else "a chain"
         raise UsageError(f"{experiment!r} is not an experiment of {device.name} ({what}); its experiments: "
                          f"{names}", "experiment")
+    if getattr(device, "n_plus_one", False) and experiment not in N_PLUS_ONE_EXPERIMENTS:
+        raise UsageError(f"{experiment!r} does not take an N+1 device ({device.name}: n + 1 rigid tendons); its "
+                         f"experiments: {', '.join(N_PLUS_ONE_EXPERIMENTS)} (docs/cli.md)", "experiment")
     for name, value in given.items():
         if name not in OPTIONS:
             raise UsageError(f"unknown option; known: {', '.join(flag(k) for k in OPTIONS)}", name)
@@ -434,8 +440,8 @@ def planned_test(device, o: dict):
     """The constant-velocity test of a cable device planned by :func:`tendyn.protocols.plan_test` from the
     options (the same rule ``tendyn plan`` and ``identify-friction`` use), or None for a capstan-drive device
     (its back-and-forth passes from q0 at the given speeds)."""
-    if not getattr(device, "transmissions", None):
-        return None
+    if not getattr(device, "transmissions", None) or getattr(device, "n_plus_one", False):
+        return None   # N+1: constant_velocity's own stroke inside the joint's limits (no S0 statics to plan with)
     from tendyn.protocols import plan_test
 
     return plan_test(device, o["transmission"], o["strategy"], o["speeds"], q0=o.get("q0"), loads=o["loads"],

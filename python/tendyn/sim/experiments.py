@@ -22,6 +22,7 @@ import pinocchio as pin
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.schema import TRANSMISSION_MODEL_FIELDS
+from tendyn.errors import UsageError
 from tendyn.io import to_jsonable
 from tendyn.io.logs import Log, make_log
 from tendyn.protocols import LOOP_BANDWIDTH_HZ, ConstantVelocityTest, references as cv_references
@@ -44,7 +45,15 @@ class SimRun:
 def device_truth(device) -> dict:
     """The twin's parameters that identification tries to recover (JSON-able)."""
     out = {"device": device.name}
-    if device.transmissions:
+    if getattr(device, "n_plus_one", False):
+        from tendyn.device.routing_checks import routing_matrix
+
+        tr = device.transmissions
+        out["tendons"] = {"K": routing_matrix(tr, device.n_joints),
+                          "motor_radius": [t.motor_radius for t in tr], "pretension": [t.pretension for t in tr],
+                          "tau0": [[f.tau0 for f in t.friction] for t in tr],
+                          "nu": [[f.nu for f in t.friction] for t in tr]}
+    elif device.transmissions:
         arr = device.routing_arrays()
         out["routing"] = {f.name: arr[f.name] for f in TRANSMISSION_MODEL_FIELDS}
     drives = getattr(device, "drives", ())
@@ -71,14 +80,14 @@ def pid_gains(m: _core.SimModel, device: Device | CompiledDevice, q0, bandwidth_
     Mt = np.triu(Mt) + np.triu(Mt, 1).T
     Ma = L.T @ Mt @ L
     na = m.na
-    if m.drive == _core.DriveKind.Tendon:
-        Gm = np.array(m.tendon.motor_from_joint_position)
+    if m.drive in (_core.DriveKind.Tendon, _core.DriveKind.Tendons):
+        Gm = np.array(m.Gm)                      # (nm, na): R_m⁻¹ K
         Ma = Ma + Gm.T @ np.diag(np.array(m.rotor_inertia)) @ Gm
     else:
         Gm = np.diag(np.array(m.ratio))
         Ma = Ma + Gm.T @ np.diag(np.array(m.rotor_inertia)) @ Gm
     if space == "motor":
-        Gi = np.linalg.inv(Gm)
+        Gi = np.linalg.pinv(Gm)
         Ma = Gi.T @ Ma @ Gi
     inertia = np.diag(Ma)
     w = 2 * np.pi * bandwidth_hz
@@ -106,17 +115,17 @@ def run_on_twin(device: Device | CompiledDevice, m: _core.SimModel, q0, ref_q, r
     ext = np.zeros_like(ref_q) if ext is None else ext
     raw = _run_chunked(m, d, ref_q, ref_qd, ff, ext, log_every, progress)
     cols = {"time": raw["time"]}
-    na = m.na
-    for i in range(na):
+    na, nm = m.na, m.nm
+    for i in range(nm):
         cols[f"q_motor_{i + 1}"] = raw["q_motor_meas"][:, i]
-    for i in range(na):
+    for i in range(nm):
         cols[f"torque_motor_{i + 1}"] = raw["torque_motor_meas"][:, i]
-    for i in range(na):
+    for i in range(nm):
         cols[f"torque_motor_cmd_{i + 1}"] = raw["torque_motor_cmd"][:, i]
     if reference_space is not None:
         prefix = "q_ref_" if reference_space == "joint" else "q_motor_ref_"
         vprefix = "qd_ref_" if reference_space == "joint" else "qd_motor_ref_"
-        for i in range(na):
+        for i in range(ref_q.shape[1]):
             cols[f"{prefix}{i + 1}"] = ref_q[::log_every, i]
             cols[f"{vprefix}{i + 1}"] = ref_qd[::log_every, i]
     if np.any(ext):
@@ -187,8 +196,21 @@ def constant_velocity(device, transmission: int | None = None, speeds=None, stra
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
     na = m.na
     _check_index(transmission, na, "transmission")
+    given_q0 = q0
     q0 = np.zeros(na) if q0 is None else np.asarray(q0, float)
-    Gm = np.array(m.tendon.motor_from_joint_position) if m.drive == _core.DriveKind.Tendon else np.diag(m.ratio)
+    if m.drive == _core.DriveKind.Tendons and (strategy == "S1" or (test is not None and test.strategy == "S1")):
+        raise UsageError("S1 holds every other motor still: with N+1 rigid tendons n motors already fix every "
+                         "joint; use --strategy S2 (joint space)", "strategy")
+    Gm = np.array(m.Gm) if m.drive != _core.DriveKind.Elastic else np.diag(m.ratio)
+    if m.drive == _core.DriveKind.Tendons and test is None:
+        # N+1 (S2): joint `transmission` strokes over at most 80 % of its range from 10 % above its lower limit,
+        # the other joints held mid-range; travel is on the fastest motor of that joint (protocols' scale)
+        j = transmission - 1
+        lo, hi = _active_limits(device)
+        if given_q0 is None:
+            q0 = 0.5 * (lo + hi)
+            q0[j] = lo[j] + 0.1 * (hi[j] - lo[j])
+        travel = min(travel, 0.8 * (hi[j] - lo[j]) * np.abs(Gm[:, j]).max())
     if test is None:
         ref_q, ref_qd, space = constant_velocity_references(Gm, transmission, speeds, strategy, travel, accel, q0,
                                                             m.dt)
@@ -198,7 +220,7 @@ def constant_velocity(device, transmission: int | None = None, speeds=None, stra
     m.mode = _core.ControlMode.MotorPID if space == "motor" else _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz, space=space)
     m.velocity_cutoff_hz = 100.0
-    ff = np.zeros((n, na))
+    ff = np.zeros((n, m.n_ff))
     opts = dict(transmission=transmission, strategy=strategy, speeds_motor=list(map(float, speeds)),
                 travel_motor=travel, accel_motor=accel, q0=q0, bandwidth_hz=bandwidth_hz,
                 rate_hz=rate_hz, control_hz=control_hz)

@@ -48,7 +48,13 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
     m.dt = 1.0 / rate_hz
     m.control_decimation = int(round(decim))
     drives = device.drives
-    if device.transmissions:
+    if getattr(device, "n_plus_one", False):   # N+1 tendons (sim.hpp, DriveKind::Tendons)
+        tm = compiled.tendon_model
+        m.drive = _core.DriveKind.Tendons
+        m.tendons = tm if friction else _core.TendonModel(tm.K, tm.motor_radius, tm.tension_min, tm.last_joint)
+        motors = [t.motor for t in device.transmissions]
+        sens = [t.sensors for t in device.transmissions]
+    elif device.transmissions:
         tr = compiled.transmission if friction else Transmission.from_device(device, losses=False)
         m.drive = _core.DriveKind.Tendon
         m.tendon = tr.model
@@ -90,15 +96,18 @@ def run_log(model: _core.SimModel, data: _core.SimData, ref_q, ref_v, ff, torque
 
     Parameters
     ----------
-    ref_q, ref_v, ff, torque_ext : (steps, na) references [rad, rad/s], feedforward motor torques [N·m],
-        external joint torques [N·m]
+    ref_q, ref_v : (steps, model.n_ref) references [rad, rad/s] (joints; motors in MotorPID mode)
+    ff : (steps, model.n_ff) feedforward: motor torques [N·m] (joint torques [N·m] in JointPID mode)
+    torque_ext : (steps, na) external joint torques [N·m]. For a square device n_ref = n_ff = na; N+1 has
+        nm = na + 1 motors.
     log_every : log one row every this many steps (a multiple of ``model.control_decimation``)
 
     Returns
     -------
     dict
         ``time`` (rows,) [s] and ``q_motor_meas``, ``torque_motor_meas``, ``torque_motor_cmd``, ``q_joint``,
-        ``qd_joint``, ``q_motor``, ``qd_motor`` (rows, na), rows = ceil(steps / log_every).
+        ``qd_joint``, ``q_motor``, ``qd_motor`` (rows, nm) (``q_joint``, ``qd_joint`` (rows, na)),
+        rows = ceil(steps / log_every).
     """
     arrays = [np.ascontiguousarray(np.asarray(a, dtype=float)) for a in (ref_q, ref_v, ff, torque_ext)]
     steps, na = arrays[0].shape[0], model.na
@@ -107,7 +116,7 @@ def run_log(model: _core.SimModel, data: _core.SimData, ref_q, ref_v, ff, torque
     rows = (steps + int(log_every) - 1) // int(log_every)
     out = {"time": np.empty(rows)}
     for name in LOG_FIELDS[1:]:
-        out[name] = np.empty((rows, na))
+        out[name] = np.empty((rows, na if name in ("q_joint", "qd_joint") else model.nm))
     _core.run(model, data, *arrays, int(log_every), *(out[k] for k in LOG_FIELDS))
     return out
 
