@@ -699,15 +699,9 @@ class _Parser:
         if routing == "n_plus_one":
             return self.tendons(raw, kin)
         driven_by: dict[int, tuple[int, str]] = {}
-        names: dict[str, int] = {}
+        entries, names = self.named_transmissions(raw, kin)
         out = []
-        for i, item in enumerate(raw):
-            path = f"transmissions[{i + 1}]"
-            t = self.transmission(item, path, kin)
-            if t.name in names:
-                raise self.err(f"{path}.name", f"duplicate transmission name {t.name!r} "
-                                               f"(also transmissions[{names[t.name]}])")
-            names[t.name] = i + 1
+        for i, (path, t) in enumerate(entries):
             if t.joint in driven_by:
                 k, other = driven_by[t.joint]
                 raise self.err(f"{path}.joint", f"joint {t.joint} is driven twice: by transmission {other} "
@@ -722,13 +716,27 @@ class _Parser:
                 raise self.err("transmissions", f"joint {num} ({js.name}) is not driven by any transmission; "
                                                 "each actuated joint must be driven exactly once")
         out = tuple(sorted(out, key=lambda t: t.joint))
-        file_index = {t.name: names[t.name] for t in out}
         try:
             routing_checks.check_transmissions(out, kin.n_joints)
         except routing_checks.RoutingProblem as p:
-            raise self.err(f"transmissions[{file_index[p.transmission]}]" + (f".{p.key}" if p.key else ""),
+            raise self.err(f"transmissions[{names[p.transmission]}]" + (f".{p.key}" if p.key else ""),
                            p.problem) from None
         return out
+
+    def named_transmissions(self, raw: Any, kin: Kinematics) -> tuple[list, dict[str, int]]:
+        """Each [[transmissions]] entry read as (path, spec), names unique; and name → its 1-based place in the
+        file (errors found after sorting name the entry the user wrote)."""
+        names: dict[str, int] = {}
+        entries = []
+        for i, item in enumerate(raw):
+            path = f"transmissions[{i + 1}]"
+            t = self.transmission(item, path, kin)
+            if t.name in names:
+                raise self.err(f"{path}.name", f"duplicate transmission name {t.name!r} "
+                                               f"(also transmissions[{names[t.name]}])")
+            names[t.name] = i + 1
+            entries.append((path, t))
+        return entries, names
 
     def tendons(self, raw: Any, kin: Kinematics) -> tuple[TransmissionSpec, ...]:
         """[[transmissions]] of an N+1 routing: n + 1 tendons on the n actuated joints; `joint` is the joint a
@@ -737,15 +745,9 @@ class _Parser:
         if len(active) != kin.n_joints:
             raise self.err("device.routing", "an N+1 routing needs every joint actuated (no passive joints or "
                                              "cut frames)")
-        names: dict[str, int] = {}
+        entries, names = self.named_transmissions(raw, kin)
         out = []
-        for i, item in enumerate(raw):
-            path = f"transmissions[{i + 1}]"
-            t = self.transmission(item, path, kin)
-            if t.name in names:
-                raise self.err(f"{path}.name", f"duplicate transmission name {t.name!r} "
-                                               f"(also transmissions[{names[t.name]}])")
-            names[t.name] = i + 1
+        for path, t in entries:
             for b, fr in enumerate(t.friction):
                 if fr.beta != 0.0:
                     raise self.err(f"{path}.friction[{b + 1}].beta", f"must be 0 on an N+1 tendon (got {fr.beta:g}): "
