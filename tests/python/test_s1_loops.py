@@ -265,6 +265,9 @@ def test_logbook_writes_logs_with_truth_and_index_readable_by_frf(mcgill, tmp_pa
     files = [tmp_path / "logs" / p for p in index["groups"]["closed_s1_2N"]["files"]]
     back = frf_from_logs([read_log(p) for p in files], "force_ref", "force_tendon")
     np.testing.assert_allclose(back.h1 / T0, fr.ratio, rtol=1e-12)
+    code, out, err = run_cli(["frf", *map(str, files), "--json"])     # closed-loop logs: F/r by default
+    assert code == 0, err
+    np.testing.assert_allclose(np.array(json.loads(out)["h1_re"]), back.h1.real, rtol=1e-12, atol=1e-15)
     noise = tmp_path / "logs" / index["groups"]["noise_40"]["files"][0]
     assert read_truth(noise)["noise_force"] == 0.02 and read_log(noise).meta["rate_hz"] == 10000.0
     assert "noise_force" not in json.dumps(read_log(noise).meta)          # the twin's setting: truth, not log

@@ -22,6 +22,10 @@ from tendyn.errors import UsageError
 DEFAULT_PAIRS = (("input_1", "output_1"), ("force_cmd", "force_tendon"))
 """(input, output) used when --input/--output are not given and the log has both columns."""
 
+FRF_PAIRS = (("input_1", "output_1"), ("force_ref", "force_tendon"), ("force_cmd", "force_tendon"))
+"""`frf`'s defaults: a closed-loop log (it has the reference `force_ref`) gives the closed loop F/r, the response
+a bench measures in closed loop; `identify-bench` keeps :data:`DEFAULT_PAIRS` (the plant is command → force)."""
+
 
 def _out(suffix: str):
     return conv.out_path((suffix,))
@@ -50,12 +54,12 @@ def _read(paths):
     return [read_log(p) for p in paths]
 
 
-def _signals(logs, input_name, output_name):
-    """The (input, output) names: as given, or the first of :data:`DEFAULT_PAIRS` every log has."""
+def _signals(logs, input_name, output_name, pairs=DEFAULT_PAIRS):
+    """The (input, output) names: as given, or the first of ``pairs`` every log has."""
     from tendyn.io.logs import LogError
 
     if input_name is None or output_name is None:
-        for i, o in DEFAULT_PAIRS:
+        for i, o in pairs:
             if all(i in lg and o in lg for lg in logs):
                 input_name, output_name = input_name or i, output_name or o
                 break
@@ -114,7 +118,7 @@ def add_frf_arguments(sub) -> None:
     p.add_argument("logs", nargs="+", type=conv.existing_file, metavar="LOG",
                    help="logs (.csv/.parquet): broadband (PRBS, chirp, multisine, noise) or one stepped-sine tone each")
     p.add_argument("--input", default=None, help="input signal: a column or its meta.signals name "
-                   "(default input_1, or force_cmd on the tendon bench)")
+                   "(default input_1, or force_ref on a closed-loop tendon-bench log, else force_cmd)")
     p.add_argument("--output", default=None, help="output signal (default output_1, or force_tendon)")
     p.add_argument("--estimator", choices=("h1", "h2"), default="h1",
                    help="h1 = S_uy/S_uu (output noise), h2 = S_yy/S_yu (input noise); default h1")
@@ -142,7 +146,7 @@ def run_frf(args) -> int:
     except ValueError as exc:
         raise UsageError(f"unknown window {args.window!r} ({exc})", "window") from None
     logs = _read(args.logs)
-    i, o = _signals(logs, args.input, args.output)
+    i, o = _signals(logs, args.input, args.output, FRF_PAIRS)
     try:
         frf = frf_from_logs(logs, i, o, estimator=args.estimator, nperseg=args.segment, window=args.window,
                             overlap=args.overlap, confidence=args.confidence, band_hz=args.band)
