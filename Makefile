@@ -77,9 +77,10 @@ bench: install
 	mkdir -p build
 	cmake -S . -B build/bench -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_BENCHMARKS=ON \
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/bench.log 2>&1 || (cat build/bench.log; exit 1)
-	cmake --build build/bench -j 2 --target feedforward_timer compensator_timer routing_timer >> build/bench.log 2>&1 || (cat build/bench.log; exit 1)
+	cmake --build build/bench -j 2 --target feedforward_timer compensator_timer routing_timer tendon_timer >> build/bench.log 2>&1 || (cat build/bench.log; exit 1)
 	TENDYN_FEEDFORWARD_TIMER=$(abspath build/bench/benchmarks/feedforward_timer) \
 	TENDYN_ROUTING_TIMER=$(abspath build/bench/benchmarks/routing_timer) \
+	TENDYN_TENDON_TIMER=$(abspath build/bench/benchmarks/tendon_timer) \
 	TENDYN_COMPENSATOR_TIMER=$(abspath build/bench/benchmarks/compensator_timer) $(VPY) benchmarks/run.py $(BENCH_ARGS)
 
 clean:

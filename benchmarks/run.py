@@ -126,6 +126,75 @@ def bench_differential_feedforward(results: list, calls: int = 1_000_000) -> Non
                         timer="one thread-CPU timer around 1M calls, median of 7 interleaved rounds"))
 
 
+def bench_tendon_feedforward(results: list, calls: int = 1_000_000, baseline_calls: int = 2000) -> None:
+    """Issue 19: the N+1 tendon feedforward of the bundled `tendon_finger` (3 joints, 4 tendons; tensions =
+    minimum-norm + λh at or above the floors, include/tendyn/tendons.hpp) in C++ (benchmarks/tendon_timer.cpp:
+    lossless and with S0 eq. 12 losses along every tendon, interleaved, thread-CPU timer around `calls` calls,
+    median of 7) against what a cable-robot engineer would write: the tension distribution as a linear program
+    (min Σt s.t. Kᵀ t = τ, t ≥ floors; scipy.optimize.linprog with HiGHS, the solver scipy recommends) and the same
+    closed form in numpy, both per call in Python. The LP and the closed form give the same tensions (h > 0: the
+    least Σt is the least λ); checked to 1e-9 relative. The peers have no losses along the tendons."""
+    from scipy.optimize import linprog
+
+    from tendyn.tendons import Tendons
+
+    dev = load_device(bundled("tendon_finger"))
+    td = Tendons.from_device(dev)
+    box = td.largest_torque_box()
+    scale = 0.3 * box                                   # joint torques ~ 0.3 box N(0, 1): inside it mostly
+    timer = timer_path("tendon_timer")
+    print(f"[bench] N+1 tendon feedforward ({dev.name}: {td.n} joints, {td.m} tendons), {calls} calls x 7 rounds …",
+          file=sys.stderr)
+    m = td.model
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "finger.txt"
+        rows = [f"{td.n} {td.m}"] + [" ".join(f"{x:.17g}" for x in r) for r in np.asarray(m.K)]
+        rows += [" ".join(f"{x:.17g}" for x in np.asarray(v)) for v in (m.motor_radius, m.tension_min)]
+        rows += [" ".join(str(int(x)) for x in np.asarray(m.last_joint))]
+        rows += [" ".join(f"{x:.17g}" for x in r) for a in (m.tau0, m.nu) for r in np.asarray(a)]
+        path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+        out = subprocess.run([timer, str(path), str(calls), "19", f"{scale:.17g}", "7"], capture_output=True,
+                             text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"tendon_timer failed: {out.stderr.strip()}")
+    t = json.loads(out.stdout)
+    rng = np.random.default_rng(19)
+    taus = scale * rng.standard_normal((baseline_calls, td.n))
+    Kt, h, floor, P = td.K.T, td.null_vector, td.tension_min, td.tension_from_torque
+
+    def numpy_closed_form(tau):
+        t0 = P @ tau
+        return t0 + np.max((floor - t0) / h) * h
+
+    def lp(tau):
+        return linprog(np.ones(td.m), A_eq=Kt, b_eq=tau, bounds=list(zip(floor, [None] * td.m)), method="highs").x
+
+    worst = 0.0
+    for tau in taus[:200]:
+        ours = td.feedforward(tau).tension
+        worst = max(worst, float(np.max(np.abs(lp(tau) - ours) / np.maximum(1.0, np.abs(ours)))),
+                    float(np.max(np.abs(numpy_closed_form(tau) - ours) / np.maximum(1.0, np.abs(ours)))))
+    if not worst <= 1e-9:
+        raise SystemExit(f"tendon feedforward: the LP or the numpy closed form disagrees with tendons.hpp ({worst:.3g})")
+    timings = {}
+    for name, fn in (("lp", lp), ("numpy", numpy_closed_form)):
+        t0 = time.perf_counter()
+        for tau in taus:
+            fn(tau)
+        timings[name] = (time.perf_counter() - t0) / baseline_calls * 1e6
+    common = dict(unit="us/call", lossless_us=t["lossless_mean_ns"] / 1e3, calls=t["calls"], rounds=t["rounds"],
+                  max_rel_check=t["max_rel_check"], max_rel_diff_baselines=worst, torque_scale_Nm=scale,
+                  timer="one thread-CPU timer around 1M calls, median of 7 interleaved rounds (baselines: "
+                        f"{baseline_calls} calls in Python)")
+    lossy = t["lossy_mean_ns"] / 1e3
+    results.append(dict(name="nplus1_feedforward_mean", value=lossy, baseline="scipy linprog (HiGHS), min Σt "
+                        "s.t. Kᵀt = τ, t ≥ floors, lossless, per call", baseline_value=timings["lp"],
+                        ratio=timings["lp"] / lossy, **common))
+    results.append(dict(name="nplus1_feedforward_mean", value=lossy, baseline="numpy closed form (minimum-norm + "
+                        "λh), lossless, per call", baseline_value=timings["numpy"], ratio=timings["numpy"] / lossy,
+                        **common))
+
+
 def bench_compensator(results: list, calls: int = 1_000_000, baseline_calls: int = 5000, device=None,
                       name: str = "lexos_compensator_cycle") -> None:
     """One compensator cycle (velocity estimate + gravity + losses) through the C ABI, of L-EXOS or ``device``:
@@ -249,7 +318,8 @@ def print_table(results: list) -> None:
 
 
 ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
-        "diff7_feedforward_mean": "differential", "lexos_compensator_cycle_tracking": "tracking",
+        "diff7_feedforward_mean": "differential", "nplus1_feedforward_mean": "tendons",
+        "lexos_compensator_cycle_tracking": "tracking",
         "zwidth_grid": "zwidth", "tx40_identify": "tx40", "stream_identify_1h": "stream"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
@@ -269,6 +339,8 @@ def run_only(names: list[str]) -> int:
         cli_bench.bench_identify_end_to_end(results)
     if "differential" in groups:
         bench_differential_feedforward(results)
+    if "tendons" in groups:
+        bench_tendon_feedforward(results)
     if "tracking" in groups:
         bench_compensator_tracking(results)
     if "zwidth" in groups:
@@ -295,6 +367,7 @@ def main() -> int:
     results: list = []
     bench_feedforward(results)
     bench_differential_feedforward(results)
+    bench_tendon_feedforward(results)
     bench_compensator(results)
     bench_compensator_tracking(results)
     with tempfile.TemporaryDirectory() as tmp:   # issue 17: the same cycle on a generated 8-transmission device
