@@ -13,19 +13,22 @@ void expose_tendons(nb::module_& m) {
                 "An N+1 tendon routing (include/tendyn/tendons.hpp), read-only once built.\n\n"
                 "TendonModel(K, motor_radius, tension_min, last_joint=[], tau0=[], nu=[]): K (n + 1, n) [m] (tendon\n"
                 "velocities = K qd), motor radii (m,) [m], tension floors (m,) [N]; optionally the 0-based last joint\n"
-                "of each tendon and the branch losses tau0 [N], nu [N s/m] (m, n) of S0 eq. 12. Raises ValueError\n"
+                "of each tendon and the branch losses tau0 [N], nu [N s/m] (m, n) of S0 eq. 12 (and beta [-], eq. 11).\n"
+                "Raises ValueError\n"
                 "naming the tendon (0-based) when K is rank deficient or has no tension closure (no h > 0, K^T h = 0).")
       .def(
           "__init__",
           [](M* self, const Eigen::MatrixXd& K, const Eigen::VectorXd& motor_radius, const Eigen::VectorXd& tension_min,
-             const Eigen::VectorXi& last_joint, const Eigen::MatrixXd& tau0, const Eigen::MatrixXd& nu) {
+             const Eigen::VectorXi& last_joint, const Eigen::MatrixXd& tau0, const Eigen::MatrixXd& nu,
+             const Eigen::MatrixXd& beta) {
             M model;
-            const std::string issue = make_tendon_model(K, motor_radius, tension_min, model, last_joint, tau0, nu);
+            const std::string issue =
+                make_tendon_model(K, motor_radius, tension_min, model, last_joint, tau0, nu, beta);
             if (!issue.empty()) throw nb::value_error(("TendonModel: " + issue).c_str());
             new (self) M(std::move(model));
           },
           nb::arg("K"), nb::arg("motor_radius"), nb::arg("tension_min"), nb::arg("last_joint") = Eigen::VectorXi(),
-          nb::arg("tau0") = Eigen::MatrixXd(), nb::arg("nu") = Eigen::MatrixXd())
+          nb::arg("tau0") = Eigen::MatrixXd(), nb::arg("nu") = Eigen::MatrixXd(), nb::arg("beta") = Eigen::MatrixXd())
       .def_ro("n", &M::n)
       .def_ro("m", &M::m)
       .def_ro("K", &M::K)
@@ -37,6 +40,7 @@ void expose_tendons(nb::module_& m) {
       .def_ro("last_joint", &M::last_joint)
       .def_ro("tau0", &M::tau0)
       .def_ro("nu", &M::nu)
+      .def_ro("beta", &M::beta, "(m, n) [-] tension-proportional loss of each branch (S0 eq. 11)")
       .def(
           "minimum_pretension",
           [](const M& mo, const Eigen::VectorXd& tau_max) {
@@ -53,7 +57,8 @@ void expose_tendons(nb::module_& m) {
       .def_ro("tension_joint", &D::tension_joint)
       .def_ro("Sdot", &D::Sdot)
       .def_ro("motor_torque", &D::motor_torque)
-      .def_ro("internal_tension", &D::internal_tension);
+      .def_ro("internal_tension", &D::internal_tension)
+      .def_ro("iterations", &D::iterations, "Newton steps of the last feedforward (beta > 0; 0 without)");
   m.def(
       "tendon_feedforward",
       [](const M& mo, const VecRef& tau, D& d, nb::object qd) {

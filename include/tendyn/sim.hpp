@@ -16,12 +16,13 @@
 //     from the motor pulley to joint 0), its sliding velocity Ṡ_ib = g_ib q̇, g_ib = [0 … 0 K_ib … K_i,last]
 //     (the same Ṡ as tendons.hpp and routing.hpp), and its friction force f_ib ∈ τ0_ib Sgn(Ṡ_ib) + ν_ib Ṡ_ib
 //     [N] (S0 eq. 12, motion sign restored: ERRATA; set-valued at Ṡ = 0: a stuck branch holds any
-//     |f| ≤ τ0 — the square drive's Branch site, solved by the same Moreau–Jean step below). Power:
+//     |f| ≤ τ0 — the square drive's Branch site, solved by the same Moreau–Jean step below; with the
+//     tension-proportional β of S0 eq. 11 the bound is τ0 + β max(|T_up|, |T_down|), the tensions estimated at
+//     the last step as for the square drive). Power:
 //     C_mᵀ q̇_m = d/dt(½ q̇ᵀ(M + G_mᵀ I_m G_m) q̇ + U) + Σ f_ib Ṡ_ib, each f_ib Ṡ_ib = τ0|Ṡ| + ν Ṡ² ≥ 0.
 //     The rigid tendons carry one internal tension the joints do not feel (Kᵀh = 0); each tendon's tension
-//     still follows from its own motor, t_i = (C_m,i − I_m,i q̈_m,i)/r_m,i (update_tensions). The tension-
-//     proportional β, bearings and reducers of the square drive are not modelled on N+1 tendons (refused by
-//     the loader). Joint-space control allocates the PID torque to tensions with tendons.hpp's feedforward
+//     still follows from its own motor, t_i = (C_m,i − I_m,i q̈_m,i)/r_m,i (update_tensions). Bearings and
+//     reducers of the square drive are not modelled on N+1 tendons (refused by the loader). Joint-space control allocates the PID torque to tensions with tendons.hpp's feedforward
 //     (floors = the tendons' pretension; with tendon_loss_compensation, the branch losses at the reference
 //     velocity too: the S0 eq. 12 compensation in the loop).
 //   * Elastic — a capstan drive per active joint: motor inertia on a spring K_T (motor side) to
@@ -515,8 +516,9 @@ inline void friction_bounds(const SimModel& m, SimData& d) {
         // A stuck site keeps a PGS residue of ~1e-18 m/s: it is at rest (static threshold α p, S0 eq. 7),
         // not sliding at that speed (β p + h0).
         if (std::abs(sdot) <= kRestSpeed) sdot = 0.0;
-        if (m.drive == DriveKind::Tendons) {  // S0 eq. 12: τ0 at rest (break-away) and sliding
-          hi = m.tendons.tau0(i, b);
+        if (m.drive == DriveKind::Tendons) {  // S0 eqs. 11–12: τ0 + β|τ_drive| at rest (break-away) and sliding
+          const double up = b == 0 ? d.tension_motor(i) : d.tension(i, b - 1);
+          hi = m.tendons.tau0(i, b) + m.tendons.beta(i, b) * std::max(std::abs(up), std::abs(d.tension(i, b)));
           lo = -hi;
           break;
         }

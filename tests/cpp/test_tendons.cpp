@@ -110,6 +110,36 @@ int main(int argc, char** argv) {
   expect(worst_eq < 1e-12, "joint equilibrium with the tensions at each joint (S0 eq. 4)");
   expect(worst_balance < 1e-12, "motor power = joint power + branch dissipation");
   expect(std::abs(lowest) < 1e-9, "every point of every tendon >= its floor, one on it");
+  // with β = 0.05 on every branch too (S0 eq. 11): the piecewise-linear solve allocates nothing, converges on every
+  // call of the same sweep and delivers the joint torques
+  Eigen::MatrixXd beta = (tau0.array() > 0.0).cast<double>() * 0.05;
+  tendyn::TendonModel lossy_beta;
+  expect(tendyn::make_tendon_model(K, r_m, floors, lossy_beta, last, tau0, nu, beta).empty(), "β finger builds");
+  tendyn::TendonData bd = tendyn::make_tendon_data(lossy_beta);
+  tendyn::tendon_feedforward(lossy_beta, tau, qd, bd);
+  double worst_beta = 0.0;
+  long not_ok = 0;
+  int most_steps = 0;
+  counting::count = 0;
+  counting::armed = true;
+  for (long k = 0; k < cycles / 10; ++k) {
+    const double s = 1e-2 * static_cast<double>(k % 100);
+    tau << 0.2 * std::sin(7.0 * s), -0.15 * std::cos(3.0 * s), 0.05 * std::sin(11.0 * s + 1.0);
+    qd << std::cos(s), std::sin(2.0 * s) - 0.3, -0.5 + s;
+    if (tendyn::tendon_feedforward(lossy_beta, tau, qd, bd) != tendyn::Status::Ok) ++not_ok;
+    most_steps = std::max(most_steps, bd.iterations);
+    for (int j = 0; j < 3; ++j) {
+      double tj = 0.0;
+      for (int i = 0; i < 4; ++i) tj += K(i, j) * bd.tension_joint(i, j);
+      worst_beta = std::max(worst_beta, std::abs(tj - tau[j]));
+    }
+  }
+  counting::armed = false;
+  std::printf("tendon_feedforward with beta = 0.05: %ld allocations, %ld not converged, <= %d Newton steps, joint "
+              "equilibrium <= %.3g N m\n", counting::count, not_ok, most_steps, worst_beta);
+  expect(counting::count == 0, "no allocation with beta");
+  expect(not_ok == 0, "beta: every call converges");
+  expect(worst_beta < 1e-12, "beta: joint equilibrium (S0 eq. 4)");
   // mean time per call (printed, not asserted: the machine is shared)
   {
     const auto t0 = std::chrono::steady_clock::now();

@@ -341,3 +341,89 @@ def test_statics_compensator_exports_still_refuse_n_plus_one(tmp_path, capsys):
                  ["plan", "exciting", "tendon_finger", "--out", str(tmp_path / "p.csv")]):
         assert main(argv) == 2, argv
         assert "N+1" in capsys.readouterr().err
+
+
+# ---- β, the tension-proportional loss of S0 eq. 11, on N+1 tendons ------------------------------------------------
+
+BETA = 0.01
+
+
+def _finger_with_beta(tmp_path, beta=BETA):
+    """The finger with β on every branch of every tendon (the file's friction entries get ``beta``)."""
+    text = bundled("tendon_finger").read_text(encoding="utf-8")
+    text = text.replace("nu = 0.5}", f"nu = 0.5, beta = {beta}}}").replace("nu = 0.4}", f"nu = 0.4, beta = {beta}}}")
+    text = text.replace("nu = 0.3}", f"nu = 0.3, beta = {beta}}}")
+    p = tmp_path / "finger_beta.toml"
+    p.write_text(text, encoding="utf-8")
+    return load_device(p)
+
+
+def test_beta_feedforward_obeys_the_branch_law_everywhere(tmp_path):
+    """tendons.hpp with β: along every sliding branch the tension climbed toward the motor satisfies
+    y − x = sgn(Ṡ)(τ0 + β max(|x|, |y|)) + ν Ṡ (S0 eq. 11 with eq. 12, motion sign restored: ERRATA), restated here;
+    every joint is in equilibrium τ_j = Σ_i K_ij T_ij (S0 eq. 4); every tension ≥ its floor, one touching."""
+    dev = _finger_with_beta(tmp_path)
+    K, _, _, tau0, nu = _device_arrays(dev)
+    beta = np.where(tau0 > 0, BETA, 0.0)
+    assert np.count_nonzero(beta) == 9
+    td = Tendons.from_device(dev)
+    np.testing.assert_array_equal(np.array(td.model.beta), beta)
+    rng = np.random.default_rng(3)
+    for _ in range(30):
+        tau = rng.uniform(-0.05, 0.05, 3)
+        qd = rng.uniform(-2.0, 2.0, 3)
+        out = td.feedforward(tau, qd)
+        assert td._data.iterations >= 1
+        T = out.tension_joint                             # (m, n) at each joint, 0 past the tendon's end
+        last = [0, 1, 2, 2]
+        for i in range(4):
+            for b in range(last[i] + 1):
+                x = T[i, b]
+                y = out.tension[i] if b == 0 else T[i, b - 1]
+                s = qd[b:last[i] + 1] @ K[i, b:last[i] + 1]
+                want = np.sign(s) * (tau0[i, b] + beta[i, b] * max(abs(x), abs(y))) + nu[i, b] * s
+                assert y - x == pytest.approx(want, abs=1e-11)
+        np.testing.assert_allclose(np.einsum("ij,ij->j", K, T), tau, atol=1e-11)
+        lows = [min(out.tension[i], T[i, : last[i] + 1].min()) for i in range(4)]
+        assert min(lows) == pytest.approx(2.0, abs=1e-9) and all(lo >= 2.0 - 1e-9 for lo in lows)
+    # the law with β dropped is not what the feedforward computes (the oracle can fail): the extensor's branch at
+    # joint 2 (x at joint 3, y at joint 2) differs from τ0 sgn(Ṡ) + ν Ṡ by β max(|x|, |y|) ≥ 0.1 N
+    qd = np.ones(3)
+    out = td.feedforward(np.array([0.02, -0.01, 0.01]), qd)
+    x, y = out.tension_joint[3, 2], out.tension_joint[3, 1]
+    s = K[3, 2] * qd[2]
+    assert abs((y - x) - (np.sign(s) * tau0[3, 2] + nu[3, 2] * s)) > 0.1 * BETA * 2.0
+
+
+def test_beta_losses_cancelled_in_simulation(tmp_path):
+    """The twin with β = 0.01 on every branch (branch bounds τ0 + β max(|T_up|, |T_down|), the tensions along each
+    tendon from its motor at the last step) against the feedforward of tendons.hpp with β, open loop as above:
+    knowing β the finger stays within 1.8e-2 rad of the reference over 0.2 s (measured), the feedforward without β
+    (τ0 and ν only) drifts 0.12 rad. Not yet the 1.2e-5 rad of τ0 and ν alone: the gap between the twin's
+    lagged-tension β bound and the feedforward's exact branch law is open (docs/device-file.md)."""
+    dev = _finger_with_beta(tmp_path)
+    compiled = compile_device(dev)
+    pm = compiled.pinocchio_model
+    pd = pm.createData()
+    n = 2000
+    v, a, w = np.array([0.5, 0.4, 0.3]), np.array([0.05, 0.04, 0.03]), 6.0
+    t = np.arange(n) / RATE
+    q_ref = Q0_FINGER + v * t[:, None] + a * np.sin(w * t)[:, None]
+    qd_ref = v + a * w * np.cos(w * t)[:, None]
+    with_beta = Tendons.from_device(dev)
+    no_beta = Tendons.from_device(_finger())
+    errs = {}
+    for name, tendons in (("beta", with_beta), ("no beta", no_beta)):
+        ff = np.empty((n, 4))
+        for k in range(n):
+            tk = k / RATE
+            qk = Q0_FINGER + v * tk + a * np.sin(w * tk)
+            qdk = v + a * w * np.cos(w * tk)
+            qddk = -a * w * w * np.sin(w * tk)
+            ff[k] = tendons.feedforward(pin.rnea(pm, pd, qk, qdk, qddk), qdk).motor_torque + \
+                ROTOR * (K_FINGER @ qddk) / R_M
+        log, m, _ = _run_torque(dev, ff, q_ref[0], qd0=qd_ref[0])
+        assert np.count_nonzero(np.array(m.tendons.beta)) == 9
+        errs[name] = np.abs(log["q_joint"] - q_ref).max()
+    assert errs["beta"] < 0.03, errs
+    assert errs["no beta"] > 5 * errs["beta"], errs

@@ -748,11 +748,6 @@ class _Parser:
         entries, names = self.named_transmissions(raw, kin)
         out = []
         for path, t in entries:
-            for b, fr in enumerate(t.friction):
-                if fr.beta != 0.0:
-                    raise self.err(f"{path}.friction[{b + 1}].beta", f"must be 0 on an N+1 tendon (got {fr.beta:g}): "
-                                   f"transmission {t.name}: the tension-proportional loss of S0 eq. 11 is not modelled "
-                                   "along N+1 tendons (τ0 and ν, S0 eq. 12, are)")
             if any(br is not None and br.count > 0 for br in t.bearings):
                 raise self.err(f"{path}.bearings", f"transmission {t.name}: bearings are not modelled along N+1 "
                                                    "tendons (put their friction in the branch's τ0 and ν)")

@@ -103,16 +103,16 @@ def check_transmissions(transmissions, n_joints: int) -> None:
 def tendon_model(transmissions, n_joints: int):
     """The core's ``TendonModel`` of N+1 tendons (sorted as the device holds them): K (n + 1, n) [m], motor radii
     [m], tension floors = the tendons' ``pretension`` [N], each tendon's last joint and its branch losses τ0 [N], ν
-    [N·s/m] (S0 eq. 12). ValueError (0-based tendon) when the core refuses it."""
+    [N·s/m] (S0 eq. 12) and β [-] (S0 eq. 11). ValueError (0-based tendon) when the core refuses it."""
     m = len(transmissions)
-    tau0, nu = np.zeros((m, n_joints)), np.zeros((m, n_joints))
+    tau0, nu, beta = np.zeros((m, n_joints)), np.zeros((m, n_joints)), np.zeros((m, n_joints))
     for i, t in enumerate(transmissions):
         for b, fr in enumerate(t.friction):
-            tau0[i, b], nu[i, b] = fr.tau0, fr.nu
+            tau0[i, b], nu[i, b], beta[i, b] = fr.tau0, fr.nu, fr.beta
     return _core.TendonModel(routing_matrix(transmissions, n_joints),
                              np.array([t.motor_radius for t in transmissions], float),
                              np.array([t.pretension for t in transmissions], float),
-                             np.array([t.last_joint - 1 for t in transmissions], dtype=np.int32), tau0, nu)
+                             np.array([t.last_joint - 1 for t in transmissions], dtype=np.int32), tau0, nu, beta)
 
 
 def _names(transmissions, idx) -> str:
