@@ -20,21 +20,13 @@
 #include <string>
 #include <vector>
 
+#include "thread_timer.hpp"
 #include "tendyn/tendons.hpp"
 
 namespace {
 
-double thread_ns() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e9 * static_cast<double>(ts.tv_sec) + static_cast<double>(ts.tv_nsec);
-}
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
-}
+using bench::median;
+using bench::thread_ns;
 
 bool read_model(const char* path, tendyn::TendonModel* model) {
   std::ifstream in(path);
