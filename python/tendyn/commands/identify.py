@@ -29,6 +29,9 @@ def register(subparsers) -> None:
     p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
                    help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
                         "differentiated positions (default: the logged ones when the log has them)")
+    p.add_argument("--treatment", default=None, metavar="PRESET",
+                   help="a peer's published treatment instead of tendyn's defaults (tendyn.ident.treatment.PRESETS: "
+                        "wpi); its filters, decimation, threshold, weighting and fitting space win over the options")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--parameters", default=None, metavar="NAMES",
                    help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
@@ -103,7 +106,13 @@ def cmd_identify(args) -> int:
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
-    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
+    if args.treatment is not None:
+        from tendyn.ident.treatment import PRESETS
+
+        if args.treatment not in PRESETS:
+            raise UsageError(f"must be one of {', '.join(sorted(PRESETS))} (got {args.treatment!r})", "treatment")
+    est = IDIM(compile_device(dev), treatment=args.treatment, method=args.method, cutoff_hz=args.cutoff_hz,
+               decimate=args.decimate,
                velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
                parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto")

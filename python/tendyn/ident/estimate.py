@@ -20,7 +20,8 @@ from tendyn.results import Result, format_table
 
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel, unit_of
-from .treatment import DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, stack_blocks, treat
+from .treatment import (DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, preset_treatment, stack_blocks,
+                        treat)
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
@@ -238,12 +239,17 @@ class IDIM:
     parameters : sequence of str or None
         Identify only these base parameters (names of :attr:`IdentModel.base`), the others taken as zero: a
         reduced model such as S2 Table 4's 16 of the 29 (None: all base parameters).
+    treatment : str or None
+        A peer's treatment preset (:data:`tendyn.ident.treatment.PRESETS`, e.g. ``"wpi"``): its filters,
+        decimation, velocity threshold, velocities, trimming, weighting (with ``method="wls"``) and fitting space
+        replace tendyn's defaults and the options above.
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto"):
+                 parameters=None, velocities="auto", treatment=None):
         self.device = device
+        self.treatment = treatment
         self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -269,7 +275,8 @@ class IDIM:
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
-        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.velocities)
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
+                    self.velocities)
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -299,14 +306,33 @@ class IDIM:
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
-        return Y[order], W[order], rows[order], t[order], na
+        Y, W, rows, t = Y[order], W[order], rows[order], t[order]
+        if self.treatment_.space == "motor":
+            Y, W = self._to_motor_space(model, Y, W, rows)
+        return Y, W, rows, t, na
+
+    @staticmethod
+    def _to_motor_space(model, Y, W, rows):
+        """Joint-major rows (τ = Gᵀ y, W) → motor-major rows (y = G⁻ᵀ τ, G⁻ᵀ W): the same samples for every joint
+        (no velocity threshold); row block i is then motor i."""
+        na = model.n_active
+        n = rows.size // na
+        if rows.size != n * na or np.any(np.bincount(rows, minlength=na) != n):
+            raise ValueError("fitting in motor space needs every sample of every joint (velocity threshold 0)")
+        GinvT = np.linalg.inv(model.G.T)
+        Ym = (GinvT @ Y.reshape(na, n)).reshape(-1)
+        Wm = np.einsum("ij,jnb->inb", GinvT, W.reshape(na, n, W.shape[1])).reshape(W.shape)
+        return Ym, Wm
 
     def _thresholds(self, blocks) -> np.ndarray:
         """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
         ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
-        if self.velocity_threshold is None:
+        vt = self.velocity_threshold if self.treatment is None else self.treatment_.velocity_threshold
+        if vt is None:
             return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
-        return np.full(len(blocks), float(self.velocity_threshold))
+        if isinstance(vt, tuple):
+            return np.asarray(vt, float)
+        return np.full(len(blocks), float(vt))
 
     @staticmethod
     def _treat_here(model, log, parts, settings):
@@ -314,7 +340,11 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
-        *settings, velocities = settings
+        *settings, preset, velocities = settings
+        rate = float(log.meta["rate_hz"])
+        if preset is not None:
+            ptr = preset_treatment(preset, rate, getattr(model.device, "bandwidth_hz", None))
+            velocities = ptr.velocities
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
         if velocities == "logged" and qd is None:
@@ -324,12 +354,15 @@ class IDIM:
             sl = slice(int(parts[0] * n), int(parts[1] * n))
             time, q, tau = time[sl], q[sl], tau[sl]
             qd = None if qd is None else qd[sl]
-        rate = float(log.meta["rate_hz"])
-        time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
+        if preset is not None and ptr.keep_stale:
+            n_stale, retimed = 0, False
+        else:
+            time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
         known = model.known_torque(q)         # [[terms]] of kind "known": subtracted, not identified
         if known is not None:
             tau = tau - known
-        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings)
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings) if preset is None \
+            else ptr
         tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
                                  retimed=retimed)
         return treat(model, time, q, tau, tr, qd=qd), tr
@@ -375,7 +408,13 @@ class IDIM:
     def _solve(self, Wb, Y, rows, na):
         x, se, s2, cov = least_squares(Wb, Y)
         weights = np.ones_like(Y)
-        if self.method == "wls":
+        if self.method == "wls" and getattr(self, "treatment_", None) is not None \
+                and self.treatment_.weighting == "range":        # a peer's weights: 1 / range of each block
+            for j in range(na):
+                sel = rows == j
+                weights[sel] = 1.0 / max(float(np.ptp(Y[sel])), 1e-300)
+            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
+        elif self.method == "wls":
             r, b = Wb.shape
             res = Y - Wb @ x
             for j in range(na):
