@@ -26,6 +26,11 @@ __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
 _MODELS: dict = {}
 
+METHODS = ("ols", "wls", "iv", "didim")
+"""IDIM estimators: ordinary / weighted least squares, and the closed-loop IDIM-IV and DIDIM
+(:mod:`tendyn.ident.closed_loop`)."""
+CLOSED_LOOP = ("iv", "didim")
+
 VELOCITIES = ("auto", "logged", "differentiate")
 """Where the joint velocities come from: the log's ``qd_motor_<i>``/``qd_joint_<j>`` when it has them
 ("auto"), always the log's ("logged"), or the filtered positions differentiated ("differentiate")."""
@@ -134,6 +139,7 @@ class IdentificationResult(Result):
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
+                "closed_loop": getattr(self, "closed_loop", None),
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -242,8 +248,15 @@ class IDIM:
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto"):
+                 parameters=None, velocities="auto", controller=None, output="torque", jacobian="idm",
+                 max_iter=20, tol=1e-3, substeps=1):
         self.device = device
+        self.controller = controller
+        self.output = output
+        self.jacobian = jacobian
+        self.max_iter = max_iter
+        self.tol = tol
+        self.substeps = substeps
         self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -372,10 +385,11 @@ class IDIM:
                 own.close()
 
     # -- fit -------------------------------------------------------------------------------------------
-    def _solve(self, Wb, Y, rows, na):
+    def _solve(self, Wb, Y, rows, na, method=None):
+        method = self.method if method is None else method
         x, se, s2, cov = least_squares(Wb, Y)
         weights = np.ones_like(Y)
-        if self.method == "wls":
+        if method == "wls":
             r, b = Wb.shape
             res = Y - Wb @ x
             for j in range(na):
@@ -384,8 +398,8 @@ class IDIM:
                 sj2 = float(res[sel] @ res[sel]) / max(rj - b * rj / r, 1.0)
                 weights[sel] = 1.0 / np.sqrt(sj2)
             x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
-        elif self.method != "ols":
-            raise ValueError(f"method must be 'ols' or 'wls' (got {self.method!r})")
+        elif method != "ols":
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {method!r})")
         return x, se, weights
 
     def fit(self, logs, crossval=True):
@@ -405,6 +419,12 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.method in CLOSED_LOOP:
+            from .closed_loop import fit_closed_loop
+
+            return fit_closed_loop(self, logs)
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {self.method!r})")
         model = self._model()
         base = model.base
         Y, Wstd, rows, t, na = self.observations(logs)
