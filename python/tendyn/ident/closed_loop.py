@@ -215,7 +215,14 @@ def closed_loop_data(model, log, controller=None) -> LoopLog:
 
     if not hasattr(log, "meta"):
         log = read_log(log)
-    ctrl = controller_of(log, controller)
+    try:
+        ctrl = controller_of(log, controller)
+    except ClosedLoopError as exc:
+        if not log.column_names("q_ref_") and not log.column_names("q_motor_ref_"):
+            raise ClosedLoopError("the log has no reference (q_ref_<j> or q_motor_ref_<i>) and no controller is "
+                                  "known (meta.options.controller, --controller): IDIM-IV and DIDIM simulate the "
+                                  "loop the log was recorded in; use --method ols") from None
+        raise exc from None
     ref_q, ref_qd = _references(model, log, ctrl.space)
     time, q, tau = model.joint_signals(log)
     known = model.known_torque(q)

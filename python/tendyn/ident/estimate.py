@@ -103,6 +103,7 @@ class IdentificationResult(Result):
         self.warnings += list(getattr(treatment, "warnings", []))
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
+        self.closed_loop: dict | None = None   # IDIM-IV / DIDIM: iterations, convergence, the LS start
 
     def flag_pseudo_inertia(self, model) -> None:
         """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
@@ -139,7 +140,7 @@ class IdentificationResult(Result):
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
-                "closed_loop": getattr(self, "closed_loop", None),
+                "closed_loop": self.closed_loop,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -153,6 +154,12 @@ class IdentificationResult(Result):
         tail = ["", "relative residual per joint: " + ", ".join(
             f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
             f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
+        cl = self.closed_loop
+        if cl:
+            tail.append(f"closed loop ({cl['controller']}): {cl['iterations']} iterations, "
+                        f"{'converged' if cl['converged'] else 'NOT converged'} (|dX|/|X| < {cl['tol']:g}); simulated "
+                        f"torque residual {100 * cl['simulated_torque_residual_rel']:.2f} %; least-squares start: "
+                        + ", ".join(f"{p['name']} {p['value']:.5g}" for p in cl["ls_start"]))
         if self.crossval:
             per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
