@@ -27,6 +27,11 @@ __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
 _MODELS: dict = {}
 
+METHODS = ("ols", "wls", "iv", "didim")
+"""IDIM estimators: ordinary / weighted least squares, and the closed-loop IDIM-IV and DIDIM
+(:mod:`tendyn.ident.closed_loop`)."""
+CLOSED_LOOP = ("iv", "didim")
+
 VELOCITIES = ("auto", "logged", "differentiate")
 """Where the joint velocities come from: the log's ``qd_motor_<i>``/``qd_joint_<j>`` when it has them
 ("auto"), always the log's ("logged"), or the filtered positions differentiated ("differentiate")."""
@@ -99,6 +104,7 @@ class IdentificationResult(Result):
         self.warnings += list(getattr(treatment, "warnings", []))
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
+        self.closed_loop: dict | None = None   # IDIM-IV / DIDIM: iterations, convergence, the LS start
 
     def flag_pseudo_inertia(self, model) -> None:
         """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
@@ -135,6 +141,7 @@ class IdentificationResult(Result):
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
+                "closed_loop": self.closed_loop,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -148,6 +155,12 @@ class IdentificationResult(Result):
         tail = ["", "relative residual per joint: " + ", ".join(
             f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
             f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
+        cl = self.closed_loop
+        if cl:
+            tail.append(f"closed loop ({cl['controller']}): {cl['iterations']} iterations, "
+                        f"{'converged' if cl['converged'] else 'NOT converged'} (|dX|/|X| < {cl['tol']:g}); simulated "
+                        f"torque residual {100 * cl['simulated_torque_residual_rel']:.2f} %; least-squares start: "
+                        + ", ".join(f"{p['name']} {p['value']:.5g}" for p in cl["ls_start"]))
         if self.crossval:
             per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
@@ -247,9 +260,16 @@ class IDIM:
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto", treatment=None):
+                 parameters=None, velocities="auto", treatment=None, controller=None, output="torque",
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1):
         self.device = device
         self.treatment = treatment
+        self.controller = controller
+        self.output = output
+        self.jacobian = jacobian
+        self.max_iter = max_iter
+        self.tol = tol
+        self.substeps = substeps
         self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -405,16 +425,17 @@ class IDIM:
                 own.close()
 
     # -- fit -------------------------------------------------------------------------------------------
-    def _solve(self, Wb, Y, rows, na):
+    def _solve(self, Wb, Y, rows, na, method=None):
+        method = self.method if method is None else method
         x, se, s2, cov = least_squares(Wb, Y)
         weights = np.ones_like(Y)
-        if self.method == "wls" and getattr(self, "treatment_", None) is not None \
+        if method == "wls" and getattr(self, "treatment_", None) is not None \
                 and self.treatment_.weighting == "range":        # a peer's weights: 1 / range of each block
             for j in range(na):
                 sel = rows == j
                 weights[sel] = 1.0 / max(float(np.ptp(Y[sel])), 1e-300)
             x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
-        elif self.method == "wls":
+        elif method == "wls":
             r, b = Wb.shape
             res = Y - Wb @ x
             for j in range(na):
@@ -423,8 +444,8 @@ class IDIM:
                 sj2 = float(res[sel] @ res[sel]) / max(rj - b * rj / r, 1.0)
                 weights[sel] = 1.0 / np.sqrt(sj2)
             x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
-        elif self.method != "ols":
-            raise ValueError(f"method must be 'ols' or 'wls' (got {self.method!r})")
+        elif method != "ols":
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {method!r})")
         return x, se, weights
 
     def fit(self, logs, crossval=True):
@@ -444,6 +465,12 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.method in CLOSED_LOOP:
+            from .closed_loop import fit_closed_loop
+
+            return fit_closed_loop(self, logs)
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {self.method!r})")
         model = self._model()
         base = model.base
         Y, Wstd, rows, t, na = self.observations(logs)
