@@ -33,7 +33,7 @@ def _out(suffix: str):
 
 def _report_dir(text: str):
     """A report folder that exists or can be created (nothing is created here)."""
-    from tendyn.cli import _check_out_folder
+    from tendyn.commands.shared import check_out_folder as _check_out_folder
 
     try:
         return _check_out_folder(text, "report")

@@ -14,7 +14,6 @@ input (exit 2). No physics here: it calls :mod:`tendyn.sim.experiments` and :mod
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
@@ -56,9 +55,9 @@ def _separable(dev, what: str) -> None:
 
 
 def _print_json(doc) -> None:
-    from tendyn.io import to_jsonable
+    from tendyn.commands.shared import print_json
 
-    print(json.dumps(to_jsonable(doc), indent=2, allow_nan=False))
+    print_json(doc, allow_nan=False)
 
 
 # ---- plan -------------------------------------------------------------------------------------------

@@ -24,7 +24,8 @@ import numpy as np
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.closed_loop import end_effector_point
-from tendyn.transmission import Transmission, as_vector
+from tendyn.control.transmission_losses import transmission_with_friction
+from tendyn.transmission import as_vector
 
 __all__ = ["Compensator", "chain_model", "end_effector_point", "transmission_with_friction",
            "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ",
@@ -61,30 +62,6 @@ def chain_model(device: Device | CompiledDevice) -> Any:
     if problem:
         raise ValueError(f"{compiled.name}: chain model: {problem}")
     return c
-
-
-def transmission_with_friction(device: Device | CompiledDevice, friction=None, shares=None) -> Transmission:
-    """The device's transmission with one loss model: its own (``friction=None``) or the identified one.
-
-    Identified friction (FRICTION.json, a decomposition, or per-branch arrays: see
-    :func:`tendyn.ident.loss_model.identified_losses`) *replaces* every loss term of the device file —
-    bearings, β, τ0, ν and the reducer efficiency — since friction identified at the motor already contains
-    them all (one loss model at a time; stacking both over-compensates and makes a haptic device active).
-
-    Raises
-    ------
-    ValueError
-        (:class:`tendyn.ident.loss_model.LossModelError`) a file of another device or transmission count, or
-        a negative or non-finite value, naming the source and field.
-    """
-    compiled = compile_device(device)
-    if compiled.transmission is None:
-        raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
-    if friction is None:
-        return compiled.transmission
-    from tendyn.ident.loss_model import identified_losses
-
-    return identified_losses(compiled, friction, shares).transmission(compiled.device)
 
 
 def _passivity(compiled: CompiledDevice, passivity, friction, rate_hz: float) -> Any:

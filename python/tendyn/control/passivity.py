@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from tendyn import _core
+from tendyn.control.transmission_losses import transmission_with_friction
 from tendyn.device import CompiledDevice, Device, compile_device
 
 __all__ = ["dissipation_bound", "passivity_model", "DEFAULT_MARGIN", "DEFAULT_RESERVE", "BOUND_SPEEDS"]
@@ -48,8 +49,6 @@ def dissipation_bound(device: Device | CompiledDevice, friction=None, margin: fl
         the reference friction (:func:`tendyn.control.transmission_with_friction`); None: the device's own
     margin : (0, 1] fraction certified
     """
-    from tendyn.control.compensator import transmission_with_friction
-
     if not 0.0 < margin <= 1.0:
         raise ValueError(f"margin must be in (0, 1] (got {margin})")
     tr = transmission_with_friction(compile_device(device), friction)

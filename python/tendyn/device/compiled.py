@@ -130,7 +130,7 @@ class CompiledDevice:
     # ---- active coordinates -------------------------------------------------------------------
     @cached_property
     def _active(self) -> tuple[list[int], ActiveMap]:
-        from .closed_loop import active_coordinate_map
+        from .rigid_body import active_coordinate_map
 
         active, L, c = active_coordinate_map(self._serial("joint coordinates"))
         L, c = np.asarray(L, float), np.asarray(c, float)

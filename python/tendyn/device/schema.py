@@ -878,6 +878,13 @@ class SerialDevice(Device):
     def joint_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.kinematics.joints)
 
+    def square_routing_arrays(self, what: str) -> dict[str, np.ndarray]:
+        """:meth:`routing_arrays` of a device with one cable (or antagonistic pair) per joint, for ``what`` (the
+        square statics with losses, :meth:`tendyn.transmission.Transmission.from_device`); an N+1 device raises
+        DeviceError naming ``what`` (:func:`require_one_per_joint`)."""
+        require_one_per_joint(self, what)
+        return self.routing_arrays()
+
     def routing_arrays(self) -> dict[str, np.ndarray]:
         """The routing and friction data as numpy arrays, 0-based.
 

@@ -165,7 +165,7 @@ class IdentifiedModel:
 
     # -- use --------------------------------------------------------------------------------------------
     def _model(self):
-        from .estimate import cached_model
+        from .model import cached_model
 
         return cached_model(self.device)
 

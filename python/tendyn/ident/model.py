@@ -408,3 +408,25 @@ class IdentModel:
 
         return LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{self.n_motors} "
                         f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
+
+
+_MODELS: dict = {}
+
+
+def cached_model(device) -> IdentModel:
+    """The IdentModel of a device, built once per process per device file (its base parameters cost a QR).
+
+    Keyed by the device file and the modification times of it and its URDF, so an edited file is rebuilt.
+    """
+    from tendyn.device.compiled import as_device
+
+    dev = as_device(device)
+    path = getattr(dev, "path", None)
+    urdf = getattr(getattr(dev, "kinematics", None), "urdf", None)
+    try:
+        key = (str(path), path.stat().st_mtime_ns, str(urdf), urdf.stat().st_mtime_ns if urdf else 0)
+    except (OSError, AttributeError):
+        return IdentModel(device)
+    if key not in _MODELS:
+        _MODELS[key] = IdentModel(device)
+    return _MODELS[key]

@@ -379,7 +379,7 @@ class StreamingIDIM:
 
     def identified_model(self):
         """The fitted parameters as a :class:`tendyn.ident.identified.IdentifiedModel`."""
-        from .estimate import cached_model
+        from .model import cached_model
         from .identified import IdentifiedModel
 
         d = self.result_.to_dict()
@@ -403,7 +403,9 @@ class StreamingIDIM:
 
         from tendyn.io.logs import LogError, read_meta
 
-        from .estimate import VELOCITIES, IdentificationResult, cached_model
+        from .estimate import VELOCITIES
+        from .model import cached_model
+        from .result import IdentificationResult
 
         model = cached_model(self.device)
         if self.velocities not in VELOCITIES:
