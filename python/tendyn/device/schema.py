@@ -634,16 +634,19 @@ class Drive:
 
     @property
     def stiffness_joint(self) -> float:
-        """Capstan stiffness seen at the joint [N m/rad] = N^2 * stiffness_motor (ERRATA eq. 19)."""
-        return self.ratio ** 2 * self.stiffness_motor
+        """Capstan stiffness seen at the joint [N m/rad] = N^2 * stiffness_motor (ERRATA eq. 19,
+        :func:`tendyn.capstan.reflected_stiffness`)."""
+        from tendyn.capstan import reflected_stiffness
+
+        return reflected_stiffness(self.stiffness_motor, self.ratio)
 
     @property
     def total_stiffness_motor(self) -> float:
-        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19); K_T if K_E is not given."""
-        kt, ke = self.stiffness_motor, self.servo_stiffness_motor
-        if ke is None:
-            return kt
-        return kt * ke / (kt + ke) if ke > 0 else 0.0
+        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19, :func:`tendyn.capstan.total_stiffness`);
+        K_T if K_E is not given."""
+        from tendyn.capstan import total_stiffness
+
+        return total_stiffness(self.stiffness_motor, self.servo_stiffness_motor)
 
     @property
     def rotor_inertia_joint(self) -> float:
