@@ -161,7 +161,7 @@ def _pages(work: Path) -> dict:
                            (FOLDER, COLUMN)),
         "history": (["history", str(dev), "--db", str(db), "--report", str(f / "history")], r("history"), both),
         "claims": (["claims", "--quick", "--only", "C1", "--quiet", "--report", str(f / "claims")], r("claims"),
-                   (FOLDER,)),
+                   ()),     # its index shows the mode only: no text of the input reaches the page
     }
     for argv, _, _ in runs.values():
         _run(argv)
