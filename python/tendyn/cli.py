@@ -191,8 +191,10 @@ def cmd_routing_show(args) -> int:
         doc["n"] = c.n_motors
         _print_json(doc)
         return 0
-    print("\n".join(head))
-    print(c.table())
+    from tendyn.text import printable
+
+    print(printable("\n".join(head)))     # names and paths come from files: no control character reaches the tty
+    print(printable(c.table()))
     return 0
 
 
@@ -478,7 +480,9 @@ def cmd_demo(args) -> int:
     if args.json:
         _print_json(doc)
     else:
-        print("\n".join(lines))
+        from tendyn.text import printable
+
+        print(printable("\n".join(lines)))
     sys.stdout.flush()
     from tendyn.report import warn
 
@@ -703,7 +707,10 @@ def _name_too_long(exc: BaseException) -> bool:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    """The message on one line, its control characters shown as escapes (a file or folder name can hold any)."""
+    from tendyn.text import printable
+
+    return printable(" ".join(str(exc).split()))
 
 
 if __name__ == "__main__":
