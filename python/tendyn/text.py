@@ -7,6 +7,7 @@ A leaf like :mod:`tendyn.errors`: every package may import it, it imports nothin
   printable characters only, no control character, no newline, at most :data:`NAME_MAX_CHARS`).
 * :func:`text_problem` — why a free text (a ``description``) is not one: no control character but newline and
   tab, at most :data:`TEXT_MAX_CHARS`.
+* :func:`spreadsheet_cell` — a text cell of a CSV file that a spreadsheet would run as a formula, quoted.
 * :func:`printable` — a text for the terminal: every control character (C0, DEL, C1, the bidirectional
   overrides) shown as its escape (``\\x1b``, ``\\u202e``) instead of being sent to the terminal, which would run it
   (retitle, clear, move the cursor, reorder the line).
@@ -14,7 +15,8 @@ A leaf like :mod:`tendyn.errors`: every package may import it, it imports nothin
 
 from __future__ import annotations
 
-__all__ = ["NAME_MAX_CHARS", "TEXT_MAX_CHARS", "name_problem", "printable", "text_problem"]
+__all__ = ["FORMULA_START", "NAME_MAX_CHARS", "TEXT_MAX_CHARS", "name_problem", "printable", "spreadsheet_cell",
+           "text_problem"]
 
 NAME_MAX_CHARS = 200
 """Longest name [characters] (a device, joint, frame, transmission, drive, actuator or term name)."""
@@ -76,3 +78,16 @@ def printable(text, keep: str = "\n\t") -> str:
     if all(not _control(c, keep) for c in s):       # the usual case: nothing to do
         return s
     return "".join(_escape(c) if _control(c, keep) else c for c in s)
+
+
+FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+"""First characters that make a spreadsheet read a CSV cell as a formula (OWASP: CSV injection)."""
+
+
+def spreadsheet_cell(value):
+    """A CSV cell: a text starting with one of :data:`FORMULA_START` gets a leading ``'`` (the spreadsheets' mark
+    of a text cell), so opening the file runs nothing; any other value (numbers too) unchanged. A reader gets the
+    text back by dropping a leading ``'`` before one of :data:`FORMULA_START`."""
+    if isinstance(value, str) and value.startswith(FORMULA_START):
+        return "'" + value
+    return value
