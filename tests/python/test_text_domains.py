@@ -91,3 +91,16 @@ def test_routing_show_prints_hostile_markup_names_as_they_are(tmp_path):
     path.write_text(cable_device_toml(2).replace('name = "t1"', 'name = "<b>t1</b>"'), encoding="utf-8")
     code, out, err = _cli(["routing", "show", str(path)])
     assert code == 0 and "<b>t1</b>" in out, err
+
+
+def test_a_term_expression_is_bounded(tmp_path):
+    """What tendyn evaluates from a file: expressions of q, bounded by their length. A power of integer
+    constants (9**9**9, which Python would compute for ever) is refused at load in one line (it hung before)."""
+    from tendyn.devices.generate import cable_device_toml
+
+    for expr, why in (("9**9**9*q", "a constant part cannot be computed"), ("q" + "+q" * 600, "at most 1000")):
+        path = tmp_path / "dev.toml"
+        path.write_text(cable_device_toml(2) + f'[[terms]]\nname = "g"\nkind = "functions"\njoint = 1\n'
+                        f'functions = ["{expr}"]\n', encoding="utf-8")
+        code, out, err = _cli(["routing", "show", str(path)])
+        assert code == 2 and err.count("\n") == 1 and "terms[1].functions[1]" in err and why in err, err
