@@ -114,8 +114,10 @@ def _run(argv: list[str]) -> None:
 
 
 def _pages(work: Path) -> dict:
-    """Run every command that writes a page (the pipelines: test_pipeline_pages_are_inert) on the hostile
-    inputs; name → (page, the hostile texts it must show as text)."""
+    """Run every command that writes a page on the hostile inputs (the pipelines and sweep, tens of seconds or a
+    Dask cluster each: test_slow_pages_are_inert; sweep's page is zwidth's write_beside); name → (page, the
+    hostile texts it must show as text). About 15 s of commands on 2 busy cores: one browser pass over 12
+    pages, the price of covering every command."""
     from datetime import datetime, timedelta, timezone
 
     from tendyn.device import load_device
@@ -151,8 +153,6 @@ def _pages(work: Path) -> dict:
         "zwidth": (["zwidth", str(dev), "--stiffness", "1000:100000:2", "--damping", "0:0:1", "--modes",
                     "compensated", "--scheduler", "none", "--quiet", "--out", str(f / "zwidth.parquet")],
                    f / "zwidth.html", both),
-        "sweep": (["sweep", str(bench), "--param", "k1=20000:400000:2", "--amplitudes", "0.6,2", "--workers", "1",
-                   "--quiet", "--out", str(f / "sweep.parquet")], f / "sweep.html", both),
         "frf": (["frf", str(bench_log), "--input", COLUMN, "--output", "tendon", "--segment", "1000", "--report", str(f / "frf")],
                 r("frf"), (FOLDER, COLUMN)),
         "identify_bench": (["identify-bench", str(bench_log), "--input", COLUMN, "--output", "tendon", "--structure", "wiener",
@@ -205,19 +205,25 @@ def test_every_page_shows_hostile_text_as_text(tmp_path, browser):
 
 
 @pytest.mark.slow
-def test_pipeline_pages_are_inert(tmp_path, browser):
-    """The pipelines' pages (the same publisher as above, tens of seconds each): the hostile device (S0) or bench
-    (S1) and the hostile report folder."""
+def test_slow_pages_are_inert(tmp_path, browser, request):
+    """The pipelines' pages and sweep's (the same publishers as above, ~140 s in all on 2 busy cores): the
+    hostile device (S0) or bench (S1, sweep) and the hostile report folder. Runs only when asked:
+    `pytest -m slow tests/python/test_report_hostile.py`."""
+    if "slow" not in (request.config.getoption("markexpr") or ""):
+        pytest.skip("pipelines and sweep on hostile inputs (~140 s): run with -m slow")
     f = tmp_path / FOLDER
     f.mkdir()
     dev, bench = hostile_cable_device(f), hostile_bench(f)
     runs = {"pipeline_s0": (["pipeline", "s0", str(dev), "--quick", "--report", str(f / "s0")], (HOSTILE, FOLDER)),
             "pipeline_s1": (["pipeline", "s1", str(bench), "--quick", "--report", str(f / "s1")], (HOSTILE, FOLDER)),
-            "pipeline_s2": (["pipeline", "s2", "--quick", "--report", str(f / "s2")], (FOLDER,))}
+            "pipeline_s2": (["pipeline", "s2", "--quick", "--report", str(f / "s2")], (FOLDER,)),
+            "sweep": (["sweep", str(bench), "--param", "k1=20000:400000:2", "--amplitudes", "0.6,2", "--workers",
+                       "1", "--quiet", "--out", str(f / "sweep.parquet")], (HOSTILE, FOLDER))}
     bad = []
     for name, (argv, texts) in runs.items():
         _run(argv)
-        bad += inert_problems(name, browser.open(Path(argv[-1]) / "report.html", None, PROBE), texts)
+        page = f / "sweep.html" if name == "sweep" else Path(argv[-1]) / "report.html"
+        bad += inert_problems(name, browser.open(page, None, PROBE), texts)
     assert not bad, "\n".join(bad)
 
 
