@@ -11,6 +11,7 @@ nothing written; 3 an unexpected error (one line; ``--debug`` shows the tracebac
 
 from __future__ import annotations
 
+import contextlib
 import argparse
 import json
 import os
@@ -573,6 +574,43 @@ def _demo_bench(bench, outputs: _Outputs):
 
 # ---- entry point ----------------------------------------------------------------------------------
 
+class _TerminalText:
+    """stdout on a terminal: every write shown without control characters (:func:`tendyn.text.printable`; newline,
+    tab and carriage return kept), so no text from a file (a name, a path, a log's meta) can drive the terminal.
+    A pipe or a file gets the bytes unchanged."""
+
+    def __init__(self, stream):
+        from tendyn.text import printable
+
+        self._stream, self._printable = stream, printable
+
+    def write(self, text: str) -> int:
+        self._stream.write(self._printable(text, keep="\n\t\r"))
+        return len(text)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def _terminal_stdout():
+    stream = sys.stdout
+    tty = False
+    try:
+        tty = stream.isatty()
+    except (AttributeError, ValueError):
+        pass
+    if not tty:
+        yield
+        return
+    sys.stdout = _TerminalText(stream)
+    try:
+        yield
+    finally:
+        if isinstance(sys.stdout, _TerminalText):
+            sys.stdout = stream
+
+
 def _quiet_stdout() -> None:
     """After a closed pipe: point stdout at /dev/null so the interpreter's final flush stays silent."""
     try:
@@ -667,7 +705,8 @@ def main(argv: list[str] | None = None) -> int:
                 argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
-        code = args.func(args)
+        with _terminal_stdout():
+            code = args.func(args)
         sys.stdout.flush()
         return code
     except KeyboardInterrupt:

@@ -104,3 +104,24 @@ def test_a_term_expression_is_bounded(tmp_path):
                         f'functions = ["{expr}"]\n', encoding="utf-8")
         code, out, err = _cli(["routing", "show", str(path)])
         assert code == 2 and err.count("\n") == 1 and "terms[1].functions[1]" in err and why in err, err
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_stdout_on_a_terminal_shows_no_control_character(tmp_path):
+    """Any printer, not only those that call printable: on a terminal, stdout escapes control characters (here
+    the path `simulate` prints, in a folder named with escape sequences); a pipe gets the bytes unchanged."""
+    from tendyn.cli import main
+
+    folder = tmp_path / "\x1b]0;pwned\x07\x1b[2J"
+    folder.mkdir()
+    argv = ["simulate", "mcgill_bench", "prbs", "--torque", "1", "--duration", "0.2", "--quiet", "--out",
+            str(folder / "x.csv")]
+    for stream, raw in ((_Terminal(), False), (io.StringIO(), True)):
+        with redirect_stdout(stream), redirect_stderr(io.StringIO()):
+            assert main(argv) == 0
+        out = stream.getvalue()
+        assert ("\x1b" in out) == raw and ("\\x1b]0;pwned\\x07" in out) != raw and "\n" in out, repr(out)
