@@ -54,6 +54,8 @@ from .schema import (
     _num,
     inertia_matrix,
 )
+from tendyn.text import name_problem, text_problem
+
 from ._toml import read_toml, typename as _typename
 from .base import Device
 from .tendon_bench import KIND as TENDON_BENCH_KIND
@@ -146,6 +148,13 @@ class _Parser:
 
     def value(self, v: Any, path: str, spec: FieldSpec) -> Any:
         kind = spec.kind
+        if kind in ("name", "text"):        # text from a file: a declared domain (tendyn.text, issue 36)
+            if not isinstance(v, str):
+                raise self.err(path, f"must be a string (got {_typename(v)})")
+            problem = name_problem(v) if kind == "name" else text_problem(v)
+            if problem:
+                raise self.err(path, problem)
+            return v
         if kind == "str":
             if not isinstance(v, str):
                 raise self.err(path, f"must be a string (got {_typename(v)})")
@@ -654,7 +663,11 @@ class _Parser:
                     lower, upper = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
                 except ValueError:
                     raise self.err(field, f"{urdf.name}: joint {jt.get('name')!r} has non-numeric limits") from None
-            out.append(JointSpec(name=jt.get("name") or f"joint{len(out) + 1}", lower=lower, upper=upper))
+            jname = jt.get("name") or f"joint{len(out) + 1}"
+            problem = name_problem(jname)
+            if problem:          # a name from the URDF file: the domain of tendyn.text, as in the device file
+                raise self.err(field, f"{urdf.name}: joint name {problem}")
+            out.append(JointSpec(name=jname, lower=lower, upper=upper))
         if not out:
             raise self.err(field, f"{urdf.name}: no movable joint")
         return tuple(out)
