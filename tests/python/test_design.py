@@ -239,3 +239,17 @@ def test_design_on_a_real_scheduler_equals_in_process(dask_cluster):
     np.testing.assert_array_equal(here.X, there.X)
     for k in here.F:
         np.testing.assert_array_equal(here.F[k], there.F[k])
+
+
+@pytest.mark.parametrize("r", [1, 2, 3, 4])
+def test_sym_extremes_against_eigvalsh(r):
+    from tendyn.analysis.design_space import sym_extremes
+
+    rng = np.random.default_rng(r)
+    M = rng.normal(size=(50, r, r))
+    S = M @ np.swapaxes(M, -1, -2)
+    S[0] = np.eye(r) * 2.0                                    # repeated eigenvalues
+    lo, hi = sym_extremes(S)
+    ev = np.linalg.eigvalsh(S)
+    np.testing.assert_allclose(lo, ev[:, 0], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(hi, ev[:, -1], rtol=1e-9, atol=1e-9)

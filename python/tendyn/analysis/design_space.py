@@ -159,12 +159,32 @@ def read_motor_table(path) -> list[dict]:
     return rows
 
 
-def _lam_max(S):
-    return np.linalg.eigvalsh(S)[..., -1]
-
-
-def _lam_min(S):
-    return np.linalg.eigvalsh(S)[..., 0]
+def sym_extremes(S) -> tuple[np.ndarray, np.ndarray]:
+    """(λ_min, λ_max) of stacked symmetric matrices S (..., r, r): closed forms for r ≤ 3 (r = 3: the
+    trigonometric solution of the characteristic cubic), ``numpy.linalg.eigvalsh`` otherwise."""
+    r = S.shape[-1]
+    if r == 1:
+        return S[..., 0, 0], S[..., 0, 0]
+    if r == 2:
+        m = 0.5 * (S[..., 0, 0] + S[..., 1, 1])
+        h = np.hypot(0.5 * (S[..., 0, 0] - S[..., 1, 1]), S[..., 0, 1])
+        return m - h, m + h
+    if r != 3:
+        ev = np.linalg.eigvalsh(S)
+        return ev[..., 0], ev[..., -1]
+    a, b, c = S[..., 0, 0], S[..., 1, 1], S[..., 2, 2]
+    d, e, f = S[..., 0, 1], S[..., 0, 2], S[..., 1, 2]
+    q = (a + b + c) / 3.0
+    p1 = d * d + e * e + f * f
+    p = np.sqrt(((a - q) ** 2 + (b - q) ** 2 + (c - q) ** 2 + 2.0 * p1) / 6.0)
+    ps = np.where(p > 0, p, 1.0)
+    A, B, C = (a - q) / ps, (b - q) / ps, (c - q) / ps
+    D, E, F = d / ps, e / ps, f / ps
+    half_det = 0.5 * (A * (B * C - F * F) - D * (D * C - F * E) + E * (D * F - B * E))
+    phi = np.arccos(np.clip(half_det, -1.0, 1.0)) / 3.0
+    hi = q + 2.0 * p * np.cos(phi)
+    lo = q + 2.0 * p * np.cos(phi + 2.0 * math.pi / 3.0)
+    return lo, hi
 
 
 @dataclass
@@ -430,9 +450,10 @@ class DesignSpace:
         dry = np.einsum("dk,dpkr->dpr", C, np.abs(motor_speed))
         rows = np.swapaxes(Ginv, -1, -2)[:, None] @ JrT           # (D, P, n, r) = G⁻ᵀ J_rᵀ
         norms = np.linalg.norm(rows, axis=-1)                     # (D, P, n)
-        return {"dry_friction": dry.mean(axis=(1, 2)), "viscous_friction": _lam_max(Bh).mean(axis=1),
-                "apparent_mass": _lam_max(Lam).mean(axis=1),
-                "zwidth": 2.0 * self.rate_hz * _lam_min(Bh).min(axis=1),
+        b_lo, b_hi = sym_extremes(Bh)
+        return {"dry_friction": dry.mean(axis=(1, 2)), "viscous_friction": b_hi.mean(axis=1),
+                "apparent_mass": sym_extremes(Lam)[1].mean(axis=1),
+                "zwidth": 2.0 * self.rate_hz * b_lo.min(axis=1),
                 "peak_force": np.min(peak[:, None] / norms, axis=(1, 2)),
                 "continuous_force": np.min(cont[:, None] / norms, axis=(1, 2)),
                 "slack_margin": np.min(2.0 * T0 - peak / r_m, axis=1)}

@@ -238,12 +238,13 @@ def _run_islands(space, objectives, constraints, seeds, population, generations,
         return [island(space, objectives, constraints, s, population, generations) for s in seeds], "in process"
     from tendyn.pipelines.sweep import dask_client, gather_in_order
 
-    with dask_client(None if scheduler == "local" else scheduler, n_workers, client) as c:
+    with dask_client(None if scheduler in (None, "local") else scheduler, n_workers, client) as c:
         shipped = c.scatter(space, broadcast=True)           # the compiled design space goes to each worker once
         futures = [c.submit(island, shipped, list(objectives), list(constraints), int(s), int(population),
                             int(generations), pure=False) for s in seeds]
         pops = gather_in_order(futures, f"{space.device_name}: design", "island", progress)
-    where = scheduler if scheduler not in (None, "local") else f"local ({n_workers} workers)"
+    where = scheduler if scheduler not in (None, "local") else ("given client" if client is not None
+                                                                else f"local ({n_workers} workers)")
     return pops, where
 
 
