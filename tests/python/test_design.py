@@ -195,7 +195,7 @@ def test_campaigns_on_a_real_scheduler_equal_in_process(dask_cluster, request):
     np.testing.assert_array_equal(here.X, there.X)
     for k in here.F:
         np.testing.assert_array_equal(here.F[k], there.F[k])
-    if "slow" not in (request.config.getoption("-m") or ""):
+    if "slow" not in (request.config.getoption("markexpr") or ""):
         return
 
     from tendyn.devices import load

@@ -338,7 +338,8 @@ class DesignSpace:
     def evaluate(self, X, which: Sequence[str] | None = None) -> dict[str, np.ndarray]:
         """Every available quantity (or ``which``) of the designs X (D, V) as arrays (D,), in numpy over D."""
         X = np.atleast_2d(np.asarray(X, float))
-        out = self._bench(X) if self.kind == "bench" else self._serial_eval(X)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):   # a degenerate design gives NaN/inf
+            out = self._bench(X) if self.kind == "bench" else self._serial_eval(X)
         return out if which is None else {k: out[k] for k in which}
 
     def _column(self, X, name, default):

@@ -110,11 +110,10 @@ def _space(args):
         raise UsageError(str(exc.args[0]), "vary") from None
     except ValueError as exc:
         raise UsageError(str(exc), "device") from None
-    _check_ranges(space, dev)
     return dev, space
 
 
-def _check_ranges(space, dev) -> None:
+def _check_ranges(space, dev, quantities) -> None:
     """Each end of every range is a value the device file accepts (the loader's own domain check)."""
     import numpy as np
 
@@ -129,8 +128,11 @@ def _check_ranges(space, dev) -> None:
             except ValueError as exc:
                 why = str(exc).split(".toml: ", 1)[-1]       # the loader names the temporary file: not useful
                 raise UsageError(f"{name}={end:g}: {why}", "vary") from None
-            if not np.all(np.isfinite(list(space.evaluate(x[None]).values())[0])):
-                raise UsageError(f"{name}={end:g}: the design cannot be evaluated", "vary")
+            values = space.evaluate(x[None], quantities)
+            bad = [q for q, v in values.items() if not np.all(np.isfinite(v))]
+            if bad:
+                raise UsageError(f"{name}={end:g}: {', '.join(bad)} not finite there (a degenerate design); "
+                                 "narrow the range", "vary")
 
 
 def _load_text(text: str, dev):
@@ -161,6 +163,7 @@ def run(args) -> int:
             raise UsageError(why, "objective" if q in args.objective else "constraint")
     if len(set(args.objective)) != len(args.objective):
         raise UsageError("an objective is given twice", "objective")
+    _check_ranges(space, dev, sorted(set(args.objective) | {c[0] for c in args.constraint}))
     scheduler = None if args.scheduler == "none" else args.scheduler
     try:
         res = run_design(space, args.objective, args.constraint, population=args.population,
