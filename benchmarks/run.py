@@ -322,7 +322,9 @@ ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
         "lexos_compensator_cycle_tracking": "tracking",
         "zwidth_grid": "zwidth", "tx40_identify": "tx40", "stream_identify_1h": "stream",
         "design_evaluations_per_s": "design", "dask_design_speedup": "design", "dask_sweep_speedup": "sweep",
-        "dask_identify_speedup": "dask_identify"}
+        "dask_identify_speedup": "dask_identify",
+        "python_suite_wall": "suite",
+        "identify_iv_gen6_twin_end_to_end": "closed_loop", "identify_didim_gen6_twin_end_to_end": "closed_loop"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 
@@ -368,6 +370,14 @@ def run_only(names: list[str]) -> int:
         from ident_scale import bench_dask
 
         bench_dask(results)
+    if "suite" in groups:
+        from suite_bench import bench_test_suite
+
+        bench_test_suite(results)
+    if "closed_loop" in groups:
+        from closed_loop_bench import bench_closed_loop_identify
+
+        bench_closed_loop_identify(results)
     path = HERE / "results.json"
     old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
     new = {r["name"] for r in results}
@@ -422,6 +432,12 @@ def main() -> int:
 
     bench_cli_latency(results)
     bench_identify_end_to_end(results)
+    from closed_loop_bench import bench_closed_loop_identify
+
+    bench_closed_loop_identify(results)
+    from suite_bench import bench_test_suite
+
+    bench_test_suite(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)
