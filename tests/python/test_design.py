@@ -180,13 +180,9 @@ def test_motor_table_rejects_bad_rows(tmp_path):
         read_motor_table(p)
 
 
-def test_campaigns_on_a_real_scheduler_equal_in_process(dask_cluster, request):
-    """`--scheduler tcp://HOST:PORT` on a real `dask scheduler` with two `dask worker` processes (one cluster for
-    the three campaigns: starting one costs seconds; > 5 s because the issue asks for real processes): design
-    islands give what this process gives. With ``-m slow`` also a sweep and an identification campaign in
-    batches (their fresh workers derive S1's plant and build the TX40 model: ~20 s; the same batching code runs
-    in the fast suite on LocalClusters, test_s1.py::test_sweep_cli_on_a_local_dask_cluster and
-    test_ident.py::test_campaign_on_a_dask_scheduler)."""
+def test_campaigns_on_a_real_scheduler_equal_in_process(dask_cluster):
+    """`--scheduler tcp://HOST:PORT` on a real `dask scheduler` with two `dask worker` processes (> 5 s: the issue
+    asks for real processes, and starting them costs seconds): the design islands give what this process gives."""
     sp = DesignSpace("mcgill_bench", {"k1": (1e3, 4.56e6), "k2": (1e3, 1e6)})
     kw = dict(population=12, generations=5, islands=3, seed=7)
     here = run_design(sp, ["bandwidth_hz", "sensitivity_k1"], **kw)
@@ -195,9 +191,13 @@ def test_campaigns_on_a_real_scheduler_equal_in_process(dask_cluster, request):
     np.testing.assert_array_equal(here.X, there.X)
     for k in here.F:
         np.testing.assert_array_equal(here.F[k], there.F[k])
-    if "slow" not in (request.config.getoption("markexpr") or ""):
-        return
 
+
+@pytest.mark.slow
+def test_sweep_and_identify_on_a_real_scheduler_equal_in_process(request):
+    """The same for a sweep and an identification campaign in batches (`pytest -m slow`: their fresh workers derive
+    S1's plant and build the TX40 model, ~20 s; the same batching code runs in the fast suite on LocalClusters,
+    test_s1.py::test_sweep_cli_on_a_local_dask_cluster and test_ident.py::test_campaign_on_a_dask_scheduler)."""
     from tendyn.devices import load
     from tendyn.pipelines.sweep import design_grid, evaluate_design, run_sweep
 
