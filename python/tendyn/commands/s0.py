@@ -35,12 +35,13 @@ def _load_device(text: str):
     return load(text)
 
 
-def cable_device(text: str, what: str):
-    """:func:`_load_device`, refusing a device without cable transmissions (a tendon bench, capstan drives,
-    geared actuators) with one line: ``what`` says what needs them."""
+def cable_device(text: str, what: str, drives: bool = False):
+    """:func:`_load_device`, refusing a device without cable transmissions (a tendon bench, geared actuators;
+    capstan drives too unless ``drives``) with one line: ``what`` says what needs them."""
     dev = _load_device(text)
-    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
-        raise UsageError(f"{dev.name} has no cable transmissions {what}", "device")
+    if getattr(dev, "kind", None) != "serial" or not (dev.n_transmissions or (drives and dev.drives)):
+        raise UsageError(f"{dev.name} has no cable transmissions{' or capstan drives' if drives else ''} {what}",
+                         "device")
     return dev
 
 
@@ -106,12 +107,11 @@ def plan_constant_velocity(device, test, rate_hz: float):
     position and speed references of every motor (S1) or joint (S2); ``options`` says which are held and
     where. The same references as the twin's :func:`tendyn.sim.experiments.constant_velocity` with that test
     (at ``rate_hz``)."""
-    from tendyn.device import compile_device
     from tendyn.io import make_log
-    from tendyn.protocols import duration_s, references
+    from tendyn.protocols import duration_s, motor_from_joint, references
     from tendyn.sim.catalogue import require_memory
 
-    Gm = compile_device(device).transmission.matrices()["motor_from_joint_position"]
+    Gm = motor_from_joint(device)
     n = Gm.shape[0]
     samples = duration_s(Gm, test) * rate_hz      # checked before the references are built (plan --accel 1e-6)
     require_memory(8.0 * samples * (2 * n + 1) * 4, "fewer speeds or loads, a shorter --travel, a larger --accel "
@@ -144,7 +144,7 @@ def run_plan(args) -> int:
     for name in ("device", "transmission"):
         if getattr(args, name) is None:
             raise UsageError("required for `plan constant-velocity`", name)
-    dev = cable_device(args.device, "to plan a constant-velocity test for")
+    dev = cable_device(args.device, "to plan a constant-velocity test for", drives=True)
     test = plan_test(dev, args.transmission, args.strategy, args.speeds, args.travel, args.accel, args.q0,
                      args.loads)
     log = plan_constant_velocity(dev, test, args.rate)

@@ -286,6 +286,13 @@ class _Parser:
         elif top["drives"] is not None:
             drives = self.drives(top["drives"], kin)
         elif top["transmissions"] is not None:
+            passive = [f"{num} ({js.name})" for num, js in enumerate(kin.joints, start=1)
+                       if getattr(js, "mu", 1) == 0 and getattr(js, "sigma", 0) != 2]
+            if passive:   # the cable statics (S0 eqs. 1-5) route over every joint of a serial chain
+                raise self.err("transmissions", f"cable [[transmissions]] route over the joints of a serial chain; "
+                                                f"this tree has passive joints {', '.join(passive)} (closed loops): "
+                                                "write its capstans as [[drives]] (docs/device-file.md, 'A desktop "
+                                                "haptic arm')")
             trans = self.transmissions(top["transmissions"], kin, dev["routing"])
         else:
             raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
