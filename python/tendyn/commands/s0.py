@@ -204,7 +204,7 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
     from tendyn.ident.friction_file import friction_document
 
     names = names or [f"log {k + 1}" for k in range(len(logs))]
-    n = device.n_transmissions
+    n = device.n_transmissions or len(device.drives)
     groups: dict[int, list] = {}
     for name, log in zip(names, logs):
         conv.refuse_other_device(name, log.meta.get("device"), device, force)
@@ -229,6 +229,8 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
         except IdentificationError as exc:
             raise UsageError(f"{', '.join(nm for nm, _ in groups[t])}: {exc}") from None
         fits.append(est.result_)
+    if not device.n_transmissions:   # capstan drives: one cable stretch per drive, no branches to bound
+        return friction_document(device.name, fits)
     c0 = np.array([f.coulomb_motor for f in fits])
     nu = np.array([f.viscous_motor for f in fits])
     dec = decompose(device, np.maximum(c0, 0.0), np.maximum(nu, 0.0))
@@ -246,8 +248,9 @@ def run_identify_friction(args) -> int:
 
     from tendyn.commands.history import check_record, record_result
 
-    dev = cable_device(args.device, "to identify friction of")
-    _separable(dev, "the S0 friction identification")
+    dev = cable_device(args.device, "to identify friction of", drives=True)
+    if dev.n_transmissions:
+        _separable(dev, "the S0 friction identification")
     check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
