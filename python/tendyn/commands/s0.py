@@ -307,7 +307,9 @@ def run_decompose(args) -> int:
     from tendyn.ident.decomposition import SharesError, decompose, read_shares
     from tendyn.ident.friction_file import FrictionFileError, read_friction
 
-    dev = cable_device(args.device, "to decompose friction into")
+    dev = cable_device(args.device, "to decompose friction into", drives=True)
+    if not dev.n_transmissions:
+        return _decompose_drives(dev, args)
     _separable(dev, "the loss decomposition")
     try:
         doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
@@ -321,6 +323,43 @@ def run_decompose(args) -> int:
         _print_json(dec.to_dict())
     else:
         print(dec.table())
+    return 0
+
+
+def drive_split(dev, doc) -> dict:
+    """Capstan drives: each drive is one cable stretch (no branches to split, S0 eqs. 18–21 reduce to one term):
+    its identified motor-side C_m0 [N·m] and ν [N·m·s/rad] and what they are at the joint (N C_m0 [N·m],
+    N² ν [N·m·s/rad]) beside the device file's values (information, not used by the fit)."""
+    rows = []
+    for k, d in enumerate(dev.drives):
+        c0, nu = float(doc["coulomb_motor"][k]), float(doc["viscous_motor"][k])
+        rows.append({"drive": k + 1, "name": d.name, "joint": d.joint, "ratio": d.ratio, "branches": 1,
+                     "coulomb_motor": c0, "viscous_motor": nu, "coulomb_joint": d.ratio * c0,
+                     "viscous_joint": d.ratio ** 2 * nu, "file_coulomb_motor": d.coulomb_motor,
+                     "file_viscous_motor": d.viscous_motor})
+    return {"format": "tendyn.decomposition/1", "device": dev.name, "kind": "drives",
+            "note": "capstan drives: one cable stretch per drive, nothing to split", "drives": rows}
+
+
+def _decompose_drives(dev, args) -> int:
+    from tendyn.ident.friction_file import FrictionFileError, read_friction
+
+    if args.shares is not None:
+        raise UsageError(f"{dev.name} has capstan drives: one cable stretch each, no branches to share", "shares")
+    try:
+        doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
+    except FrictionFileError as exc:
+        raise UsageError(str(exc)) from None
+    out = drive_split(dev, doc)
+    if args.json:
+        _print_json(out)
+        return 0
+    print(f"{dev.name}: {out['note']}")
+    print(f"{'drive':<7}{'joint':>6}{'N':>8}{'C_m0 [N·m]':>13}{'ν [N·m·s/rad]':>15}{'N·C_m0 [N·m]':>14}"
+          f"{'N²ν [N·m·s/rad]':>17}")
+    for r in out["drives"]:
+        print(f"{r['name']:<7}{r['joint']:>6}{r['ratio']:>8.3g}{r['coulomb_motor']:>13.4g}{r['viscous_motor']:>15.4g}"
+              f"{r['coulomb_joint']:>14.4g}{r['viscous_joint']:>17.4g}")
     return 0
 
 
