@@ -194,6 +194,9 @@ KINEMATICS_FIELDS = (
       "not allowed for \"urdf\"", required=False),
     _spec("constraints", "table_list", "", "closed-loop constraints q_joint = sum(coef * q_active) + offset, "
       "one per passive non-cut joint (\"mdh\" only)", required=False, default=()),
+    _spec("closure_tolerance", "float", "m", "largest gap the loader accepts between the two frames of a cut "
+      "joint (sigma = 2) over poses inside the limits (closed loops, \"mdh\" only)", required=False,
+      default=1e-6, lo=0.0, lo_open=True, hi=0.01),
 )
 
 CONSTRAINT_FIELDS = (
