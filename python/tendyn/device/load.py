@@ -328,17 +328,18 @@ class _Parser:
 
     def plausible(self, kin: Kinematics, trans: tuple, drives: tuple) -> None:
         """Magnitudes a device of desktop-to-robot size cannot have, refused with the likely unit mistake
-        named: a revolute limit beyond ±2π (degrees?), a capstan ratio below 1 (inverted: N = motor speed /
+        named: a revolute limit beyond two turns, ±4π (degrees?; a multi-turn roll such as the dVRK MTM's
+        ±8.7 rad stays allowed), a capstan ratio below 1 (inverted: N = motor speed /
         joint speed), a rotor inertia that peak torque accelerates at under 100 rad/s² (g·cm² or kg·cm² written
         as kg·m²?: real rotors reach 1e4–1e6 rad/s²)."""
-        two_pi = 2.0 * math.pi + 1e-9
+        two_turns = 4.0 * math.pi + 1e-9
         for num, js in enumerate(kin.joints, start=1):
             if getattr(js, "sigma", 0) == 0 and js.lower is not None and js.upper is not None:
                 for key in ("lower", "upper"):
                     v = getattr(js, key)
-                    if abs(v) > two_pi:
+                    if abs(v) > two_turns:
                         raise self.err(f"kinematics.joints[{num}].{key}",
-                                       f"{v:g} rad is beyond ±2π for a revolute joint: degrees? "
+                                       f"{v:g} rad is beyond ±4π (two turns) for a revolute joint: degrees? "
                                        f"({v:g}° = {math.radians(v):.4g} rad)")
         for section, items in (("transmissions", trans), ("drives", drives)):
             for i, t in enumerate(items, start=1):
