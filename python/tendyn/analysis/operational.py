@@ -39,7 +39,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from tendyn.analysis.handle_point import HandlePoint
-from tendyn.capstan import reflected_stiffness, total_stiffness
+from tendyn.device.stiffness import reflected_stiffness, total_stiffness
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.results import Result, format_table
 

@@ -640,16 +640,16 @@ class Drive:
     @property
     def stiffness_joint(self) -> float:
         """Capstan stiffness seen at the joint [N m/rad] = N^2 * stiffness_motor (ERRATA eq. 19,
-        :func:`tendyn.capstan.reflected_stiffness`)."""
-        from tendyn.capstan import reflected_stiffness
+        :func:`tendyn.device.stiffness.reflected_stiffness`)."""
+        from .stiffness import reflected_stiffness
 
         return reflected_stiffness(self.stiffness_motor, self.ratio)
 
     @property
     def total_stiffness_motor(self) -> float:
-        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19, :func:`tendyn.capstan.total_stiffness`);
+        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19, :func:`tendyn.device.stiffness.total_stiffness`);
         K_T if K_E is not given."""
-        from tendyn.capstan import total_stiffness
+        from .stiffness import total_stiffness
 
         return total_stiffness(self.stiffness_motor, self.servo_stiffness_motor)
 
