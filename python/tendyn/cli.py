@@ -46,6 +46,13 @@ def _typed(name: str):
             raise argparse.ArgumentTypeError(exc.problem) from None
 
     convert.__name__ = name
+    opt = catalogue.OPTIONS[name]
+    if opt.kind in ("float", "int", "seed", "floats"):       # the declared domain, read by the domain fuzz
+        from tendyn.commands.args import Domain
+
+        seed = opt.kind == "seed"
+        convert.domain = Domain(0 if seed else opt.lo, 2 ** 64 - 1 if seed else opt.hi, opt.lo_open,
+                                opt.kind in ("int", "seed"), opt.unit, many=opt.kind == "floats")
     return convert
 
 
