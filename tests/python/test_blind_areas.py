@@ -70,3 +70,81 @@ def test_frf_band_covers_the_truth_at_its_confidence(confidence):
     coverage = float(np.mean(inside))
     print(f"FRF band at {confidence:.2f}: coverage {coverage:.3f}")
     assert abs(coverage - confidence) < 0.06
+
+
+# ---- Lur'e model: the stuck state's balance ---------------------------------------------------------------------
+
+def test_lure_stuck_state_breaks_away_at_the_static_dead_band():
+    """Brought to rest at y* ≠ 0 (G(1) = 2.5 ≠ 1), the Lur'e model stays stuck for u within y*/G(1) ± F and breaks
+    away beyond, at the first sample: the stuck state's net input is y*/G(1) (the static balance). Oracle: the
+    dead-band |u − y/G(1)| ≤ F, from G(1) computed here from b, a. Plant seen failing: the rest state's net input
+    taken as y* G(1) instead of y*/G(1) (inv_g0 inverted)."""
+    from tendyn.ident.blockmodel import _lure_simulate
+
+    b, a, F = [0.3, 0.2], [-0.9, 0.1], 0.4
+    g1 = sum(b) / (1.0 + sum(a))
+    assert abs(g1 - 2.5) < 1e-12
+    u = np.concatenate([np.full(6, 2.0), np.full(200, 0.9)])      # moving, then a level inside the dead-band
+    y = _lure_simulate(b, a, F, u)
+    ystar = y[-1]
+    assert np.all(y[-150:] == ystar) and ystar > 1.0, "the model must stick while still moving (not at rest by slip)"
+    assert abs(0.9 - ystar / g1) <= F + 1e-12                      # inside the static dead-band
+    for frac, moves in ((0.97, False), (-0.97, False), (1.03, True), (-1.03, True)):
+        u2 = np.concatenate([u, np.full(5, ystar / g1 + frac * F)])
+        y2 = _lure_simulate(b, a, F, u2)
+        assert (y2[207] != ystar) == moves, (frac, y2[204:210], ystar)
+        if not moves:
+            assert np.all(y2[206:] == ystar), (frac, y2[204:], ystar)
+
+
+# ---- block model: frequency unit of its response ----------------------------------------------------------------
+
+def test_block_model_frequency_response_is_in_rad_per_s():
+    """BlockModelFit.frequency_response(ω [rad/s]) against the steady-state gain and phase of the filter driven by a
+    sine of ω (simulated, fitted by least squares) and against python-control's response of linear_tf. Plant seen
+    failing: z = exp(j 2π ω dt) (ω read as Hz)."""
+    import control
+    from scipy.signal import lfilter
+
+    from tendyn.ident.blockmodel import BlockModelFit
+
+    dt = 1e-3
+    fit = BlockModelFit(structure="hammerstein", nonlinearity="dead-zone", order=2, b=np.array([0.0, 0.05, 0.03]),
+                        a=np.array([-1.5, 0.6]), params={}, dt=dt, fit_rms=0.0, fit_nrms=0.0)
+    omega = np.array([2.0, 30.0, 300.0])
+    H = fit.frequency_response(omega)
+    t = np.arange(20000) * dt
+    for w, h in zip(omega, H):
+        y = lfilter(fit.b, np.concatenate([[1.0], fit.a]), np.sin(w * t))[10000:]
+        X = np.column_stack([np.sin(w * t[10000:]), np.cos(w * t[10000:])])
+        s, c = np.linalg.lstsq(X, y, rcond=None)[0]
+        np.testing.assert_allclose(h, s + 1j * c, rtol=1e-6, atol=1e-9)
+    mag, phase, _ = control.frequency_response(fit.linear_tf(), omega)
+    np.testing.assert_allclose(np.abs(H), mag, rtol=1e-9)
+
+
+# ---- Colgate's passivity bound: the factor 2 ----------------------------------------------------------------------
+
+def test_colgate_bound_is_the_sampled_data_criterion():
+    """K of the Colgate–Schenkel bound at B against the general sampled-data criterion computed numerically:
+    b > (T/2) max_θ Re{(1 − e^{−jθ}) H(e^{jθ})}/(1 − cos θ), H(z) = K + B (1 − z⁻¹)/T the virtual wall; the largest
+    passive K solves it by bisection. Plant seen failing: the bound without its factor 2 (K = (b − |B|)/T)."""
+    from tendyn.pipelines.zwidth import ZWidthResult
+
+    rate, b = 1000.0, 2.0
+    T = 1.0 / rate
+    grid = ZWidthResult(device="x", rate_hz=rate, rows=[], stiffness=np.array([0.0]), damping=np.array([0.0]),
+                        modes=("m",), colgate_b={"m": b})
+    theta = np.linspace(1e-3, np.pi, 4000)
+    z = np.exp(1j * theta)
+
+    def needed(K, B):
+        H = K + B * (1 - 1 / z) / T
+        return 0.5 * T * np.max(np.real((1 - 1 / z) * H) / (1 - np.cos(theta)))
+
+    for B in (0.0, 0.5, -0.8):
+        lo, hi = 0.0, 1e6
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if needed(mid, B) < b else (lo, mid)
+        np.testing.assert_allclose(grid.colgate_max_stiffness("m", B), lo, rtol=1e-3)
