@@ -148,3 +148,26 @@ def test_colgate_bound_is_the_sampled_data_criterion():
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if needed(mid, B) < b else (lo, mid)
         np.testing.assert_allclose(grid.colgate_max_stiffness("m", B), lo, rtol=1e-3)
+
+
+# ---- c_L from a given η_d ------------------------------------------------------------------------------------------
+
+def test_load_coefficient_from_a_given_reducer_efficiency():
+    """A loss model given η_d per transmission holds c_L with C_0/η_d − C_0 = c_L C_0 (driving: the motor supplies
+    the load torque over the efficiency), i.e. c_L = 1/η_d − 1, computed here from that balance; and given c_L the
+    same η_d comes back. Plant seen failing: c_L = 1 − η_d (the back-driven loss read as the driving one)."""
+    from tendyn.devices import bundled
+    from tendyn.device import load_device
+    from tendyn.ident.loss_model import identified_losses
+
+    dev = load_device(bundled("lexos"))
+    n = dev.n_transmissions
+    eta = np.array([0.8, 0.9, 0.6, 1.0])[:n]
+    losses = identified_losses(dev, {"tau0": np.zeros((n, n)).tolist(), "nu": np.zeros((n, n)).tolist(),
+                                     "reducer_efficiency": eta.tolist()})
+    C0 = 1.7                                                   # any load torque at the motor [N·m]
+    c_l = (C0 / eta - C0) / C0                                 # the driving balance, solved for c_L
+    np.testing.assert_allclose(losses.load_coefficient, c_l, rtol=1e-12)
+    back = identified_losses(dev, {"tau0": np.zeros((n, n)).tolist(), "nu": np.zeros((n, n)).tolist(),
+                                   "load_coefficient": [c if c < 1 else 0.5 for c in c_l]})
+    np.testing.assert_allclose(back.reducer_efficiency[c_l < 1], eta[c_l < 1], rtol=1e-12)
