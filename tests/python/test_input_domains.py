@@ -170,3 +170,68 @@ def test_routing_show_of_a_zero_driven_radius_is_shown_not_a_crash(tmp_path, cap
     assert main(["routing", "show", str(p), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert [r["joint_per_motor_ratio"] for r in doc["routing"]] == [0.0, 0.0]
+
+
+def test_friction_file_beyond_the_schema_bound_is_refused(tmp_path, capsys):
+    """Physical bounds at every door (issue 34 item 6): a FRICTION.json whose Coulomb level is 1e308 N·m is refused
+    naming the field and the schema's bound (it was written into a compensator)."""
+    n = 4
+    doc = {"format": "tendyn.friction/1", "device": "L-EXOS", "n_transmissions": n,
+           "coulomb_motor": [1e308] + [0.01] * (n - 1), "viscous_motor": [0.001] * n,
+           "fits": [{"transmission": t, "coulomb_motor": 0.01, "viscous_motor": 0.001, "coulomb_motor_std": 1e-4,
+                     "viscous_motor_std": 1e-5} for t in range(1, n + 1)]}
+    path = tmp_path / "f.json"
+    path.write_text(json.dumps(doc))
+    _one_line(capsys, ["export", "compensator", "lexos", "--friction", path, "--out", tmp_path / "o.comp"],
+              "coulomb_motor[1]", "1e+06")
+    assert not (tmp_path / "o.comp").exists()
+
+
+@pytest.mark.parametrize("field,line,needle", [
+    ("tau0", "tau0 1e308" + " 1" * 15, "<= 1e6 [N]"),
+    ("pretension", "pretension 1e7 50 50 50", "pretension[0] = 10000000: must be <= 1e6"),
+    ("reducer_ratio", None, "reducer_ratio"),
+])
+def test_compensator_file_beyond_the_core_bounds_is_refused(tmp_path, field, line, needle):
+    """The C++ loader (the one the C ABI and Compensator.load share) refuses a coefficient beyond the bound the
+    device schema declares, the bound in the message (include/tendyn/routing.hpp transmission_field_bounds)."""
+    import re
+    from pathlib import Path
+
+    from tendyn.control import Compensator
+
+    text = (Path(__file__).resolve().parents[2] / "examples" / "02_compensation" / "lexos.comp").read_text()
+    if line is None:        # K's diagonal and driven_radius * reducer_ratio stay consistent: ratio 2e4 > 1e4
+        line = "reducer_ratio 20000 1 1 1"
+        m = re.search(r"(?m)^driven_radius (\S+)", text)
+        r = float(m.group(1))
+        text = re.sub(r"(?m)^K (\S+)", f"K {r * 20000!r}", text)
+    text = re.sub(rf"(?m)^{field} .*$", line, text, count=1)
+    p = tmp_path / "bad.comp"
+    p.write_text(text)
+    with pytest.raises(ValueError, match=re.escape(needle)):
+        Compensator.load(p)
+
+
+def test_the_core_bounds_are_the_schemas():
+    """transmission_field_bounds (C++) against the device schema's specs: read from the header's text (the same
+    numbers, so a bound changed on one side fails here)."""
+    import re
+    from pathlib import Path
+
+    from tendyn.device.schema import BEARING_FIELDS, FRICTION_FIELDS, TRANSMISSION_FIELDS
+
+    hpp = (Path(__file__).resolve().parents[2] / "include" / "tendyn" / "routing.hpp").read_text()
+    core = {m.group(1): float(m.group(2)) for m in re.finditer(r'\{"(\w+)", ([0-9.e]+), "must', hpp)}
+    specs = {s.name: s for s in TRANSMISSION_FIELDS + FRICTION_FIELDS}
+    specs.update({"bearing_" + s.name: s for s in BEARING_FIELDS})
+    checked = 0
+    for name, bound in core.items():
+        spec = specs.get(name)
+        if spec is None:
+            continue
+        schema_bound = spec.hi if spec.hi is not None else spec.abs_max
+        if schema_bound is not None:
+            assert bound == schema_bound, (name, bound, schema_bound)
+            checked += 1
+    assert checked >= 10, core
