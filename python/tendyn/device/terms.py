@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 __all__ = ["EXPRESSION_FUNCTIONS", "check_expression", "check_values", "evaluate_expression", "TermModel",
-           "MAX_EXPRESSION_CHARS", "MAX_EXPRESSION_NODES", "MAX_EXPRESSION_DEPTH", "MAX_LITERAL", "MAX_KNOTS"]
+           "MAX_EXPRESSION_CHARS", "EXPRESSION_MAX_CHARS", "MAX_EXPRESSION_NODES", "MAX_EXPRESSION_DEPTH", "MAX_LITERAL", "MAX_KNOTS"]
 
 EXPRESSION_FUNCTIONS = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
                         "sqrt": np.sqrt, "abs": np.abs, "tanh": np.tanh, "sign": np.sign}
@@ -42,6 +42,8 @@ _UNOPS = {ast.USub: np.negative, ast.UAdd: np.positive}
 MAX_EXPRESSION_CHARS = 400
 """Longest expression text [characters]; checked before the text is parsed (a 100k-long chain is refused
 without building its tree)."""
+EXPRESSION_MAX_CHARS = MAX_EXPRESSION_CHARS
+"""The same limit under the name issue 36 gave it."""
 MAX_EXPRESSION_NODES = 200
 """Most syntax-tree nodes (names, numbers, operators, calls) in one expression."""
 MAX_EXPRESSION_DEPTH = 20
