@@ -162,7 +162,7 @@ def _urdf_frames(device) -> list[JointFrame]:
     coordinates in Pinocchio) or a floating base is refused with a clear message."""
     import pinocchio as pin
 
-    from tendyn.device.schema import DeviceError
+    from tendyn.device.base import DeviceError
 
     path = str(device.kinematics.urdf)
     try:

@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .base import Device
+from .base import Device, DeviceError  # noqa: F401 — DeviceError: its home is base.py (terms, rigid_body raise it)
 
 SCHEMA_VERSION = 1
 """The schema version this package reads (``schema = 1`` at the top of the file)."""
@@ -33,30 +33,6 @@ INERTIA_TOL = 1e-12
 """Tolerance [kg m^2] of the positive-semidefinite and triangle-inequality checks of inertias."""
 
 TWO_PI = 2.0 * math.pi
-
-
-class DeviceError(ValueError):
-    """A device file (or a request about bundled devices) is invalid.
-
-    The message names the file, the field path and what is wrong, e.g.
-    ``lexos.toml: transmissions[2].driven_radius: must be > 0 (got 0.0): ...``.
-
-    Attributes
-    ----------
-    file : str or None
-        The file name the error is about (None when no file is involved).
-    field : str or None
-        The dotted field path, with 1-based indices of array entries (``transmissions[2].friction[1].tau0``).
-    problem : str
-        What is wrong, without the file and field prefix.
-    """
-
-    def __init__(self, problem: str, *, file: str | None = None, field: str | None = None):
-        self.file = file
-        self.field = field
-        self.problem = problem
-        parts = [p for p in (file, field) if p]
-        super().__init__(": ".join(parts + [problem]))
 
 
 # ----------------------------------------------------------------------------------------------------------
