@@ -77,6 +77,41 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
     return out
 
 
+def _diagonal(G) -> bool:
+    """Whether each motor drives one joint and each joint one motor (G a scaled permutation): then joint and
+    motor space differ by a gain per axis and their relative residuals are the same."""
+    G = np.asarray(G, float)
+    nz = np.abs(G) > 1e-12
+    return G.shape[0] == G.shape[1] and bool(np.all(nz.sum(axis=0) == 1) and np.all(nz.sum(axis=1) == 1))
+
+
+def motor_space_residual(G, Y, y_hat, rows, samples, n_active) -> list[float] | None:
+    """Per motor relative residual ‖y − ŷ‖ / ‖y‖ [-] in motor space, y = G⁻ᵀ τ at every treated sample all the
+    active joints keep (joint-major rows of joint torques Y, model ŷ, ``samples`` their sample numbers); None
+    for a non-square G or when no sample is kept by every joint.
+
+    The fit is in joint space (τ = Gᵀ y, S2 eq. 4 with the motor torques mapped by virtual work): the joint
+    residuals are the ones least squares minimises; the motor ones are the same errors seen by the motors."""
+    G = np.asarray(G, float)
+    if G.shape[0] != G.shape[1] or n_active != G.shape[1]:
+        return None
+    common = None
+    for j in range(n_active):
+        s = samples[rows == j]
+        common = s if common is None else np.intersect1d(common, s)
+    if common is None or common.size == 0:
+        return None
+    tau = np.empty((common.size, n_active))
+    tau_hat = np.empty_like(tau)
+    for j in range(n_active):
+        sel = rows == j
+        idx = np.searchsorted(samples[sel], common)
+        tau[:, j], tau_hat[:, j] = Y[sel][idx], y_hat[sel][idx]
+    y = np.linalg.solve(G.T, tau.T).T              # motor torques y = G⁻ᵀ τ
+    y_h = np.linalg.solve(G.T, tau_hat.T).T
+    return [float(v) for v in np.linalg.norm(y - y_h, axis=0) / np.maximum(np.linalg.norm(y, axis=0), 1e-300)]
+
+
 class IdentificationResult(Result):
     """Identified base parameters with their statistics (S2 Table 4), and measured vs estimated torques."""
 
@@ -98,6 +133,8 @@ class IdentificationResult(Result):
         self.warnings += list(getattr(treatment, "warnings", []))
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
+        self.per_motor_residual_rel: list[float] | None = None   # motor space y = G⁻ᵀ τ (motor_space_residual)
+        self.coupled = False          # G is not one motor per joint: the two spaces differ
 
     def flag_pseudo_inertia(self, model) -> None:
         """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
@@ -132,6 +169,7 @@ class IdentificationResult(Result):
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
+                "residual_space": "joint", "per_motor_residual_rel": self.per_motor_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
@@ -144,9 +182,13 @@ class IdentificationResult(Result):
                                   + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
                                   + ", "
                                   f"W {self.n_rows} x {len(self.names)}")
-        tail = ["", "relative residual per joint: " + ", ".join(
-            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
-            f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
+        tail = ["", "relative residual per joint (joint space, tau = G^T y, the space of the fit): " + ", ".join(
+            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel))]
+        if self.coupled and self.per_motor_residual_rel:
+            tail.append("relative residual per motor (motor space, y = G^-T tau): " + ", ".join(
+                f"{i}: {100 * r:.2f} %" for i, r in enumerate(self.per_motor_residual_rel, start=1)))
+        tail += [
+            f"relative residual ||Y - W X|| / ||Y|| (joint space): {100 * self.residual_rel:.2f} %"]
         if self.crossval:
             per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
@@ -288,7 +330,8 @@ class IDIM:
         self.treatment_ = dataclasses.replace(out[-1][1], stale_dropped=sum(tr.stale_dropped for _, tr in out),
                                               retimed=any(tr.retimed for _, tr in out))
         na = model.n_active
-        Ys, Ws, Rs, Ts = [], [], [], []
+        Ys, Ws, Rs, Ts, Ss = [], [], [], [], []
+        offset = 0
         for blocks in allblocks:
             Y, W, rows = stack_blocks(blocks)
             t = np.concatenate([b.time for b in blocks])
@@ -297,8 +340,12 @@ class IDIM:
             keep = np.abs(vel) >= np.repeat(thr, [b.y.size for b in blocks])
             self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
+            n_out = blocks[0].y.size                # the sample of every row, numbered over all the logs
+            Ss.append((offset + np.tile(np.arange(n_out), len(blocks)))[keep])
+            offset += n_out
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
+        self.samples_ = np.concatenate(Ss)[order]
         return Y[order], W[order], rows[order], t[order], na
 
     def _thresholds(self, blocks) -> np.ndarray:
@@ -438,12 +485,15 @@ class IDIM:
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
+        per_motor = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na)
         cv = self._crossval(logs, cols) if crossval else None
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
                                             model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
+        self.result_.per_motor_residual_rel = per_motor
+        self.result_.coupled = not _diagonal(model.G)
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self.result_.flag_pseudo_inertia(model)
         self._cols = cols

@@ -374,6 +374,11 @@ class IdentModel:
         tau = y @ self.G
         return log.time, q, tau
 
+    def motor_torques(self, tau) -> np.ndarray:
+        """Motor torques y = G⁻ᵀ τ (n, n_m) [N·m, N at a linear motor] of joint torques τ (n, n_a), one row per
+        sample: the motor space of a coupled device (``tendyn.coupling``: motor_from_joint_torque)."""
+        return np.linalg.solve(self.G.T, np.asarray(tau, float).T).T
+
     def joint_velocities(self, log):
         """Logged active joint velocities [rad/s] (n, n_a), or None when the log has none.
 
