@@ -86,3 +86,25 @@ def refuse_other_device(source, named, dev, force: bool = False) -> None:
     if not force and not dev.is_named(named):
         raise UsageError(f"{source}: is about the device {named!r}, not {dev.name!r}; give the file of this device "
                          "(or --force to use it anyway)")
+
+
+def choice(domain, what: str = "value"):
+    """A converter for one name of ``domain`` (a mapping name → meaning, or a sequence of names)."""
+    names = tuple(domain)
+
+    def convert(text: str) -> str:
+        if text not in names:
+            raise argparse.ArgumentTypeError(f"must be one of {', '.join(names)} (got {text!r})")
+        return text
+    convert.__name__ = what
+    return convert
+
+
+def treatment_option(parser) -> None:
+    """``--treatment NAME``: the data treatment of an identification, tendyn's or a peer's published script
+    reproduced; the domain is :data:`tendyn.ident.treatment.TREATMENTS` (one table, the help lists it)."""
+    from tendyn.ident.treatment import TREATMENTS
+
+    parser.add_argument("--treatment", type=choice(TREATMENTS, "treatment"), default="tendyn", metavar="NAME",
+                        help="data treatment: " + "; ".join(f"{k}: {v}" for k, v in TREATMENTS.items())
+                             + " (default tendyn; given --cutoff-hz, --decimate, --velocity-threshold win)")

@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number, out_path, refuse_other_device
+from tendyn.commands.args import existing_file, number, out_path, refuse_other_device, treatment_option
 from tendyn.commands.history import add_record_arguments, check_record, record_result
 from tendyn.errors import UsageError
 
@@ -29,6 +29,7 @@ def register(subparsers) -> None:
     p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
                    help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
                         "differentiated positions (default: the logged ones when the log has them)")
+    treatment_option(p)
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--parameters", default=None, metavar="NAMES",
                    help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
@@ -88,6 +89,9 @@ def cmd_identify(args) -> int:
 
         _check_out_folder(args.report, "report")
     if args.stream:
+        if args.treatment != "tendyn":
+            raise UsageError(f"--treatment {args.treatment} is not available with --stream (tendyn's only)",
+                             "treatment")
         return _identify_stream(dev, args)
     from tendyn.ident.estimate import cached_model
     from tendyn.io import LogError
@@ -106,7 +110,8 @@ def cmd_identify(args) -> int:
     est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
                velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
-               parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto")
+               parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto",
+               treatment=args.treatment)
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
     except ConnectionError as exc:

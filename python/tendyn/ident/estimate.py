@@ -277,6 +277,9 @@ class IDIM:
         otherwise the address of a Dask scheduler (``tcp://host:8786``).
     progress : bool
         Progress bar (stderr) over the logs.
+    treatment : str
+        The data treatment, tendyn's ("tendyn") or a peer's script reproduced
+        (:data:`tendyn.ident.treatment.TREATMENTS`: "janot").
     parameters : sequence of str or None
         Identify only these base parameters (names of :attr:`IdentModel.base`), the others taken as zero: a
         reduced model such as S2 Table 4's 16 of the 29 (None: all base parameters).
@@ -284,8 +287,9 @@ class IDIM:
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto"):
+                 parameters=None, velocities="auto", treatment="tendyn"):
         self.device = device
+        self.treatment = treatment
         self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -311,7 +315,8 @@ class IDIM:
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
-        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.velocities)
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
+                    self.velocities)
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -350,7 +355,10 @@ class IDIM:
 
     def _thresholds(self, blocks) -> np.ndarray:
         """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
-        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
+        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log (none for a peer's preset that
+        has none: janot)."""
+        if self.velocity_threshold is None and self.treatment == "janot":
+            return np.zeros(len(blocks))
         if self.velocity_threshold is None:
             return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
         return np.full(len(blocks), float(self.velocity_threshold))
@@ -376,7 +384,8 @@ class IDIM:
         known = model.known_torque(q)         # [[terms]] of kind "known": subtracted, not identified
         if known is not None:
             tau = tau - known
-        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings)
+        *settings, preset = settings
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings, preset=preset)
         tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
                                  retimed=retimed)
         return treat(model, time, q, tau, tr, qd=qd), tr

@@ -38,6 +38,21 @@ DEFAULT_VELOCITY_FRACTION = 0.02
 """Default velocity threshold (the one place it is written): a joint's samples slower than this fraction of
 its peak |q̇| in the log are dropped from its rows."""
 
+TREATMENTS = {
+    "tendyn": "tendyn's own (Gautier's rules): zero-phase Butterworth -3 dB at 5 x the bandwidth, central "
+              "differences, parallel FIR filter + decimation to about 10 x the bandwidth, the default velocity "
+              "threshold",
+    "janot": "Janot, Gautier & Brunot's Script_IDIM_LS.m (EMPS, 2019): MATLAB butter(4, 5 x bandwidth) through "
+             "filtfilt (single-pass design: -6 dB there), central differences, rows 50 on, every column and the "
+             "torque through MATLAB's decimate (Chebyshev I order 8, filtfilt) by rate / (5 x bandwidth), no "
+             "velocity threshold",
+}
+"""The peers' data treatments ``tendyn identify --treatment NAME`` reproduces (the domain of the option in
+tendyn.commands.args), each from its authors' published script; "tendyn" is the default."""
+
+JANOT_FIRST_ROW = 50
+"""Janot's script keeps the rows 50…N (1-based) of the full-rate observation matrix before decimating."""
+
 RETIME_TOLERANCE = 0.01
 """Time stamps further than this fraction of the sampling interval from the uniform grid are re-timed."""
 
@@ -94,10 +109,21 @@ class Treatment:
     retimed: bool = False
     why: tuple = ()
     """Where each setting came from, one phrase each (given, or which of Gautier's defaults and from what)."""
+    preset: str = "tendyn"
+    """The data treatment (:data:`TREATMENTS`): "tendyn", or a peer's script reproduced."""
 
     @property
     def parallel_cutoff_hz(self) -> float:
         return 0.8 * self.rate_hz / (2 * self.decimate) if self.decimate > 1 else self.rate_hz / 2
+
+    def filter_positions(self, q) -> np.ndarray:
+        """The positions (or logged velocities) low-passed as this treatment does: tendyn's zero-phase
+        Butterworth −3 dB at :attr:`cutoff_hz`, or (janot) MATLAB's ``filtfilt(butter(order, Wn))``."""
+        if self.preset == "janot":
+            from tendyn.ident.filters import matlab_butter_filtfilt
+
+            return matlab_butter_filtfilt(q, self.cutoff_hz, self.rate_hz, self.order)
+        return butter_zero_phase(q, self.cutoff_hz, self.rate_hz, self.order)
 
     @property
     def warnings(self) -> list[str]:
@@ -129,6 +155,11 @@ class Treatment:
         return vel + stale + ("; re-timed onto the uniform grid" if self.retimed else "")
 
     def describe(self) -> str:
+        if self.preset == "janot":
+            return (f"treatment janot ({TREATMENTS['janot']}): Butterworth order {self.order} at {self.cutoff_hz:g} "
+                    f"Hz (MATLAB butter + filtfilt); {self._samples_text()}; rows {JANOT_FIRST_ROW} on; MATLAB "
+                    f"decimate by {self.decimate} ({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); "
+                    f"velocity threshold {self._vt_text()}" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
         return (f"treatment: Butterworth order {self.order} zero-phase on positions, -3 dB at {self.cutoff_hz:g} Hz; "
                 f"{self._samples_text()}; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
                 f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
@@ -142,15 +173,26 @@ class Treatment:
                 "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
                 "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz,
                 "velocities": self.velocities, "stale_dropped": self.stale_dropped, "retimed": self.retimed,
-                "why": list(self.why)}
+                "why": list(self.why), "preset": self.preset}
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
-                      velocity_threshold: float | None = 0.0) -> Treatment:
+                      velocity_threshold: float | None = 0.0, preset: str = "tendyn") -> Treatment:
     """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win); each
-    setting's origin goes into :attr:`Treatment.why`."""
+    setting's origin goes into :attr:`Treatment.why`. ``preset`` (:data:`TREATMENTS`): "janot" takes Janot's
+    script's settings where none is given (cut-off 5 x the bandwidth, decimation to 5 x the bandwidth, no
+    velocity threshold)."""
+    if preset not in TREATMENTS:
+        raise ValueError(f"treatment must be one of {', '.join(TREATMENTS)} (got {preset!r})")
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
     why = [] if bandwidth_hz else [f"the device file gives no bandwidth_hz, {bw:g} Hz assumed"]
+    if preset == "janot":
+        cutoff_hz = 5.0 * bw if cutoff_hz is None else cutoff_hz
+        decimate = max(1, int(round(rate_hz / (5.0 * bw)))) if decimate is None else decimate
+        velocity_threshold = 0.0 if velocity_threshold is None else velocity_threshold
+        why.append("Janot's script: Butterworth at 5 x the bandwidth, decimation to 5 x the bandwidth, no threshold")
+        return Treatment(float(cutoff_hz), int(order), int(decimate), float(velocity_threshold), float(rate_hz), bw,
+                         why=tuple(why), preset="janot")
     if cutoff_hz is None:
         cutoff_hz = min(5.0 * bw, rate_hz / 10.0)
         why.append(f"cut-off 5 x the bandwidth ({5.0 * bw:g} Hz), above the motion and below the noise"
@@ -241,6 +283,8 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
     ``qd``: logged joint velocities [rad/s] (filtered like q, differentiated for q̈) instead of dq/dt."""
     from tendyn import _core
 
+    if treatment.preset == "janot":
+        return _treat_janot(model, time, q, tau, treatment, columns, qd)
     dt = 1.0 / treatment.rate_hz
     qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
     if qd is None:
@@ -265,4 +309,29 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
     # W's own times must match the decimated time column
     if n_out and np.max(np.abs(dec[:, 0] - t_w)) > 0.1 * dt * max(1, 1):
         raise AlignmentError("the decimated torques and the regressor rows are not centred on the same samples")
+    return blocks
+
+
+def _treat_janot(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
+    """Janot's Script_IDIM_LS.m (PROVENANCE of the EMPS data): positions through MATLAB's filtfilt(butter),
+    central differences, the full-rate observation matrix from row 50 on, every column and the torques through
+    MATLAB's decimate. Returns the joint blocks as :func:`treat` does."""
+    from tendyn.ident.filters import matlab_decimate, matlab_decimate_index
+
+    dt = 1.0 / treatment.rate_hz
+    qf = treatment.filter_positions(q)
+    qd = central_differences(qf, dt) if qd is None else treatment.filter_positions(qd)
+    qdd = central_differences(qd, dt)
+    W = model.regressor(qf, qd, qdd, (1.0,), 1, columns)          # (na * n, p), joint-major, full rate
+    n, na = q.shape
+    s0 = JANOT_FIRST_ROW - 1
+    K = treatment.decimate
+    keep = s0 + matlab_decimate_index(n - s0, K)
+    t_out = np.asarray(time, float)[keep]
+    blocks = []
+    for j in range(na):
+        Wj = matlab_decimate(W[j * n + s0:(j + 1) * n], K)
+        yj = matlab_decimate(np.asarray(tau, float)[s0:, j], K)
+        vj = matlab_decimate(qd[s0:, j], K)
+        blocks.append(Block(time=t_out, y=yj, W=Wj, velocity=vj))
     return blocks
