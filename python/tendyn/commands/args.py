@@ -102,9 +102,9 @@ def choice(domain, what: str = "value"):
 
 def treatment_option(parser) -> None:
     """``--treatment NAME``: the data treatment of an identification, tendyn's or a peer's published script
-    reproduced; the domain is :data:`tendyn.ident.treatment.TREATMENTS` (one table, the help lists it)."""
-    from tendyn.ident.treatment import TREATMENTS
+    reproduced; the domain is :data:`tendyn.ident.treatment.PRESETS` (one table, the help lists it)."""
+    from tendyn.ident.treatment import PRESETS
 
-    parser.add_argument("--treatment", type=choice(TREATMENTS, "treatment"), default="tendyn", metavar="NAME",
-                        help="data treatment: " + "; ".join(f"{k}: {v}" for k, v in TREATMENTS.items())
+    parser.add_argument("--treatment", type=choice(PRESETS, "treatment"), default="tendyn", metavar="NAME",
+                        help="data treatment: " + "; ".join(f"{k}: {v.source}" for k, v in PRESETS.items())
                              + " (default tendyn; given --cutoff-hz, --decimate, --velocity-threshold win)")

@@ -20,11 +20,16 @@ from tendyn.results import Result, format_table
 
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel, unit_of
-from .treatment import DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, stack_blocks, treat
+from .treatment import DEFAULT_VELOCITY_FRACTION, PRESETS, drop_stale, preset_treatment, stack_blocks, treat
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
 _MODELS: dict = {}
+
+METHODS = ("ols", "wls", "iv", "didim")
+"""IDIM estimators: ordinary / weighted least squares, and the closed-loop IDIM-IV and DIDIM
+(:mod:`tendyn.ident.closed_loop`)."""
+CLOSED_LOOP = ("iv", "didim")
 
 VELOCITIES = ("auto", "logged", "differentiate")
 """Where the joint velocities come from: the log's ``qd_motor_<i>``/``qd_joint_<j>`` when it has them
@@ -85,16 +90,19 @@ def _diagonal(G) -> bool:
     return G.shape[0] == G.shape[1] and bool(np.all(nz.sum(axis=0) == 1) and np.all(nz.sum(axis=1) == 1))
 
 
-def motor_space_residual(G, Y, y_hat, rows, samples, n_active) -> list[float] | None:
+def motor_space_residual(G, Y, y_hat, rows, samples, n_active, fitted_space: str = "joint") -> list[float] | None:
     """Per motor relative residual ‖y − ŷ‖ / ‖y‖ [-] in motor space, y = G⁻ᵀ τ at every treated sample all the
     active joints keep (joint-major rows of joint torques Y, model ŷ, ``samples`` their sample numbers); None
-    for a non-square G or when no sample is kept by every joint.
+    for a non-square G or when no sample is kept by every joint. With ``fitted_space="motor"`` the rows are motor
+    torques and the result is the other way: per joint, τ = Gᵀ y.
 
-    The fit is in joint space (τ = Gᵀ y, S2 eq. 4 with the motor torques mapped by virtual work): the joint
-    residuals are the ones least squares minimises; the motor ones are the same errors seen by the motors."""
+    The fit is in joint space (τ = Gᵀ y, S2 eq. 4 with the motor torques mapped by virtual work) unless a preset
+    says motor: the residuals of the fitted space are the ones least squares minimises; the other space's are
+    the same errors seen from the other side."""
     G = np.asarray(G, float)
     if G.shape[0] != G.shape[1] or n_active != G.shape[1]:
         return None
+    to_other = np.linalg.inv(G.T) if fitted_space == "joint" else G.T
     common = None
     for j in range(n_active):
         s = samples[rows == j]
@@ -107,8 +115,8 @@ def motor_space_residual(G, Y, y_hat, rows, samples, n_active) -> list[float] | 
         sel = rows == j
         idx = np.searchsorted(samples[sel], common)
         tau[:, j], tau_hat[:, j] = Y[sel][idx], y_hat[sel][idx]
-    y = np.linalg.solve(G.T, tau.T).T              # motor torques y = G⁻ᵀ τ
-    y_h = np.linalg.solve(G.T, tau_hat.T).T
+    y = tau @ to_other.T                           # motor torques y = G⁻ᵀ τ (or joint τ = Gᵀ y)
+    y_h = tau_hat @ to_other.T
     return [float(v) for v in np.linalg.norm(y - y_h, axis=0) / np.maximum(np.linalg.norm(y, axis=0), 1e-300)]
 
 
@@ -124,7 +132,8 @@ class IdentificationResult(Result):
         self.device, self.method, self.names, self.expressions = device, method, list(names), list(expressions)
         self.values, self.stderr = np.asarray(values), np.asarray(stderr)
         self.cond, self.n_rows, self.residual_rel = float(cond), int(n_rows), float(residual_rel)
-        self.per_joint_residual_rel = [float(v) for v in per_joint_residual_rel]
+        per_joint = [] if per_joint_residual_rel is None else per_joint_residual_rel
+        self.per_joint_residual_rel = [float(v) for v in per_joint]
         self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
         self.joint_numbers = list(joint_numbers)
         self.crossval = crossval
@@ -135,6 +144,8 @@ class IdentificationResult(Result):
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
         self.per_motor_residual_rel: list[float] | None = None   # motor space y = G⁻ᵀ τ (motor_space_residual)
         self.coupled = False          # G is not one motor per joint: the two spaces differ
+        self.residual_space = "joint"  # the space of the fitted rows (Treatment.space): residual_rel is in it
+        self.closed_loop: dict | None = None   # IDIM-IV / DIDIM: iterations, convergence, the LS start
 
     def flag_pseudo_inertia(self, model) -> None:
         """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
@@ -169,9 +180,10 @@ class IdentificationResult(Result):
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
-                "residual_space": "joint", "per_motor_residual_rel": self.per_motor_residual_rel,
+                "residual_space": self.residual_space, "per_motor_residual_rel": self.per_motor_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
+                "closed_loop": self.closed_loop,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -182,13 +194,24 @@ class IdentificationResult(Result):
                                   + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
                                   + ", "
                                   f"W {self.n_rows} x {len(self.names)}")
-        tail = ["", "relative residual per joint (joint space, tau = G^T y, the space of the fit): " + ", ".join(
-            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel))]
-        if self.coupled and self.per_motor_residual_rel:
-            tail.append("relative residual per motor (motor space, y = G^-T tau): " + ", ".join(
+        motor = self.residual_space == "motor"
+        tail = [""]
+        if self.per_joint_residual_rel:
+            tail.append("relative residual per joint (joint space, tau = G^T y" + ("" if motor else ", the space of the "
+                        "fit") + "): " + ", ".join(f"{j}: {100 * r:.2f} %"
+                                                  for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)))
+        if (self.coupled or motor) and self.per_motor_residual_rel:
+            tail.append("relative residual per motor (motor space, y = G^-T tau" + (", the space of the fit"
+                        if motor else "") + "): " + ", ".join(
                 f"{i}: {100 * r:.2f} %" for i, r in enumerate(self.per_motor_residual_rel, start=1)))
         tail += [
-            f"relative residual ||Y - W X|| / ||Y|| (joint space): {100 * self.residual_rel:.2f} %"]
+            f"relative residual ||Y - W X|| / ||Y|| ({self.residual_space} space): {100 * self.residual_rel:.2f} %"]
+        cl = self.closed_loop
+        if cl:
+            tail.append(f"closed loop ({cl['controller']}): {cl['iterations']} iterations, "
+                        f"{'converged' if cl['converged'] else 'NOT converged'} (|dX|/|X| < {cl['tol']:g}); simulated "
+                        f"torque residual {100 * cl['simulated_torque_residual_rel']:.2f} %; least-squares start: "
+                        + ", ".join(f"{p['name']} {p['value']:.5g}" for p in cl["ls_start"]))
         if self.crossval:
             per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
@@ -277,19 +300,28 @@ class IDIM:
         otherwise the address of a Dask scheduler (``tcp://host:8786``).
     progress : bool
         Progress bar (stderr) over the logs.
-    treatment : str
-        The data treatment, tendyn's ("tendyn") or a peer's script reproduced
-        (:data:`tendyn.ident.treatment.TREATMENTS`: "janot").
     parameters : sequence of str or None
         Identify only these base parameters (names of :attr:`IdentModel.base`), the others taken as zero: a
         reduced model such as S2 Table 4's 16 of the 29 (None: all base parameters).
+    treatment : str
+        The data treatment (:data:`tendyn.ident.treatment.PRESETS`): "tendyn" (default; None is the same) or a
+        peer's published one ("janot", "wpi", "figaroh"): its filters, decimation, velocity threshold, velocities,
+        trimming, weighting (with ``method="wls"``) and fitting space replace tendyn's defaults; ``cutoff_hz``,
+        ``decimate`` and ``velocity_threshold`` given win over the preset's.
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto", treatment="tendyn"):
+                 parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1):
         self.device = device
         self.treatment = treatment
+        self.controller = controller
+        self.output = output
+        self.jacobian = jacobian
+        self.max_iter = max_iter
+        self.tol = tol
+        self.substeps = substeps
         self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -351,17 +383,34 @@ class IDIM:
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
         self.samples_ = np.concatenate(Ss)[order]
-        return Y[order], W[order], rows[order], t[order], na
+        Y, W, rows, t = Y[order], W[order], rows[order], t[order]
+        if self.treatment_.space == "motor":
+            Y, W = self._to_motor_space(model, Y, W, rows)
+        return Y, W, rows, t, na
+
+    @staticmethod
+    def _to_motor_space(model, Y, W, rows):
+        """Joint-major rows (τ = Gᵀ y, W) → motor-major rows (y = G⁻ᵀ τ, G⁻ᵀ W): the same samples for every joint
+        (no velocity threshold); row block i is then motor i."""
+        na = model.n_active
+        n = rows.size // na
+        if rows.size != n * na or np.any(np.bincount(rows, minlength=na) != n):
+            raise ValueError("fitting in motor space needs every sample of every joint (velocity threshold 0)")
+        GinvT = np.linalg.inv(model.G.T)
+        Ym = (GinvT @ Y.reshape(na, n)).reshape(-1)
+        Wm = np.einsum("ij,jnb->inb", GinvT, W.reshape(na, n, W.shape[1])).reshape(W.shape)
+        return Ym, Wm
 
     def _thresholds(self, blocks) -> np.ndarray:
         """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
-        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log (none for a peer's preset that
-        has none: janot)."""
-        if self.velocity_threshold is None and self.treatment == "janot":
-            return np.zeros(len(blocks))
-        if self.velocity_threshold is None:
+        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
+        tr = getattr(self, "treatment_", None)      # the option given, else the preset's (None: the default rule)
+        vt = self.velocity_threshold if tr is None else tr.velocity_threshold
+        if vt is None:
             return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
-        return np.full(len(blocks), float(self.velocity_threshold))
+        if isinstance(vt, tuple):
+            return np.asarray(vt, float)
+        return np.full(len(blocks), float(vt))
 
     @staticmethod
     def _treat_here(model, log, parts, settings):
@@ -369,7 +418,13 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
-        *settings, velocities = settings
+        *settings, preset, velocities = settings
+        rate = float(log.meta["rate_hz"])
+        preset = preset or "tendyn"
+        bw = getattr(model.device, "bandwidth_hz", None)
+        tr = preset_treatment(preset, rate, bw, *settings)       # the options given win over the preset's
+        if "velocities" in PRESETS[preset].fields(rate, bw):     # a preset that says which velocities it uses
+            velocities = tr.velocities
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
         if velocities == "logged" and qd is None:
@@ -379,13 +434,13 @@ class IDIM:
             sl = slice(int(parts[0] * n), int(parts[1] * n))
             time, q, tau = time[sl], q[sl], tau[sl]
             qd = None if qd is None else qd[sl]
-        rate = float(log.meta["rate_hz"])
-        time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
+        if tr.keep_stale:
+            n_stale, retimed = 0, False
+        else:
+            time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
         known = model.known_torque(q)         # [[terms]] of kind "known": subtracted, not identified
         if known is not None:
             tau = tau - known
-        *settings, preset = settings
-        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings, preset=preset)
         tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
                                  retimed=retimed)
         return treat(model, time, q, tau, tr, qd=qd), tr
@@ -428,10 +483,17 @@ class IDIM:
                 own.close()
 
     # -- fit -------------------------------------------------------------------------------------------
-    def _solve(self, Wb, Y, rows, na):
+    def _solve(self, Wb, Y, rows, na, method=None):
+        method = self.method if method is None else method
         x, se, s2, cov = least_squares(Wb, Y)
         weights = np.ones_like(Y)
-        if self.method == "wls":
+        if method == "wls" and getattr(self, "treatment_", None) is not None \
+                and self.treatment_.weighting == "range":        # a peer's weights: 1 / range of each block
+            for j in range(na):
+                sel = rows == j
+                weights[sel] = 1.0 / max(float(np.ptp(Y[sel])), 1e-300)
+            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
+        elif method == "wls":
             r, b = Wb.shape
             res = Y - Wb @ x
             for j in range(na):
@@ -440,8 +502,8 @@ class IDIM:
                 sj2 = float(res[sel] @ res[sel]) / max(rj - b * rj / r, 1.0)
                 weights[sel] = 1.0 / np.sqrt(sj2)
             x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
-        elif self.method != "ols":
-            raise ValueError(f"method must be 'ols' or 'wls' (got {self.method!r})")
+        elif method != "ols":
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {method!r})")
         return x, se, weights
 
     def fit(self, logs, crossval=True):
@@ -461,6 +523,16 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.method in CLOSED_LOOP:
+            from .closed_loop import fit_closed_loop
+
+            if (self.treatment or "tendyn") != "tendyn":
+                raise ValueError(f"treatment {self.treatment!r} is not available with method {self.method!r} "
+                                 "(tendyn's treatment only)")
+
+            return fit_closed_loop(self, logs)
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {self.method!r})")
         model = self._model()
         base = model.base
         Y, Wstd, rows, t, na = self.observations(logs)
@@ -494,7 +566,9 @@ class IDIM:
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
-        per_motor = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na)
+        space = self.treatment_.space
+        other = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na, space)
+        per, per_motor = (per, other) if space == "joint" else (other, per)
         cv = self._crossval(logs, cols) if crossval else None
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
@@ -502,6 +576,7 @@ class IDIM:
                                             model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
         self.result_.per_motor_residual_rel = per_motor
+        self.result_.residual_space = space
         self.result_.coupled = not _diagonal(model.G)
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self.result_.flag_pseudo_inertia(model)
@@ -553,10 +628,10 @@ class IDIM:
         d = self.result_.to_dict()
         return IdentifiedModel(self._model().device, d["params"], d["method"], d["treatment"])
 
-    def predict(self, log):
+    def predict(self, log, filter_prediction: bool = True):
         """Joint and motor torques of a log predicted with the fitted parameters, one per sample at the log's
-        own time stamps (:class:`tendyn.ident.identified.TorquePrediction`)."""
-        return self.identified_model().predict(log)
+        own time stamps (:class:`tendyn.ident.identified.TorquePrediction`, :meth:`IdentifiedModel.predict`)."""
+        return self.identified_model().predict(log, filter_prediction)
 
     def score(self, log) -> np.ndarray:
         """Per joint relative error ‖τ − τ̂‖ / ‖τ‖ [-] of a log (:meth:`predict`)."""

@@ -197,11 +197,12 @@ class IdentifiedModel:
 
         return cached_model(self.device)
 
-    def predict(self, log) -> TorquePrediction:
+    def predict(self, log, filter_prediction: bool = True) -> TorquePrediction:
         """Joint and motor torques of a log (a Log or a path) predicted from its positions, one per sample at
         the log's time stamps. The positions are treated as in the identification (stale rows dropped and
         re-timed, zero-phase Butterworth, central differences or logged velocities), without decimation; the
-        predicted torques go through the same zero-phase Butterworth as the measured ones (parallel filtering)."""
+        predicted torques go through the same zero-phase Butterworth as the measured ones (parallel filtering;
+        ``filter_prediction=False``: not, as a peer's metric that compares the raw model output does)."""
         from tendyn.io import read_log
 
         from .treatment import butter_zero_phase, central_differences, default_treatment, drop_stale
@@ -235,7 +236,8 @@ class IdentifiedModel:
         measured = butter_zero_phase(tau_t, tr.cutoff_hz, rate, tr.order)
         # the model's torque through the same low-pass as the measured one (the identification's parallel filter
         # does this to both Y and W): a Coulomb step is then compared with the measured, smoothed step
-        joint = butter_zero_phase(joint, tr.cutoff_hz, rate, tr.order)
+        if filter_prediction:
+            joint = butter_zero_phase(joint, tr.cutoff_hz, rate, tr.order)
         if retimed:     # back onto the log's own time stamps
             joint, measured = ([np.column_stack([np.interp(time, t, x[:, j]) for j in range(na)])
                                 for x in (joint, measured)])

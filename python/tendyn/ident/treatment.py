@@ -23,6 +23,7 @@ Nyquist frequency.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,25 +31,14 @@ import numpy as np
 from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
-           "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION"]
+           "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION",
+           "PRESETS", "preset_treatment", "zero_phase_cutoff_of_design"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
 
 DEFAULT_VELOCITY_FRACTION = 0.02
 """Default velocity threshold (the one place it is written): a joint's samples slower than this fraction of
 its peak |q̇| in the log are dropped from its rows."""
-
-TREATMENTS = {
-    "tendyn": "tendyn's own (Gautier's rules): zero-phase Butterworth -3 dB at 5 x the bandwidth, central "
-              "differences, parallel FIR filter + decimation to about 10 x the bandwidth, the default velocity "
-              "threshold",
-    "janot": "Janot, Gautier & Brunot's Script_IDIM_LS.m (EMPS, 2019): MATLAB butter(4, 5 x bandwidth) through "
-             "filtfilt (single-pass design: -6 dB there), central differences, rows 50 on, every column and the "
-             "torque through MATLAB's decimate (Chebyshev I order 8, filtfilt) by rate / (5 x bandwidth), no "
-             "velocity threshold",
-}
-"""The peers' data treatments ``tendyn identify --treatment NAME`` reproduces (the domain of the option in
-tendyn.commands.args), each from its authors' published script; "tendyn" is the default."""
 
 JANOT_FIRST_ROW = 50
 """Janot's script keeps the rows 50…N (1-based) of the full-rate observation matrix before decimating."""
@@ -109,8 +99,22 @@ class Treatment:
     retimed: bool = False
     why: tuple = ()
     """Where each setting came from, one phrase each (given, or which of Gautier's defaults and from what)."""
+    filter_torques: bool = False
+    """The torques go through the positions' Butterworth too (a peer's treatment: WPI), besides the parallel
+    filter."""
+    trim: int = 0
+    """Samples cut at each end of every log after filtering (the filters' edge transients)."""
+    weighting: str | None = None
+    """``wls`` weights: None (tendyn: 1/σ of each joint's OLS residual) or ``"range"`` (1 / (max − min) of each
+    row block's filtered torque, WPI)."""
+    space: str = "joint"
+    """Space of the fitted rows: ``"joint"`` (τ = Gᵀ y) or ``"motor"`` (y, the logged torques; needs every
+    sample of every joint: velocity threshold 0)."""
+    keep_stale: bool = False
+    """Keep the stale rows (repeats of the previous sample) as they are, not re-timed (a peer that used them)."""
     preset: str = "tendyn"
-    """The data treatment (:data:`TREATMENTS`): "tendyn", or a peer's script reproduced."""
+    """The preset these settings came from (:data:`PRESETS`): "tendyn" (tendyn's defaults and the options given)
+    or a peer's published treatment reproduced."""
 
     @property
     def parallel_cutoff_hz(self) -> float:
@@ -156,16 +160,21 @@ class Treatment:
 
     def describe(self) -> str:
         if self.preset == "janot":
-            return (f"treatment janot ({TREATMENTS['janot']}): Butterworth order {self.order} at {self.cutoff_hz:g} "
+            return (f"treatment janot ({PRESETS['janot'].source}): Butterworth order {self.order} at {self.cutoff_hz:g} "
                     f"Hz (MATLAB butter + filtfilt); {self._samples_text()}; rows {JANOT_FIRST_ROW} on; MATLAB "
                     f"decimate by {self.decimate} ({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); "
                     f"velocity threshold {self._vt_text()}" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
+        extra = "".join([f"; preset {self.preset}" if self.preset != "tendyn" else "",
+                         "; torques through the same Butterworth" if self.filter_torques else "",
+                         f"; {self.trim} samples cut at each end" if self.trim else "",
+                         f"; weights 1/range of each {self.space} torque" if self.weighting == "range" else "",
+                         "; fitted in motor space" if self.space == "motor" else ""])
         return (f"treatment: Butterworth order {self.order} zero-phase on positions, -3 dB at {self.cutoff_hz:g} Hz; "
                 f"{self._samples_text()}; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
                 f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
                 f"({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); velocity threshold "
                 f"{self._vt_text()} (log rate {self.rate_hz:g} Hz, device bandwidth "
-                f"{self.bandwidth_hz:g} Hz)" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
+                f"{self.bandwidth_hz:g} Hz)" + extra + (f"; why: {'; '.join(self.why)}" if self.why else ""))
 
     def to_dict(self) -> dict:
         v = self.velocity_threshold
@@ -173,26 +182,17 @@ class Treatment:
                 "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
                 "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz,
                 "velocities": self.velocities, "stale_dropped": self.stale_dropped, "retimed": self.retimed,
-                "why": list(self.why), "preset": self.preset}
+                "why": list(self.why), "filter_torques": self.filter_torques, "trim": self.trim,
+                "weighting": self.weighting, "space": self.space, "keep_stale": self.keep_stale,
+                "preset": self.preset}
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
-                      velocity_threshold: float | None = 0.0, preset: str = "tendyn") -> Treatment:
+                      velocity_threshold: float | None = 0.0) -> Treatment:
     """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win); each
-    setting's origin goes into :attr:`Treatment.why`. ``preset`` (:data:`TREATMENTS`): "janot" takes Janot's
-    script's settings where none is given (cut-off 5 x the bandwidth, decimation to 5 x the bandwidth, no
-    velocity threshold)."""
-    if preset not in TREATMENTS:
-        raise ValueError(f"treatment must be one of {', '.join(TREATMENTS)} (got {preset!r})")
+    setting's origin goes into :attr:`Treatment.why`. A peer's settings: :func:`preset_treatment`."""
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
     why = [] if bandwidth_hz else [f"the device file gives no bandwidth_hz, {bw:g} Hz assumed"]
-    if preset == "janot":
-        cutoff_hz = 5.0 * bw if cutoff_hz is None else cutoff_hz
-        decimate = max(1, int(round(rate_hz / (5.0 * bw)))) if decimate is None else decimate
-        velocity_threshold = 0.0 if velocity_threshold is None else velocity_threshold
-        why.append("Janot's script: Butterworth at 5 x the bandwidth, decimation to 5 x the bandwidth, no threshold")
-        return Treatment(float(cutoff_hz), int(order), int(decimate), float(velocity_threshold), float(rate_hz), bw,
-                         why=tuple(why), preset="janot")
     if cutoff_hz is None:
         cutoff_hz = min(5.0 * bw, rate_hz / 10.0)
         why.append(f"cut-off 5 x the bandwidth ({5.0 * bw:g} Hz), above the motion and below the noise"
@@ -212,6 +212,94 @@ def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None
         why.append("velocity threshold given")
     vt = None if velocity_threshold is None else float(velocity_threshold)
     return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw, why=tuple(why))
+
+
+def zero_phase_cutoff_of_design(design_hz: float, rate_hz: float, order: int) -> float:
+    """The −3 dB frequency [Hz] of the forward-backward response of a Butterworth whose single-pass design
+    frequency is ``design_hz`` (scipy's ``butter(order, design_hz / (rate_hz / 2))``, as peers call it): the inverse
+    of the correction in :func:`butter_zero_phase`, so that ``butter_zero_phase(x, this, rate, order)`` is that
+    filter."""
+    t = np.tan(np.pi * design_hz / rate_hz) * (np.sqrt(2.0) - 1.0) ** (1.0 / (2 * order))
+    return float(np.arctan(t) * rate_hz / np.pi)
+
+
+def _wpi(rate_hz: float, bandwidth_hz) -> dict:
+    """WPI's dVRK identification (WPI-AIM/dvrk_dynamics_identification, main_mtm.ipynb cells 49–91 and
+    identification/data_processing.py): positions, logged velocities and torques through one 6th-order Butterworth
+    filtfilt of normalised frequency Wn = 2π f_c / rate (a fraction of Nyquist) with f_c = 3 × 0.1 Hz × 6 = 1.8 Hz
+    (their base frequency × Fourier order × 3), i.e. a single-pass design frequency Wn × rate / 2 = 5.65 Hz at
+    200 Hz, accelerations by differences of the velocities, no decimation, 200 samples cut at each end, no
+    velocity threshold, the stale rows of the log kept as they are (WPI's loader reads every row), the fit in motor space
+    weighted by 1 / (max − min) of each motor's filtered torque."""
+    design = 1.8 * 2 * np.pi / rate_hz * (rate_hz / 2)        # Wn × Nyquist [Hz]
+    return dict(cutoff_hz=zero_phase_cutoff_of_design(design, rate_hz, 6), order=6, decimate=1,
+                velocity_threshold=0.0, velocities="logged", filter_torques=True, trim=200, weighting="range",
+                space="motor", keep_stale=True)
+
+
+def _tendyn(rate_hz: float, bandwidth_hz) -> dict:
+    """tendyn's own treatment: every setting from :func:`default_treatment` and the options given."""
+    return {}
+
+
+def _janot(rate_hz: float, bandwidth_hz) -> dict:
+    """Janot, Gautier & Brunot's Script_IDIM_LS.m (EMPS): cut-off and decimation rate both 5 × the bandwidth,
+    no velocity threshold; the MATLAB filters and the first row are :func:`_treat_janot`'s."""
+    bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    return dict(cutoff_hz=5.0 * bw, decimate=max(1, int(round(rate_hz / (5.0 * bw)))), velocity_threshold=0.0)
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A data treatment ``tendyn identify --treatment NAME`` applies: where it comes from (one phrase, printed in
+    the option's help and the treatment's description) and the :class:`Treatment` fields it sets for a log at
+    ``rate_hz`` [Hz] of a device of dynamic bandwidth ``bandwidth_hz`` [Hz] (None: not in the device file). A
+    field the preset does not set comes from :func:`default_treatment` and the options given; ``cutoff_hz``,
+    ``decimate`` and ``velocity_threshold`` given as options win over the preset's."""
+    source: str
+    fields: object
+
+
+PRESETS = {
+    "tendyn": Preset("tendyn's own (Gautier's rules): zero-phase Butterworth -3 dB at 5 x the bandwidth, central "
+                     "differences, parallel FIR filter + decimation to about 10 x the bandwidth, the default "
+                     "velocity threshold", _tendyn),
+    "janot": Preset("Janot, Gautier & Brunot's Script_IDIM_LS.m (EMPS, 2019): MATLAB butter(4, 5 x bandwidth) "
+                    "through filtfilt (single-pass design: -6 dB there), central differences, rows 50 on, every "
+                    "column and the torque through MATLAB's decimate (Chebyshev I order 8, filtfilt) by rate / "
+                    "(5 x bandwidth), no velocity threshold", _janot),
+    "wpi": Preset("WPI's dVRK notebook (main_mtm.ipynb): order-6 Butterworth (Wn = 2 pi 1.8 Hz / rate) on "
+                  "positions, logged velocities and torques, 200 samples cut at each end, no threshold, stale rows "
+                  "kept, fit in motor space weighted by 1 / range of each motor's torque", _wpi),
+}
+"""The one table of data treatments: ``--treatment NAME`` (its domain, tendyn.commands.args), ``IDIM(treatment=)``
+and :attr:`Treatment.preset` take their names from it; docs/realdata.md describes each with what it reproduces."""
+
+
+def preset_treatment(name: str, rate_hz: float, bandwidth_hz=None, cutoff_hz=None, decimate=None, order: int = 4,
+                     velocity_threshold=None) -> Treatment:
+    """The :class:`Treatment` of preset ``name`` (:data:`PRESETS`) for a log at ``rate_hz`` [Hz]; ``cutoff_hz``
+    [Hz], ``decimate`` and ``velocity_threshold`` [rad/s] given (not None) win over the preset's, ``order`` is the
+    preset's when it sets one. ValueError naming the presets for an unknown name."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown treatment preset {name!r} (presets: {', '.join(PRESETS)})")
+    fields = dict(PRESETS[name].fields(float(rate_hz), bandwidth_hz))
+    given = {"cutoff_hz": cutoff_hz, "decimate": decimate, "velocity_threshold": velocity_threshold}
+    from_preset = [k for k, v in given.items() if v is None and k in fields]
+    for k, v in given.items():
+        if k not in from_preset:
+            fields[k] = v
+    order = fields.pop("order", order)
+    tr = default_treatment(rate_hz, bandwidth_hz, fields.pop("cutoff_hz"), fields.pop("decimate"), order,
+                           fields.pop("velocity_threshold"))
+    if name == "tendyn":
+        return tr
+    said = {"cutoff_hz": "cut-off given", "decimate": "decimation given",
+            "velocity_threshold": "velocity threshold given"}
+    why = (f"preset {name}" + (f" ({', '.join(k for k in from_preset)})" if from_preset else ""),) + tuple(
+        w for w in tr.why if w not in {said[k] for k in from_preset})
+    velocities = fields.pop("velocities", tr.velocities)
+    return dataclasses.replace(tr, velocities=velocities, preset=name, why=why, **fields)
 
 
 def drop_stale(time, rate_hz: float, q, tau, qd=None):
@@ -287,6 +375,8 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
         return _treat_janot(model, time, q, tau, treatment, columns, qd)
     dt = 1.0 / treatment.rate_hz
     qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
+    if treatment.filter_torques:
+        tau = butter_zero_phase(tau, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
     if qd is None:
         qd = central_differences(qf, dt)
     else:
@@ -309,6 +399,11 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
     # W's own times must match the decimated time column
     if n_out and np.max(np.abs(dec[:, 0] - t_w)) > 0.1 * dt * max(1, 1):
         raise AlignmentError("the decimated torques and the regressor rows are not centred on the same samples")
+    m = treatment.trim
+    if m:
+        if n_out <= 2 * m:
+            raise ValueError(f"the log has {n_out} samples, the treatment cuts {m} at each end")
+        blocks = [Block(time=b.time[m:-m], y=b.y[m:-m], W=b.W[m:-m], velocity=b.velocity[m:-m]) for b in blocks]
     return blocks
 
 
