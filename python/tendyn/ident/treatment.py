@@ -40,6 +40,18 @@ DEFAULT_VELOCITY_FRACTION = 0.02
 """Default velocity threshold (the one place it is written): a joint's samples slower than this fraction of
 its peak |q̇| in the log are dropped from its rows."""
 
+FIGAROH_DECIMATE = (10, 10)
+"""FIGAROH's TX40 script decimates the torques and every regressor column by scipy.signal.decimate(q=10,
+zero_phase=True) twice (100 in all)."""
+
+FIGAROH_LAST_ACCELERATION = False
+"""FIGAROH's calculate_first_second_order_differentiation loops over the first nq − 1 joints only: the last
+joint's acceleration stays zero (reproduced; True computes it, to measure what it changes)."""
+
+FIGAROH_BLOCK_SHIFT = True
+"""FIGAROH's TX40 script slices joint i's regressor block at i × (n − 40) of a matrix whose blocks have n − 42
+rows: joint i's rows are 2i samples ahead of its torques (reproduced; False aligns them, to measure it)."""
+
 JANOT_FIRST_ROW = 50
 """Janot's script keeps the rows 50…N (1-based) of the full-rate observation matrix before decimating."""
 
@@ -159,6 +171,11 @@ class Treatment:
         return vel + stale + ("; re-timed onto the uniform grid" if self.retimed else "")
 
     def describe(self) -> str:
+        if self.preset == "figaroh":
+            return (f"treatment figaroh ({PRESETS['figaroh'].source}): Butterworth order {self.order} designed at "
+                    f"{self.cutoff_hz:g} Hz (scipy butter + filtfilt); {5 * self.order} samples cut at each end; "
+                    f"decimation {self.decimate} ({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); "
+                    f"velocity threshold {self._vt_text()}" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
         if self.preset == "janot":
             return (f"treatment janot ({PRESETS['janot'].source}): Butterworth order {self.order} at {self.cutoff_hz:g} "
                     f"Hz (MATLAB butter + filtfilt); {self._samples_text()}; rows {JANOT_FIRST_ROW} on; MATLAB "
@@ -210,7 +227,8 @@ def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None
                    "(the sign of the Coulomb term is undefined near rest)")
     else:
         why.append("velocity threshold given")
-    vt = None if velocity_threshold is None else float(velocity_threshold)
+    vt = None if velocity_threshold is None else (tuple(float(v) for v in velocity_threshold)
+                                                  if np.ndim(velocity_threshold) else float(velocity_threshold))
     return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw, why=tuple(why))
 
 
@@ -249,6 +267,15 @@ def _janot(rate_hz: float, bandwidth_hz) -> dict:
     return dict(cutoff_hz=5.0 * bw, decimate=max(1, int(round(rate_hz / (5.0 * bw)))), velocity_threshold=0.0)
 
 
+def _figaroh(rate_hz: float, bandwidth_hz) -> dict:
+    """FIGAROH's examples/staubli_TX40/identification.py: the config's Butterworth cut-off (100 Hz for the TX40,
+    i.e. 10 × its 10 Hz bandwidth) read as Wn = ts · f_c / 2, a single-pass design at f_c / 4 (the cut-off given
+    is that design frequency [Hz]), order 4, decimation by 10 twice. The per-joint velocity thresholds are the
+    robot's config (dq_lim_def): give them (velocity_threshold); the rest is :func:`_treat_figaroh`'s."""
+    bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    return dict(cutoff_hz=10.0 * bw / 4.0, order=4, decimate=int(np.prod(FIGAROH_DECIMATE)))
+
+
 @dataclass(frozen=True)
 class Preset:
     """A data treatment ``tendyn identify --treatment NAME`` applies: where it comes from (one phrase, printed in
@@ -271,6 +298,11 @@ PRESETS = {
     "wpi": Preset("WPI's dVRK notebook (main_mtm.ipynb): order-6 Butterworth (Wn = 2 pi 1.8 Hz / rate) on "
                   "positions, logged velocities and torques, 200 samples cut at each end, no threshold, stale rows "
                   "kept, fit in motor space weighted by 1 / range of each motor's torque", _wpi),
+    "figaroh": Preset("FIGAROH's Staubli TX40 script (identification.py): scipy butter(4) filtfilt at the "
+                      "config's cut-off read as Wn = ts fc / 2 (a design at 2.5 x the bandwidth), 20 samples cut "
+                      "at each end, forward differences then np.gradient (the last joint's acceleration left at "
+                      "zero), joint blocks sliced as the script does, scipy decimate(10) twice on torques and "
+                      "columns, the given per-joint velocity thresholds", _figaroh),
 }
 """The one table of data treatments: ``--treatment NAME`` (its domain, tendyn.commands.args), ``IDIM(treatment=)``
 and :attr:`Treatment.preset` take their names from it; docs/realdata.md describes each with what it reproduces."""
@@ -373,6 +405,8 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
 
     if treatment.preset == "janot":
         return _treat_janot(model, time, q, tau, treatment, columns, qd)
+    if treatment.preset == "figaroh":
+        return _treat_figaroh(model, time, q, tau, treatment, columns)
     dt = 1.0 / treatment.rate_hz
     qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
     if treatment.filter_torques:
@@ -430,3 +464,49 @@ def _treat_janot(model, time, q, tau, treatment: Treatment, columns=None, qd=Non
         vj = matlab_decimate(qd[s0:, j], K)
         blocks.append(Block(time=t_out, y=yj, W=Wj, velocity=vj))
     return blocks
+
+
+def _treat_figaroh(model, time, q, tau, treatment: Treatment, columns=None):
+    """FIGAROH's examples/staubli_TX40/identification.py step by step (snapshot c3b5172): positions through
+    scipy's ``filtfilt(butter(order, Wn), padlen=3 (n − 1))`` with Wn = cutoff_hz / (rate / 2), 5 × order
+    samples cut at each end; q̇ by forward differences, q̈ = np.gradient(q̇) (the last joint's left at zero:
+    :data:`FIGAROH_LAST_ACCELERATION`), the last two rows dropped; the torques cut by the same 5 × order at each
+    end; joint i's regressor rows sliced at i × (its torque length) (:data:`FIGAROH_BLOCK_SHIFT`); torques and
+    every column through ``scipy.signal.decimate(q=10, zero_phase=True)`` twice. The velocity of each decimated
+    row is the joint's decimated FV column, as the script thresholds it. Returns the joint blocks."""
+    import scipy.signal as ss
+
+    dt = 1.0 / treatment.rate_hz
+    q, tau = np.asarray(q, float), np.asarray(tau, float)
+    n, na = q.shape
+    b, a = ss.butter(treatment.order, treatment.cutoff_hz / (treatment.rate_hz / 2.0))
+    nb = 5 * treatment.order
+    qf = ss.filtfilt(b, a, q, axis=0, padtype="odd", padlen=3 * (max(len(a), len(b)) - 1))[nb:n - nb]
+    qd = np.diff(qf, axis=0) / dt                                     # (n − 2 nb − 1)
+    qdd = np.gradient(qd, axis=0, edge_order=1) / dt
+    if not FIGAROH_LAST_ACCELERATION:
+        qdd[:, -1] = 0.0
+    qf, qd, qdd = qf[:-2], qd[:-1], qdd[:-1]                          # N = n − 2 nb − 2 rows
+    W = model.regressor(qf, qd, qdd, (1.0,), 1, columns)             # (na N, p), joint-major
+    N = qf.shape[0]
+    y = tau[nb:n - nb]                                                 # nj = n − 2 nb rows per joint
+    nj = y.shape[0]
+    names = model.standard_names if columns is None else [model.standard_names[c] for c in columns]
+    t = np.asarray(time, float)[nb:n - nb]
+
+    def dec(x):
+        for r in FIGAROH_DECIMATE:
+            x = ss.decimate(x, r, axis=0, zero_phase=True)
+        return x
+
+    blocks = []
+    for j, num in enumerate(model.active_numbers):
+        start = j * nj if FIGAROH_BLOCK_SHIFT else j * N
+        Wj = dec(W[start:start + (nj if FIGAROH_BLOCK_SHIFT else N)])
+        yj = dec(y[:, j])
+        m = min(len(yj), Wj.shape[0])
+        fv = names.index(f"FV{num}")
+        tj = t[::int(np.prod(FIGAROH_DECIMATE))][:m]
+        blocks.append(Block(time=tj, y=yj[:m], W=Wj[:m], velocity=Wj[:m, fv]))
+    m = min(bl.y.size for bl in blocks)
+    return [Block(time=bl.time[:m], y=bl.y[:m], W=bl.W[:m], velocity=bl.velocity[:m]) for bl in blocks]
