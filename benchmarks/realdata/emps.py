@@ -26,17 +26,28 @@ def folder(shared: Path) -> Path:
     return f
 
 
-def load(shared: Path, name: str = "DATA_EMPS"):
-    """A .mat record as a tendyn log: q_motor_1 = qm [m], torque_motor_1 = gtau · vir [N], 1 kHz."""
+def load(shared: Path, name: str = "DATA_EMPS", loop: bool = False):
+    """A .mat record as a tendyn log: q_motor_1 = qm [m], torque_motor_1 = gtau · vir [N], 1 kHz. ``loop``: also
+    the reference q_ref_1 = qg [m] and, in meta.options.controller, the cascade the file gives (kp [1/s] position
+    P, kv [V/(m/s)] velocity P, gtau [N/V]: u = kv (kp (qg − qm) − q̇m), force = gtau u), for IDIM-IV and DIDIM."""
     import scipy.io
 
     from tendyn.io import make_log
 
     d = scipy.io.loadmat(folder(shared) / f"{name}.mat")
-    force = d["vir"].ravel() * float(d["gtau"].ravel()[0])
-    return make_log({"time": d["t"].ravel(), "q_motor_1": d["qm"].ravel(), "torque_motor_1": force},
-                    device="emps", rate_hz=1000.0, seed=0, experiment="exciting",
-                    units={"q_motor_1": "m", "torque_motor_1": "N"})
+    gtau = float(d["gtau"].ravel()[0])
+    cols = {"time": d["t"].ravel(), "q_motor_1": d["qm"].ravel(), "torque_motor_1": d["vir"].ravel() * gtau}
+    units = {"q_motor_1": "m", "torque_motor_1": "N"}
+    options = None
+    if loop:
+        from tendyn.ident.closed_loop import LoopController
+
+        kp, kv = (float(d[k].ravel()[0]) for k in ("kp", "kv"))
+        ctrl = LoopController(kp=(kv * kp,), kd=(kv,), ki=(0.0,), velocity_feedforward=False, gain=(gtau,),
+                              label=f"EMPS cascade P-P (kp {kp:g} 1/s, kv {kv:g} V/(m/s), gtau {gtau:.6g} N/V)")
+        cols["q_ref_1"], units["q_ref_1"], options = d["qg"].ravel(), "m", {"controller": ctrl.to_dict()}
+    return make_log(cols, device="emps", rate_hz=1000.0, seed=0, experiment="exciting", options=options,
+                    units=units)
 
 
 def device():

@@ -100,13 +100,14 @@ def test_janot_preset_plants_are_seen(emps, logs, monkeypatch, plant):
 def test_default_predicts_pulses_as_well_as_the_peer(emps, logs):
     log, pulses = logs
     est = emps.fit(log)
-    assert emps.janot_error(est, pulses) <= 5.98
+    # the published 5.9824 % (5.98 % rounded, as the issue writes it): measured 5.9810 % with the 0.25 % threshold;
+    # no default threshold below 2 % reaches the rounded 5.98 % (docs/realdata.md, the table of thresholds)
+    assert emps.janot_error(est, pulses) <= emps.PUBLISHED_PULSES_ERROR
 
 
 @needs_emps
-@pytest.mark.xfail(strict=True, reason="the 2 % velocity threshold drops rows that carry the offset: OFFSET1 "
-                                       "1.25 % off (docs/realdata.md); the default is not changed yet")
 def test_default_values_within_one_percent(emps, logs):
+    """With the default threshold of 0.25 % of the peak speed: OFFSET1 0.36 % off (at 2 %: 1.25 %, seen failing)."""
     est = emps.fit(logs[0])
     assert max(_off_pct(emps, est).values()) < 1.0
 
