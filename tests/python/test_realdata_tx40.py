@@ -103,18 +103,18 @@ def test_figaroh_preset_plants_are_seen(tx40, names, log, monkeypatch, plant):
 
 def test_split_default_predicts_the_unseen_half_better_than_figaroh_method(tx40, log):
     """Fitted on the first half, predicting the second: tendyn's defaults beat FIGAROH's script fitted on the same
-    half (7.8 % vs 14.9 %); FIGAROH's published parameters, which saw the second half, reach 5.6 %."""
+    half (8.6 % vs 15.2 %); FIGAROH's published parameters, which saw the second half, reach 6.3 %."""
     fit_p, test_p = tx40.SPLITS["second half (fit on the first)"]
     test = tx40.observations(log, test_p)
     default = tx40.relative_error(test, tx40.solve(tx40.observations(log, fit_p)))[0]
     method = tx40.relative_error(test, tx40.solve(tx40.preset_observations(log, fit_p)))[0]
     assert default < 0.6 * method
-    assert 0.06 < default < 0.09
+    assert 0.06 < default < 0.095
 
 
 @pytest.mark.xfail(strict=True, reason="FIGAROH's published parameters were fitted on the whole log, the unseen "
-                                       "half included: 5.64 % / 5.22 % against tendyn's 7.76 % / 7.23 % fitted on "
-                                       "the other half (docs/realdata.md); in-sample both 5.4 % / 5.3 %")
+                                       "half included: 6.31 % / 5.85 % against tendyn's 8.56 % / 7.87 % fitted on "
+                                       "the other half (docs/realdata.md); in-sample 6.03 % / 6.00 %")
 def test_split_default_at_least_as_good_as_the_published_parameters(tx40, log, names):
     ref = tx40.reference(SHARED)
     published = tx40.tendyn_values(names, [ref[n][0] for n in names])
