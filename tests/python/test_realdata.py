@@ -134,9 +134,31 @@ def test_identify_cli_with_the_preset_under_a_second(emps, logs, tmp_path, capsy
 def test_treatment_option_domain(capsys):
     from tendyn.cli import main
 
+    from tendyn.ident.treatment import PRESETS
+
     assert main(["identify", "tx40", str(ROOT / "Makefile"), "--treatment", "matlab"]) == 2
     err = capsys.readouterr().err
-    assert "--treatment" in err and "janot" in err and "tendyn: error:" in err
+    assert "--treatment" in err and "tendyn: error:" in err and "Traceback" not in err
+    assert set(PRESETS) == {"tendyn", "janot", "wpi", "figaroh"} and all(name in err for name in PRESETS)
+
+
+def test_one_preset_table_and_given_options_win():
+    """tendyn's preset is default_treatment itself; a peer's preset sets its fields; cut-off, decimation and
+    threshold given win over the preset's (and say so in why); the order is the preset's."""
+    from tendyn.ident.treatment import default_treatment, preset_treatment
+
+    assert preset_treatment("tendyn", 1000.0, 20.0, velocity_threshold=None) == default_treatment(
+        1000.0, 20.0, velocity_threshold=None)
+    j = preset_treatment("janot", 1000.0, 20.0)
+    assert (j.preset, j.cutoff_hz, j.decimate, j.velocity_threshold) == ("janot", 100.0, 10, 0.0)
+    g = preset_treatment("janot", 1000.0, 20.0, cutoff_hz=30.0, order=2)
+    assert g.cutoff_hz == 30.0 and g.decimate == 10 and g.order == 2 and "cut-off given" in g.why
+    w = preset_treatment("wpi", 200.0, 1.0, order=4)
+    assert w.order == 6 and w.space == "motor" and w.trim == 200 and w.velocities == "logged"
+    f = preset_treatment("figaroh", 5000.0, 10.0, velocity_threshold=(0.1,) * 6)
+    assert f.cutoff_hz == 25.0 and f.decimate == 100 and f.velocity_threshold == (0.1,) * 6
+    with pytest.raises(ValueError, match="presets: tendyn, janot, wpi, figaroh"):
+        preset_treatment("matlab", 1000.0)
 
 
 @needs_emps

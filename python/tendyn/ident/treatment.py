@@ -32,7 +32,7 @@ from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
            "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION",
-           "PRESETS", "preset_treatment", "zero_phase_cutoff_of_design"]
+           "PRESETS", "Preset", "preset_treatment", "zero_phase_cutoff_of_design"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
 
