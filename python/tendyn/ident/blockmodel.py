@@ -667,7 +667,10 @@ class BlockModel:
 
     Parameters (hyper-parameters, stored as given)
     ----------
-    structure : {"wiener", "hammerstein", "lure"}
+    structure : {"wiener", "hammerstein", "lure", "push-pull", "auto"}
+        ``push-pull``: two Lur'e loops of one G and one friction level fed max(u, 0) and min(u, 0), outputs added
+        (a class-B 2N drive, :func:`_push_pull_simulate`); ``auto``: each of :data:`AUTO_CANDIDATES` fitted, the
+        lowest mean NRMS on the validation records kept (``nonlinearity`` is then not used).
     nonlinearity : str
         One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``;
         ``lure``: ``coulomb`` (friction of level ``params_["level"]`` [input unit] in G's feedback).
@@ -688,7 +691,8 @@ class BlockModel:
     ------------------
     order_ : int;  b_, a_ : the coefficients of G(z) (``a_`` without its leading 1);  params_ : dict of the
     nonlinearity's parameters [its input's unit];  dt_ : [s];  linear_ : G(z) (python-control);
-    fit_rms_, fit_nrms_ ;  validation_nrms_ : list;  order_nrms_ : {order: NRMS};  nfev_ ;  result_ :
+    structure_, nonlinearity_ : the fitted structure (``auto``: the chosen one);  structure_nrms_ : {"structure
+    nonlinearity": validation NRMS} (``auto``);  fit_rms_, fit_nrms_ ;  validation_nrms_ : list;  order_nrms_ : {order: NRMS};  nfev_ ;  result_ :
     :class:`BlockModelFit`.
     """
 
