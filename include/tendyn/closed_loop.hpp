@@ -54,7 +54,7 @@ inline void closed_loop_run(const TreeDynamicsModel& tree0, const Eigen::MatrixX
   const Eigen::Index nt = L.rows(), na = L.cols(), nm = G.rows(), n = ref_q.rows(), nr = ref_q.cols();
   const Eigen::Index p_in = 10 * nt;
   TreeDynamicsModel tree = tree0;
-  for (int j = 0; j < tree.n; ++j) tree.set_parameters(j, &X(r, 10 * j));
+  for (int j = 0; j < tree.n; ++j) tree.set_parameters(j, X.data() + r * X.outerStride() + 10 * j);
   TreeDynamicsData td(tree);
   Eigen::VectorXd IA(na), FV(na), FS(na), OFF(na), IAm(nm), FVm(nm), FSm(nm);
   for (Eigen::Index j = 0; j < na; ++j) {
