@@ -204,8 +204,9 @@ def test_compiled_loop_is_the_python_loop(twin, space):
     ref_q, ref_qd = ll.ref_q, ll.ref_qd
     if space == "motor":
         G = model.G
-        ctrl = LoopController(tuple(np.asarray(ctrl.kp) * 0.5), tuple(np.asarray(ctrl.kd) * 0.5),
-                              tuple(np.asarray(ctrl.ki) * 0.2), "motor", 50.0, False, tuple([1.5] * model.n_motors))
+        s2 = np.sum(G ** 2, axis=1) * 1.5            # the joint gains seen through G and the gain 1.5
+        ctrl = LoopController(tuple(np.mean(ctrl.kp) / s2), tuple(np.mean(ctrl.kd) / s2),
+                              tuple(0.2 * np.mean(ctrl.ki) / s2), "motor", 50.0, False, tuple([1.5] * model.n_motors))
         ref_q = (ref_q - model.joint_offsets) @ G.T
         ref_qd = ref_qd @ G.T
     n = 800
