@@ -19,7 +19,9 @@ gives, or a C(z) per joint):
 
 The simulation: state (q, q̇) of the active joints, q̈ = A(q)⁻¹ (τ − W(q, q̇, 0) X) with A's columns
 W(q, 0, e_i) X − W(q, 0, 0) X over the inertial columns (:meth:`IdentModel.mass_matrix`), the controller updated
-at every log sample (its rate), semi-implicit Euler at the log's sample time; ideal sensors (the model of the
+at every log sample (its rate), semi-implicit Euler at the log's sample time (compiled:
+``include/tendyn/closed_loop.hpp``, one tree pass per step for A and b; the regressor-built Python loop for
+devices with ``[[terms]]``); ideal sensors (the model of the
 device, not of its noise). An estimator here never reads a twin's truth: only the log (positions, torques,
 reference, controller).
 """
