@@ -81,7 +81,8 @@ def field_value(msg, steps: list, path: str) -> float:
     if isinstance(node, np.ndarray) and node.ndim == 0:
         node = node[()]
     if isinstance(node, (bool, np.bool_)) or not isinstance(node, (int, float, np.integer, np.floating)):
-        what = f"an array of {len(node)}" if hasattr(node, "__len__") else type(node).__name__
+        what = (f"an array of {len(node)}" if hasattr(node, "__len__") else
+                f"a {node.__msgtype__}" if hasattr(node, "__msgtype__") else type(node).__name__)
         raise ValueError(f"{path!r} is {what}, not a number" + (" (add [k])" if hasattr(node, "__len__") else ""))
     return float(node)
 
