@@ -62,6 +62,17 @@ def existing_input(text: str) -> Path:
     return p
 
 
+def report_dir(text: str) -> Path:
+    """``--report DIR``: a folder that exists or can be created (nothing is created here)."""
+    from tendyn.cli import _check_out_folder
+    from tendyn.errors import UsageError
+
+    try:
+        return Path(_check_out_folder(text, "report"))
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(exc.problem) from None
+
+
 def out_path(suffixes):
     """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
     def convert(text: str) -> Path:
