@@ -7,7 +7,7 @@ STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-python test-cpp test-asan tools demo bench mutants docs clean
+.PHONY: install test test-steps test-python test-cpp test-asan tools demo bench mutants docs clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -21,9 +21,22 @@ $(STAMP): $(VPY) $(SOURCES)
 
 install: $(STAMP)
 
-# The Python tests also build the C/C++ examples against the installed package (CMake, pkg-config, cc).
-test: install tools test-cpp
-	TENDYN_REQUIRE_EXAMPLES=1 $(VPY) -m pytest tests/python -q
+# Workers of the Python suite: one per CPU this process may use (NPROC=1 runs it serially).
+NPROC    ?= $(shell nproc 2>/dev/null || echo 2)
+# Extra pytest options, e.g. PYTEST_ARGS="-p randomly" (shuffled order, its seed printed) or "-m slow".
+PYTEST_ARGS ?=
+
+# The Python tests also build the C/C++ examples against the installed package (CMake, pkg-config, cc). The suite
+# runs on every core (pytest-xdist; one module per worker at a time, so a module's fixtures are built once), prints
+# its 15 slowest tests, and the whole of `make test` prints its wall time (docs/testing.md).
+test:
+	@start=$$(date +%s); $(MAKE) --no-print-directory test-steps; rc=$$?; \
+	echo "[test] make test: $$(( $$(date +%s) - start )) s wall, $(NPROC) pytest workers, exit $$rc"; exit $$rc
+
+test-steps: install tools test-cpp
+	@start=$$(date +%s); TENDYN_REQUIRE_EXAMPLES=1 TENDYN_CPP_BUILD=$(abspath build/cpp) $(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope \
+	  --durations=15 $(PYTEST_ARGS); rc=$$?; \
+	echo "[test] Python suite: $$(( $$(date +%s) - start )) s wall"; exit $$rc
 
 # pkg-config for tests/python/test_examples.py, headless chromium for tests/python/test_reports.py (the HTML
 # reports opened in a browser); installed with apt when missing (root only).
@@ -36,15 +49,15 @@ tools:
 	  || echo "[tools] chromium is missing and cannot be installed without root: the report browser tests skip"
 
 test-python: install
-	$(VPY) -m pytest tests/python -q
+	$(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope $(PYTEST_ARGS)
 
 # C++ test executables (no allocation in the real-time calls, C ABI), through CTest.
 test-cpp: install
 	mkdir -p build
-	cmake -S . -B build/cpp -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_TESTS=ON \
+	cmake -S . -B build/cpp -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_TESTS=ON -DCMAKE_INSTALL_LIBDIR=lib \
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
-	ctest --test-dir build/cpp --output-on-failure
+	ctest --test-dir build/cpp --output-on-failure -j $(NPROC)
 
 # The C++ tests and the C loaders' fuzz under AddressSanitizer + UndefinedBehaviorSanitizer (leaks included):
 # any finding fails the test (exit status). Not part of `make test`: the C ABI alone is ~3 min of CPU to build under

@@ -320,7 +320,9 @@ def print_table(results: list) -> None:
 ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
         "diff7_feedforward_mean": "differential", "nplus1_feedforward_mean": "tendons",
         "lexos_compensator_cycle_tracking": "tracking",
-        "zwidth_grid": "zwidth", "tx40_identify": "tx40", "stream_identify_1h": "stream"}
+        "zwidth_grid": "zwidth", "tx40_identify": "tx40", "stream_identify_1h": "stream",
+        "python_suite_wall": "suite",
+        "identify_iv_gen6_twin_end_to_end": "closed_loop", "identify_didim_gen6_twin_end_to_end": "closed_loop"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 
@@ -353,6 +355,14 @@ def run_only(names: list[str]) -> int:
         from ident_scale import bench_stream
 
         bench_stream(results)
+    if "suite" in groups:
+        from suite_bench import bench_test_suite
+
+        bench_test_suite(results)
+    if "closed_loop" in groups:
+        from closed_loop_bench import bench_closed_loop_identify
+
+        bench_closed_loop_identify(results)
     path = HERE / "results.json"
     old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
     new = {r["name"] for r in results}
@@ -403,6 +413,12 @@ def main() -> int:
 
     bench_cli_latency(results)
     bench_identify_end_to_end(results)
+    from closed_loop_bench import bench_closed_loop_identify
+
+    bench_closed_loop_identify(results)
+    from suite_bench import bench_test_suite
+
+    bench_test_suite(results)
     path = HERE / "results.json"
     atomic_write_text(path, json.dumps(results, indent=2))
     print_table(results)

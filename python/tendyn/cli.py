@@ -655,7 +655,8 @@ def _interrupt_is_exit_130(run):
 
         if threading.current_thread() is not threading.main_thread():
             return code
-        signal.signal(signal.SIGINT, _exit_130)
+        if signal.getsignal(signal.SIGINT) is not signal.SIG_IGN:     # an ignore inherited (background job) stays
+            signal.signal(signal.SIGINT, _exit_130)
         try:
             atexit._run_exitfuncs()             # what the interpreter's exit would run (finalizers, flushes)
             sys.stdout.flush()

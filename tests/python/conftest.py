@@ -42,3 +42,92 @@ def s2_quick_report(claims_ctx):
     from tendyn.claims import twins
 
     return twins.s2_report(claims_ctx)
+
+
+# ---- however the suite is started (issue 39) ----------------------------------------------------------------
+
+@pytest.fixture
+def sigint_default():
+    """Python's own Ctrl-C handler (KeyboardInterrupt) for a test that interrupts this process itself.
+
+    A suite started in a background job (``(trap '' INT; make test) &``) inherits SIGINT *ignored*, and then Python
+    installs no handler: such a test would see its Ctrl-C vanish. It sets the handler itself and gives back the
+    inherited one afterwards. (The product honouring an inherited ignore is tested in test_cli_guards.py.)"""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals are handled in the main thread only")
+    old = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _live_children() -> dict[int, str]:
+    """pid → command line of this process's children that are still running (zombies excluded): Linux /proc."""
+    import os
+
+    pids: set[int] = set()
+    try:
+        for task in os.listdir("/proc/self/task"):
+            with open(f"/proc/self/task/{task}/children") as f:
+                pids.update(int(p) for p in f.read().split())
+    except OSError:                           # no /proc (not Linux): nothing to check
+        return {}
+    out = {}
+    for pid in pids:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                if f.read().rsplit(")", 1)[1].split()[0] == "Z":
+                    continue
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                cmd = f.read().replace(b"\0", b" ").decode(errors="replace").strip()[:200]
+        except OSError:
+            continue                          # ended meanwhile
+        if not any(helper in cmd for helper in PROCESS_HELPERS):
+            out[pid] = cmd
+    return out
+
+
+PROCESS_HELPERS = ("multiprocessing.resource_tracker", "multiprocessing.forkserver")
+"""Children that multiprocessing starts once and keeps for the life of this process (not a test's leak)."""
+
+
+@pytest.fixture(autouse=True)
+def no_process_left_behind(request):
+    """A test that leaves a child process running fails with its name (and the process is killed), so a leak
+    cannot slow or hang the workers that follow. Set up before, torn down after every other fixture of the test;
+    processes of module or session fixtures (a browser, a cluster) exist before it and are not counted."""
+    import os
+    import signal
+    import time
+
+    before = set(_live_children())
+    yield
+    deadline = time.monotonic() + 10.0       # a process being shut down (a Dask worker) gets time to go
+    left = {p: c for p, c in _live_children().items() if p not in before}
+    while left and time.monotonic() < deadline:
+        time.sleep(0.05)
+        left = {p: c for p, c in _live_children().items() if p not in before}
+    if left:
+        for pid in left:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except OSError:
+                pass
+        pytest.fail(f"{request.node.nodeid} left {len(left)} process(es) running: "
+                    + "; ".join(f"{p}: {c}" for p, c in sorted(left.items())), pytrace=False)
+
+
+HEAVY_FIRST = ("test_package.py", "test_reports.py", "test_readme.py", "test_any_device.py", "test_examples.py",
+               "test_cli_property_fuzz.py", "test_file_fuzz.py", "test_ident_friction.py", "test_nplus1_sim.py")
+"""Modules of a minute or more of work, handed to the workers first: a long module started last would leave the
+other workers idle at the end of a parallel run (longest-first scheduling). Names only: a module missing here
+is still run, in its place."""
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {name: k for k, name in enumerate(HEAVY_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))      # stable: file order kept otherwise

@@ -184,7 +184,7 @@ def test_a_path_longer_than_the_file_system_allows_is_an_input_error(tmp_path, c
 
 # ---- Ctrl-C --------------------------------------------------------------------------------------------------
 
-def test_a_ctrl_c_while_files_are_put_in_place_is_held_until_the_set_is_whole():
+def test_a_ctrl_c_while_files_are_put_in_place_is_held_until_the_set_is_whole(sigint_default):
     from tendyn.io.files import interrupts_deferred
 
     done = []
@@ -196,7 +196,8 @@ def test_a_ctrl_c_while_files_are_put_in_place_is_held_until_the_set_is_whole():
     assert done == ["second file"]
 
 
-def test_simulate_interrupted_while_writing_writes_every_pair_then_exits_130(tmp_path, capsys, monkeypatch):
+def test_simulate_interrupted_while_writing_writes_every_pair_then_exits_130(tmp_path, capsys, monkeypatch,
+                                                                            sigint_default):
     """A stepped sine writes one log and truth per frequency: a Ctrl-C at the first write leaves all of them."""
     import tendyn.cli as cli
 
@@ -221,6 +222,24 @@ def test_simulate_interrupted_while_writing_writes_every_pair_then_exits_130(tmp
         read_run(tmp_path / f"run_0{k}.csv")       # each pair whole and of one run
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run_01.csv", "run_01.truth.json", "run_02.csv",
                                                           "run_02.truth.json"]
+
+
+def test_a_process_started_with_ctrl_c_ignored_keeps_ignoring_it():
+    """A background job inherits SIGINT ignored (its shell's `trap '' INT`, or `&` without job control): tendyn
+    honours that ignore while files are put in place and after the command returned — exit 0, no 'interrupted'."""
+    code = ("import atexit, os, signal, sys, time\n"
+            "from tendyn.io.files import interrupts_deferred\n"
+            "with interrupts_deferred():\n"
+            "    os.kill(os.getpid(), signal.SIGINT)\n"
+            "    time.sleep(0.05)\n"
+            "atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(0.2)))\n"
+            "sys.argv = ['tendyn', 'config', '--cflags']\n"
+            "from tendyn.cli import main\n"
+            "sys.exit(main())\n")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    assert res.returncode == 0 and "interrupted" not in res.stderr, (res.returncode, res.stderr)
+    assert res.stdout.strip()
 
 
 def test_a_ctrl_c_after_the_command_returned_is_exit_130_not_death_by_signal(tmp_path):

@@ -5,6 +5,7 @@ Eigen, a plain `cmake --install`)."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -185,11 +186,14 @@ def test_cmake_install_of_the_plain_build(pkg, tmp_path):
     from tendyn import c_package
 
     build_dir, prefix = tmp_path / "build", tmp_path / "prefix"
-    run(["cmake", "-S", str(REPO), "-B", str(build_dir), "-DTENDYN_BUILD_PYTHON=OFF",
-         f"-DPython_EXECUTABLE={sys.executable}", f"-DCMAKE_INSTALL_PREFIX={prefix}", "-DCMAKE_INSTALL_LIBDIR=lib",
-         "-DCMAKE_BUILD_TYPE=Release"])
-    run(["cmake", "--build", str(build_dir), "-j", "2"])
-    run(["cmake", "--install", str(build_dir)])
+    made = os.environ.get("TENDYN_CPP_BUILD")
+    if made:        # `make test`: the plain build its test-cpp step has just made (the same options, tests added)
+        build_dir = Path(made)
+    else:
+        run(["cmake", "-S", str(REPO), "-B", str(build_dir), "-DTENDYN_BUILD_PYTHON=OFF",
+             f"-DPython_EXECUTABLE={sys.executable}", "-DCMAKE_INSTALL_LIBDIR=lib", "-DCMAKE_BUILD_TYPE=Release"])
+        run(["cmake", "--build", str(build_dir), "-j", "2"])
+    run(["cmake", "--install", str(build_dir), "--prefix", str(prefix)])
     plain = c_package.CPackage(prefix=prefix, cmeel_prefix=pkg.cmeel_prefix)
     assert plain.installed()
     assert {p.name for p in (plain.include_dir / "tendyn").iterdir()} == \

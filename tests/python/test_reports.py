@@ -3,14 +3,15 @@ device; each page is opened in headless Chromium (no console error, every figure
 present, a screenshot kept), and every figure each command draws is walked for axis labels with units and for
 legends.
 
-The artefacts (reports and screenshots) stay in ``build/test-reports/`` of the checkout (printed at the end of
-the run): a reader can open them. The browser is Debian's ``chromium`` (installed with apt by ``make tools`` or
+The artefacts (reports and screenshots) go to a temporary folder of the test process (printed at the end of
+the run), or to ``$TENDYN_TEST_ARTEFACTS/test-reports/`` when that variable is set: a reader can open them. The browser is Debian's ``chromium`` (installed with apt by ``make tools`` or
 here when missing and root); the browser tests skip, saying why, only where it cannot be installed.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
 from pathlib import Path
@@ -20,7 +21,6 @@ import pytest
 from browser import Browser, find_chromium
 
 REPO = Path(__file__).resolve().parents[2]
-ARTEFACTS = REPO / "build" / "test-reports"
 TX40_DATA = REPO / "python" / "tendyn" / "data" / "tx40"
 
 UNIT = re.compile(r"\[[^\]]+\]|\([^)]*\)")
@@ -93,7 +93,21 @@ def _commands(work: Path) -> dict:
 
 
 @pytest.fixture(scope="module")
-def runs(s1_quick_report, s2_quick_report):
+def artefacts(tmp_path_factory) -> Path:
+    """Where this module's reports and screenshots go: ``$TENDYN_TEST_ARTEFACTS/test-reports`` when that is set
+    (to look at them afterwards), else a temporary folder of this test process (parallel workers never share it,
+    and nothing is written inside the source tree)."""
+    keep = os.environ.get("TENDYN_TEST_ARTEFACTS")
+    if keep:
+        out = Path(keep) / "test-reports"
+        shutil.rmtree(out, ignore_errors=True)
+        out.mkdir(parents=True)
+        return out
+    return tmp_path_factory.mktemp("test-reports")
+
+
+@pytest.fixture(scope="module")
+def runs(s1_quick_report, s2_quick_report, artefacts):
     """Run every command once: {name: {"page": Path, "figures": [Figure], "stderr": str}}."""
     import io
     import sys
@@ -104,8 +118,6 @@ def runs(s1_quick_report, s2_quick_report):
 
     from tendyn.cli import main
 
-    shutil.rmtree(ARTEFACTS, ignore_errors=True)
-    ARTEFACTS.mkdir(parents=True)
     drawn: list = []
     original = Figure.savefig
 
@@ -123,7 +135,7 @@ def runs(s1_quick_report, s2_quick_report):
     mp.setattr(tendyn.pipelines.s2, "run_s2", lambda dev, quick=False, progress=None: s2_quick_report)
     Figure.savefig = recording
     try:
-        for name, (argv, page) in _commands(ARTEFACTS).items():
+        for name, (argv, page) in _commands(artefacts).items():
             drawn.clear()
             err = io.StringIO()
             t0 = time.perf_counter()
@@ -136,7 +148,7 @@ def runs(s1_quick_report, s2_quick_report):
     finally:
         Figure.savefig = original
         mp.undo()
-    print(f"\n[test_reports] reports and screenshots: {ARTEFACTS}", file=sys.stderr)
+    print(f"\n[test_reports] reports and screenshots: {artefacts}", file=sys.stderr)
     return out
 
 
@@ -256,18 +268,18 @@ def browser():
 
 
 @pytest.fixture(scope="module")
-def pages(runs, browser):
+def pages(runs, browser, artefacts):
     """Each report opened once in the one browser session: {name: what the page showed}."""
-    shots = ARTEFACTS / "screenshots"
+    shots = artefacts / "screenshots"
     shots.mkdir(exist_ok=True)
     return {name: browser.open(run["page"], shots / f"{name}.png", PROBE) | {"n_figures": len(run["figures"])}
             for name, run in runs.items()}
 
 
-def test_every_report_opens_in_chromium_with_figures_and_tables(pages):
+def test_every_report_opens_in_chromium_with_figures_and_tables(pages, artefacts):
     """Issue 20 items 1–2: no console error, every figure decoded and laid out with a non-zero size and a caption
     on how to read it, data tables with cells, the index, no script and nothing fetched from the network, and a
-    screenshot of each page (build/test-reports/screenshots)."""
+    screenshot of each page (the artefacts' screenshots/)."""
     for name, page in pages.items():
         probe = page["probe"]
         assert page["errors"] == [], f"{name}: {page['errors']}"
@@ -277,7 +289,7 @@ def test_every_report_opens_in_chromium_with_figures_and_tables(pages):
             assert len(f["caption"].split()) >= 6, f"{name}: figure without a sentence on how to read it: {f}"
         assert probe["tables"] >= 1 and probe["cells"] > 0 and probe["index"], f"{name}: {probe}"
         assert probe["scripts"] == 0 and probe["external"] == [], f"{name}: {probe}"
-        assert (ARTEFACTS / "screenshots" / f"{name}.png").stat().st_size > 10_000
+        assert (artefacts / "screenshots" / f"{name}.png").stat().st_size > 10_000
 
 
 def test_browser_sees_a_broken_figure_and_a_console_error(browser, tmp_path):
@@ -291,7 +303,7 @@ def test_browser_sees_a_broken_figure_and_a_console_error(browser, tmp_path):
 
 # ---- the page's content ------------------------------------------------------------------------------------------
 
-def test_report_index_names_device_hash_logs_version_and_json(runs):
+def test_report_index_names_device_hash_logs_version_and_json(runs, artefacts):
     """The index says what ran: device and its SHA-256, logs with theirs, options, version, run id, date; the
     JSON document lies beside the page and is linked from it."""
     import hashlib
@@ -303,7 +315,7 @@ def test_report_index_names_device_hash_logs_version_and_json(runs):
     urdf = bundled("tx40").with_suffix(".urdf")
     digest.update(urdf.read_bytes())
     assert digest.hexdigest() in page
-    assert hashlib.sha256((ARTEFACTS / "tx40.parquet").read_bytes()).hexdigest() in page
+    assert hashlib.sha256((artefacts / "tx40.parquet").read_bytes()).hexdigest() in page
     for text in ("tendyn identify", "run id", "tendyn version", "date (UTC)", 'href="params.json"', "--quiet"
                  if False else "quiet"):
         assert text in page, text

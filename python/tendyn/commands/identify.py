@@ -16,7 +16,27 @@ def register(subparsers) -> None:
     p.add_argument("device", help="device file (.toml) or bundled device name (tx40, cea_branch, …)")
     p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
     p.add_argument("--out", type=out_path((".json",)), help="parameters file (.json)")
-    p.add_argument("--method", choices=("ols", "wls"), default="ols", help="ordinary or weighted least squares")
+    p.add_argument("--method", choices=("ols", "wls", "iv", "didim"), default="ols",
+                   help="ols/wls: ordinary or weighted least squares (open-loop data, or closed loop with clean "
+                        "encoders and a well-tuned filter; fastest). iv: IDIM-IV, instruments from the identified "
+                        "model simulated in closed loop (noisy encoders in closed loop, filter not tuned: removes "
+                        "the LS bias; needs the logged reference and the controller). didim: DIDIM, Gauss-Newton on "
+                        "the closed-loop simulation error from the LS start (same needs; fits what the loop "
+                        "outputs, torques or positions)")
+    p.add_argument("--controller", type=existing_file, default=None, metavar="FILE.json",
+                   help="iv/didim: the loop's controller as JSON ({\"kind\": \"pid\", \"kp\": [...], \"kd\": [...], "
+                        "\"ki\": [...], \"space\": \"joint\"|\"motor\", \"velocity_cutoff_hz\", "
+                        "\"velocity_feedforward\", \"gain\"}); default: the log's meta.options.controller (a twin's)")
+    p.add_argument("--output", choices=("torque", "position"), default="torque",
+                   help="didim: the simulated output fitted to the log, the controller's torques or the positions")
+    p.add_argument("--jacobian", choices=("idm", "fd"), default="idm",
+                   help="didim: Jacobian from the regressor at the simulated states (idm, Gautier's, one simulation "
+                        "per iteration) or finite differences of the simulation (fd, b+1 runs batched; needed "
+                        "for --output position)")
+    p.add_argument("--max-iter", type=number(1, 1000, integer=True), default=20,
+                   help="iv/didim: at most this many iterations (simulations)")
+    p.add_argument("--tol", type=number(0.0, 1.0, lo_open=True), default=1e-3,
+                   help="iv/didim: stop when |dX|/|X| falls below this [-]")
     p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
     p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
                    help="-3 dB cut-off of the zero-phase Butterworth on positions [Hz] (default 5 x bandwidth)")
@@ -29,6 +49,9 @@ def register(subparsers) -> None:
     p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
                    help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
                         "differentiated positions (default: the logged ones when the log has them)")
+    p.add_argument("--treatment", default=None, metavar="PRESET",
+                   help="a peer's published treatment instead of tendyn's defaults (tendyn.ident.treatment.PRESETS: "
+                        "wpi); its filters, decimation, threshold, weighting and fitting space win over the options")
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--parameters", default=None, metavar="NAMES",
                    help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
@@ -88,7 +111,27 @@ def cmd_identify(args) -> int:
 
         _check_out_folder(args.report, "report")
     if args.stream:
+        if args.method in ("iv", "didim"):
+            raise UsageError(f"--method {args.method} simulates the loop over the whole log: not with --stream",
+                             "stream")
         return _identify_stream(dev, args)
+    if args.method not in ("iv", "didim"):
+        for opt, default in (("controller", None), ("output", "torque"), ("jacobian", "idm")):
+            if getattr(args, opt) != default:
+                raise UsageError(f"is for --method iv or didim (got --method {args.method})", opt)
+    if args.method == "didim" and args.output == "position" and args.jacobian != "fd":
+        raise UsageError("position needs --jacobian fd (the regressor Jacobian is that of the torques)", "output")
+    controller = None
+    if args.controller is not None:
+        try:
+            controller = json.loads(Path(args.controller).read_text())
+            if not isinstance(controller, dict):
+                raise ValueError("not a JSON object")
+            from tendyn.ident.closed_loop import LoopController
+
+            controller = LoopController.from_dict(controller)
+        except (ValueError, KeyError, TypeError) as exc:
+            raise UsageError(f"{args.controller}: not a controller ({exc})", "controller") from None
     from tendyn.ident.estimate import cached_model
     from tendyn.io import LogError
 
@@ -103,14 +146,26 @@ def cmd_identify(args) -> int:
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
-    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
+    if args.treatment is not None:
+        from tendyn.ident.treatment import PRESETS
+
+        if args.treatment not in PRESETS:
+            raise UsageError(f"must be one of {', '.join(sorted(PRESETS))} (got {args.treatment!r})", "treatment")
+    est = IDIM(compile_device(dev), treatment=args.treatment, method=args.method, cutoff_hz=args.cutoff_hz,
+               decimate=args.decimate,
                velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
-               parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto")
+               parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto",
+               controller=controller, output=args.output, jacobian=args.jacobian, max_iter=args.max_iter,
+               tol=args.tol)
+    from tendyn.ident.closed_loop import ClosedLoopError
+
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
     except ConnectionError as exc:
         raise UsageError(str(exc), "scheduler") from None
+    except ClosedLoopError as exc:
+        raise UsageError(str(exc), "method") from None
     except ValueError as exc:
         if type(exc).__name__ in ("LogError",):
             raise

@@ -20,11 +20,17 @@ from tendyn.results import Result, format_table
 
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel, unit_of
-from .treatment import DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, stack_blocks, treat
+from .treatment import (DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, preset_treatment, stack_blocks,
+                        treat)
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
 _MODELS: dict = {}
+
+METHODS = ("ols", "wls", "iv", "didim")
+"""IDIM estimators: ordinary / weighted least squares, and the closed-loop IDIM-IV and DIDIM
+(:mod:`tendyn.ident.closed_loop`)."""
+CLOSED_LOOP = ("iv", "didim")
 
 VELOCITIES = ("auto", "logged", "differentiate")
 """Where the joint velocities come from: the log's ``qd_motor_<i>``/``qd_joint_<j>`` when it has them
@@ -98,6 +104,7 @@ class IdentificationResult(Result):
         self.warnings += list(getattr(treatment, "warnings", []))
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
+        self.closed_loop: dict | None = None   # IDIM-IV / DIDIM: iterations, convergence, the LS start
 
     def flag_pseudo_inertia(self, model) -> None:
         """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
@@ -134,6 +141,7 @@ class IdentificationResult(Result):
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
+                "closed_loop": self.closed_loop,
                 "treatment": None if self.treatment is None else self.treatment.to_dict()}
 
     def table(self) -> str:
@@ -147,6 +155,12 @@ class IdentificationResult(Result):
         tail = ["", "relative residual per joint: " + ", ".join(
             f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
             f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
+        cl = self.closed_loop
+        if cl:
+            tail.append(f"closed loop ({cl['controller']}): {cl['iterations']} iterations, "
+                        f"{'converged' if cl['converged'] else 'NOT converged'} (|dX|/|X| < {cl['tol']:g}); simulated "
+                        f"torque residual {100 * cl['simulated_torque_residual_rel']:.2f} %; least-squares start: "
+                        + ", ".join(f"{p['name']} {p['value']:.5g}" for p in cl["ls_start"]))
         if self.crossval:
             per = self.crossval.get("per_joint_residual_rel") or []
             tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
@@ -238,12 +252,24 @@ class IDIM:
     parameters : sequence of str or None
         Identify only these base parameters (names of :attr:`IdentModel.base`), the others taken as zero: a
         reduced model such as S2 Table 4's 16 of the 29 (None: all base parameters).
+    treatment : str or None
+        A peer's treatment preset (:data:`tendyn.ident.treatment.PRESETS`, e.g. ``"wpi"``): its filters,
+        decimation, velocity threshold, velocities, trimming, weighting (with ``method="wls"``) and fitting space
+        replace tendyn's defaults and the options above.
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto"):
+                 parameters=None, velocities="auto", treatment=None, controller=None, output="torque",
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1):
         self.device = device
+        self.treatment = treatment
+        self.controller = controller
+        self.output = output
+        self.jacobian = jacobian
+        self.max_iter = max_iter
+        self.tol = tol
+        self.substeps = substeps
         self.velocities = velocities
         self.method = method
         self.cutoff_hz = cutoff_hz
@@ -269,7 +295,8 @@ class IDIM:
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
-        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.velocities)
+        settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
+                    self.velocities)
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -299,14 +326,33 @@ class IDIM:
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
-        return Y[order], W[order], rows[order], t[order], na
+        Y, W, rows, t = Y[order], W[order], rows[order], t[order]
+        if self.treatment_.space == "motor":
+            Y, W = self._to_motor_space(model, Y, W, rows)
+        return Y, W, rows, t, na
+
+    @staticmethod
+    def _to_motor_space(model, Y, W, rows):
+        """Joint-major rows (τ = Gᵀ y, W) → motor-major rows (y = G⁻ᵀ τ, G⁻ᵀ W): the same samples for every joint
+        (no velocity threshold); row block i is then motor i."""
+        na = model.n_active
+        n = rows.size // na
+        if rows.size != n * na or np.any(np.bincount(rows, minlength=na) != n):
+            raise ValueError("fitting in motor space needs every sample of every joint (velocity threshold 0)")
+        GinvT = np.linalg.inv(model.G.T)
+        Ym = (GinvT @ Y.reshape(na, n)).reshape(-1)
+        Wm = np.einsum("ij,jnb->inb", GinvT, W.reshape(na, n, W.shape[1])).reshape(W.shape)
+        return Ym, Wm
 
     def _thresholds(self, blocks) -> np.ndarray:
         """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
         ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
-        if self.velocity_threshold is None:
+        vt = self.velocity_threshold if self.treatment is None else self.treatment_.velocity_threshold
+        if vt is None:
             return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
-        return np.full(len(blocks), float(self.velocity_threshold))
+        if isinstance(vt, tuple):
+            return np.asarray(vt, float)
+        return np.full(len(blocks), float(vt))
 
     @staticmethod
     def _treat_here(model, log, parts, settings):
@@ -314,7 +360,11 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
-        *settings, velocities = settings
+        *settings, preset, velocities = settings
+        rate = float(log.meta["rate_hz"])
+        if preset is not None:
+            ptr = preset_treatment(preset, rate, getattr(model.device, "bandwidth_hz", None))
+            velocities = ptr.velocities
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
         if velocities == "logged" and qd is None:
@@ -324,12 +374,15 @@ class IDIM:
             sl = slice(int(parts[0] * n), int(parts[1] * n))
             time, q, tau = time[sl], q[sl], tau[sl]
             qd = None if qd is None else qd[sl]
-        rate = float(log.meta["rate_hz"])
-        time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
+        if preset is not None and ptr.keep_stale:
+            n_stale, retimed = 0, False
+        else:
+            time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
         known = model.known_torque(q)         # [[terms]] of kind "known": subtracted, not identified
         if known is not None:
             tau = tau - known
-        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings)
+        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings) if preset is None \
+            else ptr
         tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
                                  retimed=retimed)
         return treat(model, time, q, tau, tr, qd=qd), tr
@@ -372,10 +425,17 @@ class IDIM:
                 own.close()
 
     # -- fit -------------------------------------------------------------------------------------------
-    def _solve(self, Wb, Y, rows, na):
+    def _solve(self, Wb, Y, rows, na, method=None):
+        method = self.method if method is None else method
         x, se, s2, cov = least_squares(Wb, Y)
         weights = np.ones_like(Y)
-        if self.method == "wls":
+        if method == "wls" and getattr(self, "treatment_", None) is not None \
+                and self.treatment_.weighting == "range":        # a peer's weights: 1 / range of each block
+            for j in range(na):
+                sel = rows == j
+                weights[sel] = 1.0 / max(float(np.ptp(Y[sel])), 1e-300)
+            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
+        elif method == "wls":
             r, b = Wb.shape
             res = Y - Wb @ x
             for j in range(na):
@@ -384,8 +444,8 @@ class IDIM:
                 sj2 = float(res[sel] @ res[sel]) / max(rj - b * rj / r, 1.0)
                 weights[sel] = 1.0 / np.sqrt(sj2)
             x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
-        elif self.method != "ols":
-            raise ValueError(f"method must be 'ols' or 'wls' (got {self.method!r})")
+        elif method != "ols":
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {method!r})")
         return x, se, weights
 
     def fit(self, logs, crossval=True):
@@ -405,6 +465,12 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.method in CLOSED_LOOP:
+            from .closed_loop import fit_closed_loop
+
+            return fit_closed_loop(self, logs)
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)} (got {self.method!r})")
         model = self._model()
         base = model.base
         Y, Wstd, rows, t, na = self.observations(logs)

@@ -1,7 +1,8 @@
 """The one least squares of identification and its statistics (S2 eqs. 4–7; ERRATA eq. 5: the squared norm).
 
 X̂ = argmin ‖√w (Y − W X)‖ (w = 1: OLS), σ̂² = ‖√w (Y − W X̂)‖² / (r − b), C = σ̂² (Wᵀ w W)⁻¹, σ = √diag C and
-%σ = 100 σ / |X̂|. Every estimator uses these: the IDIM in memory (W given), the streaming IDIM (only the
+%σ = 100 σ / |X̂|; the instrumental-variable variant of IDIM-IV (:func:`instrumental_variables`). Every
+estimator uses these: the IDIM in memory (W given), the streaming IDIM (only the
 normal equations WᵀW, WᵀY, YᵀY and r are held: :func:`least_squares` takes them as ``normal=``), the S0
 transmission friction (weighted bins) and the capstan stiffness of S2 §V-B.
 """
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["IdentificationError", "least_squares", "rel_stderr_pct"]
+__all__ = ["IdentificationError", "instrumental_variables", "least_squares", "rel_stderr_pct"]
 
 
 class IdentificationError(ValueError):
@@ -54,6 +55,32 @@ def least_squares(W=None, y=None, weights=None, *, normal=None, at=None):
         WtW = W.T @ W
     sigma2 = rss / (r - b)
     cov = sigma2 * np.linalg.inv(WtW)
+    return x, np.sqrt(np.diag(cov)), sigma2, cov
+
+
+def instrumental_variables(W, Z, y, weights=None):
+    """Instrumental-variable estimate with statistics: (x, stderr, sigma2, cov) (Janot et al. 2014, IDIM-IV).
+
+    x = (Zᵀ W)⁻¹ Zᵀ y; σ̂² = ‖y − W x‖² / (r − b) (the measured regressor's residual, as :func:`least_squares`);
+    C = σ̂² (Zᵀ W)⁻¹ Zᵀ Z (Wᵀ Z)⁻¹, which is σ̂² (WᵀW)⁻¹ when Z = W.
+
+    W, Z : (r, b) the observation matrix (measured, noisy) and the instruments (from a simulation: correlated with
+        W, not with its noise); y : (r,); weights : (r,) > 0 as in :func:`least_squares` (rows of W, Z, y scaled
+        by √w). Raises :class:`IdentificationError` when r ≤ b.
+    """
+    W, Z, y = (np.asarray(a, float) for a in (W, Z, y))
+    if weights is not None:
+        sw = np.sqrt(np.asarray(weights, float))
+        W, Z, y = W * sw[:, None], Z * sw[:, None], y * sw
+    r, b = W.shape
+    if r <= b:
+        raise IdentificationError(f"{r} rows for {b} parameters: not enough samples")
+    ZW = Z.T @ W
+    x = np.linalg.solve(ZW, Z.T @ y)
+    res = y - W @ x
+    sigma2 = float(res @ res) / (r - b)
+    ZWi = np.linalg.inv(ZW)
+    cov = sigma2 * ZWi @ (Z.T @ Z) @ ZWi.T
     return x, np.sqrt(np.diag(cov)), sigma2, cov
 
 

@@ -23,6 +23,7 @@ Nyquist frequency.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,7 +31,8 @@ import numpy as np
 from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
-           "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION"]
+           "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION",
+           "PRESETS", "preset_treatment", "zero_phase_cutoff_of_design"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
 
@@ -94,6 +96,21 @@ class Treatment:
     retimed: bool = False
     why: tuple = ()
     """Where each setting came from, one phrase each (given, or which of Gautier's defaults and from what)."""
+    filter_torques: bool = False
+    """The torques go through the positions' Butterworth too (a peer's treatment: WPI), besides the parallel
+    filter."""
+    trim: int = 0
+    """Samples cut at each end of every log after filtering (the filters' edge transients)."""
+    weighting: str | None = None
+    """``wls`` weights: None (tendyn: 1/σ of each joint's OLS residual) or ``"range"`` (1 / (max − min) of each
+    row block's filtered torque, WPI)."""
+    space: str = "joint"
+    """Space of the fitted rows: ``"joint"`` (τ = Gᵀ y) or ``"motor"`` (y, the logged torques; needs every
+    sample of every joint: velocity threshold 0)."""
+    keep_stale: bool = False
+    """Keep the stale rows (repeats of the previous sample) as they are, not re-timed (a peer that used them)."""
+    preset: str | None = None
+    """The preset these settings came from (:data:`PRESETS`), None: tendyn's defaults and the options given."""
 
     @property
     def parallel_cutoff_hz(self) -> float:
@@ -129,12 +146,17 @@ class Treatment:
         return vel + stale + ("; re-timed onto the uniform grid" if self.retimed else "")
 
     def describe(self) -> str:
+        extra = "".join([f"; preset {self.preset}" if self.preset else "",
+                         "; torques through the same Butterworth" if self.filter_torques else "",
+                         f"; {self.trim} samples cut at each end" if self.trim else "",
+                         f"; weights 1/range of each {self.space} torque" if self.weighting == "range" else "",
+                         "; fitted in motor space" if self.space == "motor" else ""])
         return (f"treatment: Butterworth order {self.order} zero-phase on positions, -3 dB at {self.cutoff_hz:g} Hz; "
                 f"{self._samples_text()}; parallel filter {10 * self.decimate + 1 if self.decimate > 1 else 1} taps, "
                 f"cut-off {self.parallel_cutoff_hz:g} Hz, decimation {self.decimate} "
                 f"({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); velocity threshold "
                 f"{self._vt_text()} (log rate {self.rate_hz:g} Hz, device bandwidth "
-                f"{self.bandwidth_hz:g} Hz)" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
+                f"{self.bandwidth_hz:g} Hz)" + extra + (f"; why: {'; '.join(self.why)}" if self.why else ""))
 
     def to_dict(self) -> dict:
         v = self.velocity_threshold
@@ -142,7 +164,9 @@ class Treatment:
                 "velocity_threshold": list(v) if isinstance(v, tuple) else v, "rate_hz": self.rate_hz,
                 "bandwidth_hz": self.bandwidth_hz, "parallel_cutoff_hz": self.parallel_cutoff_hz,
                 "velocities": self.velocities, "stale_dropped": self.stale_dropped, "retimed": self.retimed,
-                "why": list(self.why)}
+                "why": list(self.why), "filter_torques": self.filter_torques, "trim": self.trim,
+                "weighting": self.weighting, "space": self.space, "keep_stale": self.keep_stale,
+                "preset": self.preset}
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
@@ -170,6 +194,46 @@ def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None
         why.append("velocity threshold given")
     vt = None if velocity_threshold is None else float(velocity_threshold)
     return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw, why=tuple(why))
+
+
+def zero_phase_cutoff_of_design(design_hz: float, rate_hz: float, order: int) -> float:
+    """The −3 dB frequency [Hz] of the forward-backward response of a Butterworth whose single-pass design
+    frequency is ``design_hz`` (scipy's ``butter(order, design_hz / (rate_hz / 2))``, as peers call it): the inverse
+    of the correction in :func:`butter_zero_phase`, so that ``butter_zero_phase(x, this, rate, order)`` is that
+    filter."""
+    t = np.tan(np.pi * design_hz / rate_hz) * (np.sqrt(2.0) - 1.0) ** (1.0 / (2 * order))
+    return float(np.arctan(t) * rate_hz / np.pi)
+
+
+def _wpi(rate_hz: float, bandwidth_hz) -> dict:
+    """WPI's dVRK identification (WPI-AIM/dvrk_dynamics_identification, main_mtm.ipynb cells 49–91 and
+    identification/data_processing.py): positions, logged velocities and torques through one 6th-order Butterworth
+    filtfilt of normalised frequency Wn = 2π f_c / rate (a fraction of Nyquist) with f_c = 3 × 0.1 Hz × 6 = 1.8 Hz
+    (their base frequency × Fourier order × 3), i.e. a single-pass design frequency Wn × rate / 2 = 5.65 Hz at
+    200 Hz, accelerations by differences of the velocities, no decimation, 200 samples cut at each end, no
+    velocity threshold, the stale rows of the log kept as they are (WPI's loader reads every row), the fit in motor space
+    weighted by 1 / (max − min) of each motor's filtered torque."""
+    design = 1.8 * 2 * np.pi / rate_hz * (rate_hz / 2)        # Wn × Nyquist [Hz]
+    return dict(cutoff_hz=zero_phase_cutoff_of_design(design, rate_hz, 6), order=6, decimate=1,
+                velocity_threshold=0.0, velocities="logged", filter_torques=True, trim=200, weighting="range",
+                space="motor", keep_stale=True)
+
+
+PRESETS = {"wpi": _wpi}
+"""``--treatment NAME``: a peer's published treatment, name → function (rate [Hz], device bandwidth [Hz] or
+None) → the :class:`Treatment` fields it sets (docs/realdata.md). Other peers' presets go in the same dict."""
+
+
+def preset_treatment(name: str, rate_hz: float, bandwidth_hz=None) -> Treatment:
+    """The :class:`Treatment` of preset ``name`` (:data:`PRESETS`) for a log at ``rate_hz``; ValueError naming
+    the presets for an unknown name."""
+    if name not in PRESETS:
+        raise ValueError(f"unknown treatment preset {name!r} (presets: {', '.join(sorted(PRESETS))})")
+    fields = PRESETS[name](float(rate_hz), bandwidth_hz)
+    velocities = fields.pop("velocities", "differentiate")
+    tr = default_treatment(rate_hz, bandwidth_hz, fields.pop("cutoff_hz"), fields.pop("decimate"),
+                           fields.pop("order"), fields.pop("velocity_threshold"))
+    return dataclasses.replace(tr, velocities=velocities, preset=name, why=(f"preset {name}",), **fields)
 
 
 def drop_stale(time, rate_hz: float, q, tau, qd=None):
@@ -243,6 +307,8 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
 
     dt = 1.0 / treatment.rate_hz
     qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
+    if treatment.filter_torques:
+        tau = butter_zero_phase(tau, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
     if qd is None:
         qd = central_differences(qf, dt)
     else:
@@ -265,4 +331,9 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
     # W's own times must match the decimated time column
     if n_out and np.max(np.abs(dec[:, 0] - t_w)) > 0.1 * dt * max(1, 1):
         raise AlignmentError("the decimated torques and the regressor rows are not centred on the same samples")
+    m = treatment.trim
+    if m:
+        if n_out <= 2 * m:
+            raise ValueError(f"the log has {n_out} samples, the treatment cuts {m} at each end")
+        blocks = [Block(time=b.time[m:-m], y=b.y[m:-m], W=b.W[m:-m], velocity=b.velocity[m:-m]) for b in blocks]
     return blocks

@@ -131,6 +131,15 @@ def run_on_twin(device: Device | CompiledDevice, m: _core.SimModel, q0, ref_q, r
     if np.any(ext):
         for i in range(na):
             cols[f"torque_joint_ext_{i + 1}"] = ext[::log_every, i]
+    if m.mode != _core.ControlMode.Torque and "controller" not in options:
+        # the loop a closed-loop estimator simulates (IDIM-IV, DIDIM: tendyn.ident.closed_loop.LoopController)
+        motor = m.mode == _core.ControlMode.MotorPID
+        options = {**options, "controller": {
+            "kind": "pid", "space": "motor" if motor else "joint", "kp": list(map(float, m.kp)),
+            "kd": list(map(float, m.kd)), "ki": list(map(float, m.ki)),
+            "velocity_cutoff_hz": float(m.velocity_cutoff_hz), "velocity_feedforward": True,
+            "control_hz": float(rate / m.control_decimation), "gain": None,
+            "label": f"twin {'motor' if motor else 'joint'}-space PID"}}
     log = make_log(cols, device=device.name, rate_hz=log_rate_hz, seed=int(seed), experiment=experiment,
                    options=to_jsonable(options))
     states = {k: raw[k] for k in ("q_joint", "qd_joint", "q_motor", "qd_motor")}

@@ -1,0 +1,35 @@
+"""Benchmark python_suite_wall (issue 39): the wall time of the Python test suite as `make test` runs it (pytest-xdist,
+one worker per CPU, modules kept whole) against the same suite one test after another in one process, in the same
+run. The ratio is the speed-up of the parallel run; the value is the number to hold under 4 minutes on 2 idle
+cores (docs/testing.md). Not a timed test: it only prints. ~15 min on 2 cores (both runs)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _suite(extra: list[str]) -> float:
+    """Wall time [s] of ``pytest tests/python -q`` plus ``extra`` (must pass)."""
+    t0 = time.perf_counter()
+    r = subprocess.run([sys.executable, "-m", "pytest", str(REPO / "tests" / "python"), "-q", "-p", "no:cacheprovider",
+                        *extra], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    wall = time.perf_counter() - t0
+    if r.returncode:
+        raise SystemExit(f"python_suite_wall: pytest {' '.join(extra)} failed:\n{r.stdout[-3000:]}")
+    return wall
+
+
+def bench_test_suite(results: list) -> None:
+    workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    print(f"[bench] python_suite_wall: the suite on {workers} workers, then serially …", file=sys.stderr)
+    parallel = _suite(["-n", str(workers), "--dist", "loadscope"])
+    serial = _suite(["-p", "no:xdist"])
+    results.append(dict(name="python_suite_wall", value=parallel, unit="s",
+                        baseline="the same suite serially in one process", baseline_value=serial,
+                        ratio=serial / parallel, workers=workers))

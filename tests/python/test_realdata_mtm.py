@@ -1,0 +1,154 @@
+"""dVRK MTM real data (../shared/external-data/dvrk_mtm, no licence: read there, never copied) and the sweep fit of
+`tendyn identify-term` (issue 29, MTM part).
+
+* TermFit / identify-term on a generated sweep: a known polynomial (numpy's polyval, the test's truth) plus
+  a Coulomb friction by direction and noise; the coefficients within 4 σ, the curve within 1e-3 N·m.
+* identify-term on the real sweep: tendyn's curve against WPI's published polynomial.
+* WPI's metric on trajectory `two`: tendyn's defaults at or below WPI on every joint; the `wpi` preset within
+  5 % of WPI's per-joint errors (not reached yet: xfail, strict, with the measured numbers).
+Two real fits (6000 samples, consistent SDP) take about 7 s together, once per module: the reason this module
+is over 5 s.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+SHARED = Path(os.environ.get("TENDYN_SHARED", REPO.parent / "shared"))
+MTM = SHARED / "external-data" / "dvrk_mtm"
+needs_data = pytest.mark.skipif(not (MTM / "one_results.csv").is_file(),
+                                reason=f"the dVRK MTM data are not at {MTM} (../shared/external-data/dvrk_mtm)")
+
+
+@functools.lru_cache(maxsize=None)
+def _bench(name):
+    spec = importlib.util.spec_from_file_location(name, REPO / "benchmarks" / "realdata" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    sys.path.insert(0, str(spec.origin and Path(spec.origin).parent))
+    spec.loader.exec_module(mod)
+    return mod
+
+
+TRUTH = np.array([0.004, 0.05, -0.02, -0.015, 0.006])      # N·m/rad^k, k = 0..4 (the test's polynomial)
+
+
+def _sweep(rng, n=4000, friction=0.07, noise=0.003):
+    q = np.concatenate([np.linspace(-1.4, 3.3, n // 2), np.linspace(3.3, -1.4, n // 2)])
+    qd = np.concatenate([np.full(n // 2, 0.4), np.full(n // 2, -0.4)])
+    qd[:50] = np.linspace(0, 0.4, 50)                     # the start: slow samples the fit must leave out
+    tau = np.polyval(TRUTH[::-1], q) + friction * np.sign(qd) + noise * rng.normal(size=n)
+    return q, qd, tau
+
+
+def test_term_fit_recovers_a_generated_polynomial():
+    from tendyn.ident.term_fit import TermFit
+
+    q, qd, tau = _sweep(np.random.default_rng(4))
+    f = TermFit("polynomial", 4).fit(q, qd, tau)
+    assert np.all(np.abs(f.coef_ - TRUTH) < 4 * f.stderr_), (f.coef_, f.stderr_)
+    grid = np.linspace(-1.4, 3.3, 50)
+    assert np.max(np.abs(f.predict(grid) - np.polyval(TRUTH[::-1], grid))) < 1e-3
+    assert abs(f.friction_ - 0.07) < 4 * f.friction_stderr_
+    t = TermFit("table", knots=30).fit(q, qd, tau)             # the table kind: the same curve
+    assert np.max(np.abs(t.predict(grid) - np.polyval(TRUTH[::-1], grid))) < 2e-3
+
+
+def test_term_fit_refuses_a_one_way_sweep():
+    from tendyn.ident.lsq import IdentificationError
+    from tendyn.ident.term_fit import TermFit
+
+    q, qd, tau = _sweep(np.random.default_rng(1))
+    with pytest.raises(IdentificationError, match="both ways"):
+        TermFit().fit(q[:1500], qd[:1500], tau[:1500])
+
+
+def _run(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "tendyn.cli", *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=120)
+
+
+def test_identify_term_writes_a_known_term_the_device_loads(tmp_path):
+    from tendyn.device import load_device
+    from tendyn.device.terms import TermModel
+    from tendyn.device.compiled import compile_device
+    from tendyn.io import make_log, write_log
+
+    dev = _bench("mtm_device").write_mtm_device(tmp_path)           # public geometry only
+    q, qd, tau = _sweep(np.random.default_rng(2))
+    log = make_log({"time": np.arange(q.size) / 200.0, "q_joint_6": q, "qd_joint_6": qd, "torque_motor_4": tau},
+                   device="dvrk_mtm", rate_hz=200.0, seed=2, experiment="sweep")
+    write_log(log, tmp_path / "sweep.csv")
+    r = _run("identify-term", dev, "sweep.csv", "--joint", 6, "--order", 4, "--out", "new.toml", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    new = load_device(tmp_path / "new.toml")
+    term = [t for t in new.terms if t.name == "cable6"][0]
+    assert term.kind == "known" and term.joint == 6
+    tm = TermModel(compile_device(new))
+    qa = np.zeros((5, 7)); qa[:, 3] = np.linspace(-1, 3, 5)
+    assert np.allclose(tm.known(qa)[:, 3], np.polyval(TRUTH[::-1], qa[:, 3]), atol=2e-3)
+    assert np.allclose(np.delete(tm.known(qa), 3, axis=1), 0.0)
+    bad = _run("identify-term", dev, "sweep.csv", "--joint", 5, cwd=tmp_path)     # a passive joint
+    assert bad.returncode == 2 and bad.stderr.startswith("tendyn: error:") and "--joint" in bad.stderr
+    assert "Traceback" not in bad.stderr
+
+
+@needs_data
+def test_identify_term_on_the_real_sweep_matches_wpi_curve():
+    from tendyn.ident.term_fit import TermFit
+
+    mtm = _bench("mtm")
+    d = np.loadtxt(MTM / "joint4_cable_sweep.csv", delimiter=",")
+    f = TermFit("polynomial", 7).fit(d[:, 0], d[:, 1], d[:, 2])
+    grid = np.linspace(*f.range_, 400)
+    wpi = np.polyval(mtm.WPI_CABLE, grid)
+    diff = f.predict(grid) - wpi
+    # measured: max 0.0117 N·m, RMS 0.0031 N·m over a 0.214 N·m range; tendyn's residual 0.0058 vs WPI's 0.0066
+    assert np.max(np.abs(diff)) < 0.015 and np.sqrt(np.mean(diff ** 2)) < 0.005
+    assert f.score(d[:, 0], d[:, 1], d[:, 2]) <= 0.0066
+    assert f.curve_stderr_ < 0.002
+
+
+@pytest.fixture(scope="module")
+def mtm_errors():
+    if not (MTM / "one_results.csv").is_file():
+        pytest.skip(f"the dVRK MTM data are not at {MTM}")
+    return _bench("mtm").errors(SHARED)
+
+
+@needs_data
+def test_defaults_at_or_below_wpi_on_every_joint(mtm_errors):
+    e, w = mtm_errors["default"], mtm_errors["wpi"]
+    assert np.all(e <= w), f"tendyn default {np.round(e, 4)} vs WPI {w}"
+
+
+@needs_data
+@pytest.mark.xfail(strict=True, reason="measured preset wpi [0.0716 0.1459 0.1766 0.2385 0.2570 0.2312 0.3338]: "
+                   "joints 1 (-7 %), 4 (+7 %) and 5 (-8 %) outside 5 % of WPI's (their SDP box bounds are not reproduced)")
+def test_wpi_preset_within_5_percent(mtm_errors):
+    e, w = mtm_errors["preset"], mtm_errors["wpi"]
+    assert np.all(np.abs(e / w - 1) <= 0.05), f"preset {np.round(e, 4)} vs WPI {w}"
+
+
+@needs_data
+def test_wpi_preset_close_to_wpi(mtm_errors):
+    """What the preset reaches today: within 10 % on every joint (a wrong cut-off unit fails it)."""
+    e, w = mtm_errors["preset"], mtm_errors["wpi"]
+    assert np.all(np.abs(e / w - 1) <= 0.10), f"preset {np.round(e, 4)} vs WPI {w}"
+
+
+@needs_data
+def test_rows_contract(mtm_errors):
+    rows = _bench("mtm").rows(SHARED)
+    assert len(rows) == 7
+    assert set(rows[0]) == {"dataset", "peer", "metric", "item", "peer_value", "tendyn_preset", "tendyn_default",
+                            "unit"}
+    assert rows[0]["metric"] == "relative error on two"
