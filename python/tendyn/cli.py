@@ -11,6 +11,7 @@ nothing written; 3 an unexpected error (one line; ``--debug`` shows the tracebac
 
 from __future__ import annotations
 
+import contextlib
 import argparse
 import json
 import os
@@ -197,9 +198,11 @@ def cmd_routing_show(args) -> int:
         doc["n"] = c.n_motors
         _print_json(doc)
         return 0
-    print(text)
+    from tendyn.text import printable
+
+    print(printable(text))     # names and paths come from files: no control character reaches the tty
     if args.report is not None:
-        print(f"report: {doc['report']}")
+        print(f"report: {printable(doc['report'])}")
     return 0
 
 
@@ -508,7 +511,9 @@ def cmd_demo(args) -> int:
     if args.json:
         _print_json(doc)
     else:
-        print("\n".join(lines))
+        from tendyn.text import printable
+
+        print(printable("\n".join(lines)))
     sys.stdout.flush()
     from tendyn.report import warn
 
@@ -598,6 +603,43 @@ def _demo_bench(bench, outputs: _Outputs):
 
 
 # ---- entry point ----------------------------------------------------------------------------------
+
+class _TerminalText:
+    """stdout on a terminal: every write shown without control characters (:func:`tendyn.text.printable`; newline,
+    tab and carriage return kept), so no text from a file (a name, a path, a log's meta) can drive the terminal.
+    A pipe or a file gets the bytes unchanged."""
+
+    def __init__(self, stream):
+        from tendyn.text import printable
+
+        self._stream, self._printable = stream, printable
+
+    def write(self, text: str) -> int:
+        self._stream.write(self._printable(text, keep="\n\t\r"))
+        return len(text)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def _terminal_stdout():
+    stream = sys.stdout
+    tty = False
+    try:
+        tty = stream.isatty()
+    except (AttributeError, ValueError):
+        pass
+    if not tty:
+        yield
+        return
+    sys.stdout = _TerminalText(stream)
+    try:
+        yield
+    finally:
+        if isinstance(sys.stdout, _TerminalText):
+            sys.stdout = stream
+
 
 def _quiet_stdout() -> None:
     """After a closed pipe: point stdout at /dev/null so the interpreter's final flush stays silent."""
@@ -694,7 +736,8 @@ def main(argv: list[str] | None = None) -> int:
                 argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
-        code = args.func(args)
+        with _terminal_stdout():
+            code = args.func(args)
         sys.stdout.flush()
         return code
     except KeyboardInterrupt:
@@ -734,7 +777,10 @@ def _name_too_long(exc: BaseException) -> bool:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    """The message on one line, its control characters shown as escapes (a file or folder name can hold any)."""
+    from tendyn.text import printable
+
+    return printable(" ".join(str(exc).split()))
 
 
 if __name__ == "__main__":

@@ -106,21 +106,109 @@ def _limits(device):
     return lo, hi
 
 
-def _gravity_motor(compiled, poses) -> np.ndarray:
-    """Lossless motor torques [N·m] holding each pose against gravity, C_g = R_m K⁻ᵀ g(q) (S0 eq. 5, corrected:
-    ERRATA), (k, n)."""
-    import pinocchio as pin
+def motor_from_joint(device) -> np.ndarray:
+    """G (n, n) [rad/rad], q_motor = G q_active, of a device with cable transmissions (R_m⁻¹ K) or capstan drives
+    (diag N): the matrix every constant-velocity reference is built with."""
+    from tendyn.device import compile_device
 
-    pm = compiled.pinocchio_model
-    pd = pm.createData()
-    M = compiled.transmission.matrices()["motor_from_joint_torque"]
-    return np.array([M @ pin.computeGeneralizedGravity(pm, pd, np.asarray(q, float)) for q in poses])
+    return _Geometry(compile_device(device)).G
+
+
+class _Geometry:
+    """What a plan needs of any serial device with one motor per active joint (cable transmissions or capstan
+    drives on a closed-loop tree): G = ∂q_motor/∂q_active (n, n), the active limits, the tree limits and the
+    map q_tree = L q_active + c (passive joints of a parallelogram have limits too: the elbow's range is a
+    limit on q5 − q2), gravity in active coordinates (S2 eq. 12: Lᵀ g_tree) and each motor's continuous
+    torque [N·m]."""
+
+    def __init__(self, compiled):
+        dev = compiled.device
+        self.compiled = compiled
+        if dev.transmissions:
+            mats = compiled.transmission.matrices()      # refuses an N+1 routing (exit 2)
+            self.G = np.asarray(mats["motor_from_joint_position"], float)
+            self.motors = [t.motor for t in dev.transmissions]
+        else:
+            self.G = np.asarray(dev.motor_joint_matrix(), float)
+            self.motors = [d.motor for d in dev.drives]
+        self.M = np.linalg.inv(self.G).T                 # motor torques from active-joint torques
+        from tendyn.device.rigid_body import tree_joint_numbers
+
+        joints = dev.kinematics.joints
+        numbers = tree_joint_numbers(dev)
+        self.L, self.c = (np.asarray(a, float) for a in compiled.active_map)
+        self.tree_lo = np.array([joints[k - 1].lower for k in numbers], float)
+        self.tree_hi = np.array([joints[k - 1].upper for k in numbers], float)
+        act = [numbers[k] for k in compiled.active_joints]
+        self.active_numbers = act
+        self.lo = np.array([joints[k - 1].lower for k in act], float)
+        self.hi = np.array([joints[k - 1].upper for k in act], float)
+        self.tree_margin = LIMIT_MARGIN * (self.tree_hi - self.tree_lo)
+        self.names = [joints[k - 1].name for k in numbers]
+        self.tree_numbers = numbers
+
+    def inside(self, q, margin: bool = True) -> np.ndarray:
+        """(k,) True where the active poses q (k, n) keep every tree joint inside its limits (less the margin)."""
+        qt = np.atleast_2d(q) @ self.L.T + self.c
+        m = self.tree_margin if margin else 0.0
+        return np.all((qt >= self.tree_lo + m - 1e-12) & (qt <= self.tree_hi - m + 1e-12), axis=1)
+
+    def interval(self, q, j: int, margin: bool = True) -> tuple[float, float]:
+        """The range [a, b] [rad] of active joint j with the other active joints at q, every tree joint inside
+        its limits (less the margin); a > b when there is none."""
+        m = self.tree_margin if margin else 0.0
+        q = np.asarray(q, float).copy()
+        q[j] = 0.0
+        base = self.L @ q + self.c
+        a, b = -np.inf, np.inf
+        for k in range(self.L.shape[0]):
+            coef = self.L[k, j]
+            if coef == 0.0:
+                if not self.tree_lo[k] + m[k] - 1e-12 <= base[k] <= self.tree_hi[k] - m[k] + 1e-12:
+                    return 1.0, -1.0
+                continue
+            x1 = (self.tree_lo[k] + m[k] - base[k]) / coef
+            x2 = (self.tree_hi[k] - m[k] - base[k]) / coef
+            a, b = max(a, min(x1, x2)), min(b, max(x1, x2))
+        return a, b
+
+    def centre(self) -> np.ndarray:
+        """An active pose deep inside every tree limit: mid-range when that is inside, else the centre of the
+        largest ball in the polytope {lo ≤ L q + c ≤ hi} (Chebyshev centre, one linear programme)."""
+        mid = 0.5 * (self.lo + self.hi)
+        if self.inside(mid):
+            return mid
+        from scipy.optimize import linprog
+
+        n = self.L.shape[1]
+        A = np.vstack([self.L, -self.L])
+        bnd = np.concatenate([self.tree_hi - self.tree_margin - self.c, -(self.tree_lo + self.tree_margin - self.c)])
+        norms = np.linalg.norm(A, axis=1)
+        keep = norms > 0
+        res = linprog(np.r_[np.zeros(n), -1.0], A_ub=np.c_[A[keep], norms[keep]], b_ub=bnd[keep],
+                      bounds=[(None, None)] * n + [(0, None)], method="highs")
+        if not res.success or res.x[-1] <= 0.0:
+            raise UsageError(f"{self.compiled.device.name}: no pose keeps every joint inside its limits (less "
+                             f"{LIMIT_MARGIN:.0%} of each range): check the limits of the passive joints against "
+                             "their constraints", "device")
+        return res.x[:n]
+
+    def gravity_motor(self, poses) -> np.ndarray:
+        """Lossless motor torques [N·m] holding each active pose against gravity, G⁻ᵀ Lᵀ g(L q + c) (S0 eq. 5,
+        corrected: ERRATA; S2 eq. 12), (k, n)."""
+        import pinocchio as pin
+
+        pm = self.compiled.pinocchio_model
+        pd = pm.createData()
+        return np.array([self.M @ (self.L.T @ pin.computeGeneralizedGravity(pm, pd, self.L @ np.asarray(q, float)
+                                                                             + self.c)) for q in poses])
 
 
 def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, travel: float | None = None,
               accel: float | None = None, q0=None, loads: int = DEFAULT_LOADS,
               strict: bool = True) -> ConstantVelocityTest:
-    """Plan the constant-velocity test of ``transmission`` on any serial cable device.
+    """Plan the constant-velocity test of ``transmission`` on any serial device with cable transmissions or
+    capstan drives (a closed-loop tree too: the passive joints keep inside their limits over every stroke).
 
     Stroke: from ``q0`` if given (the driven joint moves up from it), else centred in the driven joint's range;
     the motor travel is ``travel`` or the longest that stays :data:`LIMIT_MARGIN` inside the limits, at most
@@ -141,9 +229,11 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
 
     compiled = compile_device(device)
     dev = compiled.device
-    n = dev.n_transmissions
-    if n == 0:
-        raise UsageError(f"{dev.name} has no cable transmissions to test", "device")
+    if getattr(dev, "kind", None) != "serial" or not (dev.n_transmissions or getattr(dev, "drives", ())):
+        raise UsageError(f"{dev.name} has no cable transmissions or capstan drives to test", "device")
+    geo = _Geometry(compiled)
+    G = geo.G
+    n = G.shape[0]
     if not 1 <= transmission <= n:
         raise UsageError(f"must be 1…{n} (got {transmission})", "transmission")
     if strategy not in ("S1", "S2"):
@@ -156,26 +246,30 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
     if strict and len(distinct) < MIN_SPEEDS:
         raise UsageError(f"transmission {transmission}: {len(distinct)} distinct speeds, the identification needs "
                          f"at least {MIN_SPEEDS} per direction", "speeds")
-    G = compiled.transmission.matrices()["motor_from_joint_position"]
     if G[j, j] == 0.0:  # the stroke is planned on the driven joint: travel / G[j, j]
         name = dev.transmissions[j].name
         raise UsageError(f"transmission {name} does not wrap joint {transmission} (zero driven radius): "
                          f"isolated moves of that joint (S2) cannot be driven by its motor alone; this protocol "
                          f"needs a nonzero diagonal of K", "transmission")
-    lo, hi = _limits(dev)
-    margin = LIMIT_MARGIN * (hi - lo)
     notes = []
     if q0 is not None:
         q0 = np.asarray(q0, float)
         if q0.shape != (n,):
-            raise UsageError(f"{q0.size} values, {dev.name} has {n} joints", "q0")
-        outside = [k for k in range(n) if not lo[k] <= q0[k] <= hi[k]]
+            raise UsageError(f"{q0.size} values, {dev.name} has {n} active joints", "q0")
+        outside = [k for k in range(n) if not geo.lo[k] <= q0[k] <= geo.hi[k]]
         if outside:
             k = outside[0]
-            raise UsageError(f"joint {k + 1} = {q0[k]:g} rad is outside its limits [{lo[k]:g}, {hi[k]:g}] rad", "q0")
-        room_joint = hi[j] - margin[j] - q0[j]
+            raise UsageError(f"joint {geo.active_numbers[k]} = {q0[k]:g} rad is outside its limits "
+                             f"[{geo.lo[k]:g}, {geo.hi[k]:g}] rad", "q0")
+        if not geo.inside(q0, margin=False)[0]:
+            raise UsageError(f"{', '.join(f'{v:g}' for v in q0)} rad puts a passive joint outside its limits "
+                             f"({_worst(geo, q0)})", "q0")
+        a, b = geo.interval(q0, j)
+        room_joint = b - q0[j]
     else:
-        room_joint = (hi[j] - lo[j]) - 2.0 * margin[j]
+        centre = geo.centre()
+        a, b = geo.interval(centre, j)
+        room_joint = b - a
     room_motor = abs(G[j, j]) * max(room_joint, 0.0)
     if travel is None:
         travel = min(DEFAULT_TRAVEL, room_motor)
@@ -201,16 +295,18 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
                          f"needs {cruise_needed_s():.2f} s ({needed:.3g} rad): lower the highest of --speeds, "
                          f"raise --accel, or widen joint {transmission}'s limits", "speeds")
     stroke_joint = travel / G[j, j]          # signed: the joint moves this way for a positive motor pass
-    first = np.clip(0.5 * (lo + hi), lo + margin, hi - margin) if q0 is None else q0.copy()
     if q0 is None:
-        first[j] = 0.5 * (lo[j] + hi[j]) - 0.5 * stroke_joint
+        first = centre.copy()
+        first[j] = 0.5 * (a + b) - 0.5 * stroke_joint
+    else:
+        first = q0.copy()
     poses = [first]
     if loads > 1:
-        poses += _load_poses(compiled, j, first, stroke_joint, lo + margin, hi - margin, loads - 1, notes)
+        poses += _load_poses(geo, j, first, stroke_joint, loads - 1, notes)
     poses = np.array(poses)
     mids = poses.copy()
     mids[:, j] += 0.5 * stroke_joint
-    load = _gravity_motor(compiled, mids)[:, j] if np.linalg.norm(dev.kinematics.gravity) > 0 else np.zeros(len(poses))
+    load = geo.gravity_motor(mids)[:, j] if np.linalg.norm(dev.kinematics.gravity) > 0 else np.zeros(len(poses))
     if len(poses) < loads:
         notes.append(f"{len(poses)} pose(s): the gravity load on transmission {transmission} does not change with "
                      "the other joints (the load term then needs an added load, e.g. a mass on the link)")
@@ -218,11 +314,22 @@ def plan_test(device, transmission: int, strategy: str = "S2", speeds=None, trav
                                 tuple(notes))
 
 
-def _load_poses(compiled, j, first, stroke_joint, lo, hi, count, notes) -> list:
+def _worst(geo, q) -> str:
+    """'joint 3 (elbow) = 2.7 rad, limits [0.45, 2.5]' for the tree joint furthest outside its limits at q."""
+    qt = geo.L @ np.asarray(q, float) + geo.c
+    out = np.maximum(geo.tree_lo - qt, qt - geo.tree_hi)
+    k = int(np.argmax(out))
+    return (f"joint {geo.tree_numbers[k]} ({geo.names[k]}) = {qt[k]:.3g} rad, limits "
+            f"[{geo.tree_lo[k]:.3g}, {geo.tree_hi[k]:.3g}] rad")
+
+
+def _load_poses(geo, j, first, stroke_joint, count, notes) -> list:
     """``count`` poses whose gravity load at motor j differs most from the first pose's (within every motor's
-    continuous torque); none when gravity is zero or the load does not depend on the other joints."""
-    dev = compiled.device
+    continuous torque, every tree joint inside its limits over the whole stroke); none when gravity is zero or
+    the load does not depend on the other joints."""
+    dev = geo.compiled.device
     n = first.size
+    lo, hi = geo.lo + LIMIT_MARGIN * (geo.hi - geo.lo), geo.hi - LIMIT_MARGIN * (geo.hi - geo.lo)
     if np.linalg.norm(dev.kinematics.gravity) == 0:
         notes.append("no gravity: one pose (the load term needs an added load)")
         return []
@@ -241,14 +348,18 @@ def _load_poses(compiled, j, first, stroke_joint, lo, hi, count, notes) -> list:
     cand = np.tile(first, (combos.shape[0], 1))
     cand[:, j] = combos[:, 0]
     cand[:, others] = combos[:, 1:]
+    ends = cand.copy()
+    ends[:, j] += stroke_joint
     mids = cand.copy()
     mids[:, j] += 0.5 * stroke_joint
-    tau = _gravity_motor(compiled, mids)
+    tau = geo.gravity_motor(mids)
     mid_first = first.copy()
     mid_first[j] += 0.5 * stroke_joint
-    base = _gravity_motor(compiled, [mid_first])[0, j]
-    cont = np.array([t.motor.continuous_torque for t in dev.transmissions])
-    ok = np.all(np.abs(tau) <= cont, axis=1)
+    base = geo.gravity_motor([mid_first])[0, j]
+    cont = np.array([m.continuous_torque for m in geo.motors])
+    # the moves between poses are straight lines in active coordinates: every tree limit is linear in q, so a
+    # pose whose stroke start and end are inside keeps the whole stroke (and the move from `first`) inside
+    ok = np.all(np.abs(tau) <= cont, axis=1) & geo.inside(cand) & geo.inside(ends)
     change = np.where(ok, np.abs(np.abs(tau[:, j]) - abs(base)), -1.0)
     best = int(np.argmax(change))
     scale = max(abs(base), float(np.abs(tau[:, j]).max()), 1e-12)

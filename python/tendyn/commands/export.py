@@ -86,6 +86,12 @@ def run_export(args) -> int:
     from tendyn.ident.loss_model import LossModelError, identified_losses
 
     dev = cable_device(args.device, "to export")
+    if args.kind == "compensator":        # before any file is read: the name must fit the .comp's device line
+        from tendyn.control.compensator import device_line_problem
+
+        problem = device_line_problem(dev.name)
+        if problem:
+            raise UsageError(f"its name {dev.name!r} cannot be written in a .comp file: {problem}", "device")
     if args.kind == "compensator" and args.friction is None:
         raise UsageError("a compensator is exported from identified friction (tendyn identify-friction); "
                          "without it, Compensator.from_device(device).export(path) uses the device file's "

@@ -35,12 +35,13 @@ def _load_device(text: str):
     return load(text)
 
 
-def cable_device(text: str, what: str):
-    """:func:`_load_device`, refusing a device without cable transmissions (a tendon bench, capstan drives,
-    geared actuators) with one line: ``what`` says what needs them."""
+def cable_device(text: str, what: str, drives: bool = False):
+    """:func:`_load_device`, refusing a device without cable transmissions (a tendon bench, geared actuators;
+    capstan drives too unless ``drives``) with one line: ``what`` says what needs them."""
     dev = _load_device(text)
-    if getattr(dev, "kind", None) != "serial" or dev.n_transmissions == 0:
-        raise UsageError(f"{dev.name} has no cable transmissions {what}", "device")
+    if getattr(dev, "kind", None) != "serial" or not (dev.n_transmissions or (drives and dev.drives)):
+        raise UsageError(f"{dev.name} has no cable transmissions{' or capstan drives' if drives else ''} {what}",
+                         "device")
     return dev
 
 
@@ -106,12 +107,11 @@ def plan_constant_velocity(device, test, rate_hz: float):
     position and speed references of every motor (S1) or joint (S2); ``options`` says which are held and
     where. The same references as the twin's :func:`tendyn.sim.experiments.constant_velocity` with that test
     (at ``rate_hz``)."""
-    from tendyn.device import compile_device
     from tendyn.io import make_log
-    from tendyn.protocols import duration_s, references
+    from tendyn.protocols import duration_s, motor_from_joint, references
     from tendyn.sim.catalogue import require_memory
 
-    Gm = compile_device(device).transmission.matrices()["motor_from_joint_position"]
+    Gm = motor_from_joint(device)
     n = Gm.shape[0]
     samples = duration_s(Gm, test) * rate_hz      # checked before the references are built (plan --accel 1e-6)
     require_memory(8.0 * samples * (2 * n + 1) * 4, "fewer speeds or loads, a shorter --travel, a larger --accel "
@@ -144,7 +144,7 @@ def run_plan(args) -> int:
     for name in ("device", "transmission"):
         if getattr(args, name) is None:
             raise UsageError("required for `plan constant-velocity`", name)
-    dev = cable_device(args.device, "to plan a constant-velocity test for")
+    dev = cable_device(args.device, "to plan a constant-velocity test for", drives=True)
     test = plan_test(dev, args.transmission, args.strategy, args.speeds, args.travel, args.accel, args.q0,
                      args.loads)
     log = plan_constant_velocity(dev, test, args.rate)
@@ -204,7 +204,7 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
     from tendyn.ident.friction_file import friction_document
 
     names = names or [f"log {k + 1}" for k in range(len(logs))]
-    n = device.n_transmissions
+    n = device.n_transmissions or len(device.drives)
     groups: dict[int, list] = {}
     for name, log in zip(names, logs):
         conv.refuse_other_device(name, log.meta.get("device"), device, force)
@@ -229,6 +229,8 @@ def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | No
         except IdentificationError as exc:
             raise UsageError(f"{', '.join(nm for nm, _ in groups[t])}: {exc}") from None
         fits.append(est.result_)
+    if not device.n_transmissions:   # capstan drives: one cable stretch per drive, no branches to bound
+        return friction_document(device.name, fits)
     c0 = np.array([f.coulomb_motor for f in fits])
     nu = np.array([f.viscous_motor for f in fits])
     dec = decompose(device, np.maximum(c0, 0.0), np.maximum(nu, 0.0))
@@ -246,8 +248,9 @@ def run_identify_friction(args) -> int:
 
     from tendyn.commands.history import check_record, record_result
 
-    dev = cable_device(args.device, "to identify friction of")
-    _separable(dev, "the S0 friction identification")
+    dev = cable_device(args.device, "to identify friction of", drives=True)
+    if dev.n_transmissions:
+        _separable(dev, "the S0 friction identification")
     check_record(args)
     logs = [read_log(p) for p in args.logs]
     doc = identify_friction(dev, logs, args.gravity, args.min_speeds, names=[str(p) for p in args.logs],
@@ -304,7 +307,9 @@ def run_decompose(args) -> int:
     from tendyn.ident.decomposition import SharesError, decompose, read_shares
     from tendyn.ident.friction_file import FrictionFileError, read_friction
 
-    dev = cable_device(args.device, "to decompose friction into")
+    dev = cable_device(args.device, "to decompose friction into", drives=True)
+    if not dev.n_transmissions:
+        return _decompose_drives(dev, args)
     _separable(dev, "the loss decomposition")
     try:
         doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
@@ -318,6 +323,43 @@ def run_decompose(args) -> int:
         _print_json(dec.to_dict())
     else:
         print(dec.table())
+    return 0
+
+
+def drive_split(dev, doc) -> dict:
+    """Capstan drives: each drive is one cable stretch (no branches to split, S0 eqs. 18–21 reduce to one term):
+    its identified motor-side C_m0 [N·m] and ν [N·m·s/rad] and what they are at the joint (N C_m0 [N·m],
+    N² ν [N·m·s/rad]) beside the device file's values (information, not used by the fit)."""
+    rows = []
+    for k, d in enumerate(dev.drives):
+        c0, nu = float(doc["coulomb_motor"][k]), float(doc["viscous_motor"][k])
+        rows.append({"drive": k + 1, "name": d.name, "joint": d.joint, "ratio": d.ratio, "branches": 1,
+                     "coulomb_motor": c0, "viscous_motor": nu, "coulomb_joint": d.ratio * c0,
+                     "viscous_joint": d.ratio ** 2 * nu, "file_coulomb_motor": d.coulomb_motor,
+                     "file_viscous_motor": d.viscous_motor})
+    return {"format": "tendyn.decomposition/1", "device": dev.name, "kind": "drives",
+            "note": "capstan drives: one cable stretch per drive, nothing to split", "drives": rows}
+
+
+def _decompose_drives(dev, args) -> int:
+    from tendyn.ident.friction_file import FrictionFileError, read_friction
+
+    if args.shares is not None:
+        raise UsageError(f"{dev.name} has capstan drives: one cable stretch each, no branches to share", "shares")
+    try:
+        doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
+    except FrictionFileError as exc:
+        raise UsageError(str(exc)) from None
+    out = drive_split(dev, doc)
+    if args.json:
+        _print_json(out)
+        return 0
+    print(f"{dev.name}: {out['note']}")
+    print(f"{'drive':<7}{'joint':>6}{'N':>8}{'C_m0 [N·m]':>13}{'ν [N·m·s/rad]':>15}{'N·C_m0 [N·m]':>14}"
+          f"{'N²ν [N·m·s/rad]':>17}")
+    for r in out["drives"]:
+        print(f"{r['name']:<7}{r['joint']:>6}{r['ratio']:>8.3g}{r['coulomb_motor']:>13.4g}{r['viscous_motor']:>15.4g}"
+              f"{r['coulomb_joint']:>14.4g}{r['viscous_joint']:>17.4g}")
     return 0
 
 

@@ -54,6 +54,8 @@ from .schema import (
     _num,
     inertia_matrix,
 )
+from tendyn.text import name_problem, text_problem
+
 from ._toml import read_toml, typename as _typename
 from .base import Device
 from .tendon_bench import KIND as TENDON_BENCH_KIND
@@ -146,6 +148,13 @@ class _Parser:
 
     def value(self, v: Any, path: str, spec: FieldSpec) -> Any:
         kind = spec.kind
+        if kind in ("name", "text"):        # text from a file: a declared domain (tendyn.text, issue 36)
+            if not isinstance(v, str):
+                raise self.err(path, f"must be a string (got {_typename(v)})")
+            problem = name_problem(v) if kind == "name" else text_problem(v)
+            if problem:
+                raise self.err(path, problem)
+            return v
         if kind == "str":
             if not isinstance(v, str):
                 raise self.err(path, f"must be a string (got {_typename(v)})")
@@ -286,6 +295,13 @@ class _Parser:
         elif top["drives"] is not None:
             drives = self.drives(top["drives"], kin)
         elif top["transmissions"] is not None:
+            passive = [f"{num} ({js.name})" for num, js in enumerate(kin.joints, start=1)
+                       if getattr(js, "mu", 1) == 0 and getattr(js, "sigma", 0) != 2]
+            if passive:   # the cable statics (S0 eqs. 1-5) route over every joint of a serial chain
+                raise self.err("transmissions", f"cable [[transmissions]] route over the joints of a serial chain; "
+                                                f"this tree has passive joints {', '.join(passive)} (closed loops): "
+                                                "write its capstans as [[drives]] (docs/device-file.md, 'A desktop "
+                                                "haptic arm')")
             trans = self.transmissions(top["transmissions"], kin, dev["routing"])
         else:
             raise self.err("transmissions", "missing required field: one [[transmissions]] entry per actuated "
@@ -301,10 +317,70 @@ class _Parser:
                                                                  f"[{j.lower:g}, {j.upper:g}]")
             home = tuple(float(q) for q in home)
         terms = self.terms(top["terms"], kin)
-        return SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
+        self.plausible(kin, trans, drives)
+        device = SerialDevice(name=dev["name"], description=dev["description"], path=self.path.resolve(),
                             kinematics=kin, transmissions=trans, drives=drives, actuators=actuators,
                             bandwidth_hz=dev["bandwidth_hz"], home_pose=home, terms=terms,
                             routing=dev["routing"])
+        if kin.constraints:
+            self.loop_closes(device)
+        return device
+
+    def plausible(self, kin: Kinematics, trans: tuple, drives: tuple) -> None:
+        """Magnitudes a device of desktop-to-robot size cannot have, refused with the likely unit mistake
+        named: a revolute limit beyond two turns, ±4π (degrees?; a multi-turn roll such as the dVRK MTM's
+        ±8.7 rad stays allowed), a capstan ratio below 1 (inverted: N = motor speed /
+        joint speed), a rotor inertia that peak torque accelerates at under 100 rad/s² (g·cm² or kg·cm² written
+        as kg·m²?: real rotors reach 1e4–1e6 rad/s²)."""
+        two_turns = 4.0 * math.pi + 1e-9
+        for num, js in enumerate(kin.joints, start=1):
+            if getattr(js, "sigma", 0) == 0 and js.lower is not None and js.upper is not None:
+                for key in ("lower", "upper"):
+                    v = getattr(js, key)
+                    if abs(v) > two_turns:
+                        raise self.err(f"kinematics.joints[{num}].{key}",
+                                       f"{v:g} rad is beyond ±4π (two turns) for a revolute joint: degrees? "
+                                       f"({v:g}° = {math.radians(v):.4g} rad)")
+        for section, items in (("transmissions", trans), ("drives", drives)):
+            for i, t in enumerate(items, start=1):
+                if section == "drives" and t.ratio < 1.0:
+                    raise self.err(f"drives[{i}].ratio", f"{t.ratio:g} < 1: a capstan reduces speed (N = motor "
+                                                         f"speed / joint speed > 1); inverted? (1/{t.ratio:g} = "
+                                                         f"{1.0 / t.ratio:.4g})")
+                m = t.motor
+                if m.rotor_inertia > 0 and m.peak_torque / m.rotor_inertia < 100.0:
+                    raise self.err(f"{section}[{i}].motor.rotor_inertia",
+                                   f"{m.rotor_inertia:g} kg·m² is accelerated at {m.peak_torque / m.rotor_inertia:.3g}"
+                                   f" rad/s² by the peak torque {m.peak_torque:g} N·m (real rotors: 1e4–1e6): "
+                                   f"g·cm²? ({m.rotor_inertia:g} g·cm² = {m.rotor_inertia * 1e-7:.3g} kg·m²)")
+
+    def loop_closes(self, device) -> None:
+        """Every cut joint's two frames coincide (within ``[kinematics] closure_tolerance``) at the mid-range pose
+        and at 20 seeded poses inside the active limits: a rod written 15 mm short is refused, with the gap."""
+        from .closed_loop import _closing_pairs, loop_closure_error
+        from .rigid_body import tree_joint_numbers
+
+        if not _closing_pairs(device):
+            return
+        tol = self.closure_tolerance
+        joints = device.kinematics.joints
+        active = [joints[n - 1] for n in tree_joint_numbers(device) if joints[n - 1].actuated]
+        lo = np.array([j.lower for j in active], float)
+        hi = np.array([j.upper for j in active], float)
+        rng = np.random.default_rng(0)
+        poses = [0.5 * (lo + hi)] + [rng.uniform(lo, hi) for _ in range(20)]
+        worst, at = 0.0, poses[0]
+        for qa in poses:
+            e = loop_closure_error(device, qa).reshape(-1, 6)
+            gap = float(np.linalg.norm(e[:, :3], axis=1).max())
+            if gap > worst:
+                worst, at = gap, qa
+        if worst > tol:
+            raise self.err("kinematics.constraints", f"the loop does not close: a gap of {worst * 1e3:.3g} mm between "
+                                                     f"the cut joint's two frames at q_active = "
+                                                     f"[{', '.join(f'{v:.3g}' for v in at)}] rad (closure_tolerance "
+                                                     f"{tol:g} m): check the lengths d of the loop's rows and the "
+                                                     "constraints")
 
     _TERM_NEEDS = {"functions": ("joint", "functions"), "polynomial": ("joint", "degree"),
                    "table": ("joint", "knots"), "spring": ("link_a", "point_a", "link_b", "point_b"),
@@ -500,6 +576,7 @@ class _Parser:
                                    f"duplicate joint name {j.name!r} (also kinematics.joints[{seen[j.name]}])")
                 seen[j.name] = i + 1
         constraints = self.constraints(k["constraints"], conv, joints)
+        self.closure_tolerance = float(k["closure_tolerance"])
         return Kinematics(convention=conv, gravity=_frozen_array(g, (3,)), joints=joints, urdf=urdf_path,
                           constraints=constraints)
 
@@ -654,7 +731,11 @@ class _Parser:
                     lower, upper = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
                 except ValueError:
                     raise self.err(field, f"{urdf.name}: joint {jt.get('name')!r} has non-numeric limits") from None
-            out.append(JointSpec(name=jt.get("name") or f"joint{len(out) + 1}", lower=lower, upper=upper))
+            jname = jt.get("name") or f"joint{len(out) + 1}"
+            problem = name_problem(jname)
+            if problem:          # a name from the URDF file: the domain of tendyn.text, as in the device file
+                raise self.err(field, f"{urdf.name}: joint name {problem}")
+            out.append(JointSpec(name=jname, lower=lower, upper=upper))
         if not out:
             raise self.err(field, f"{urdf.name}: no movable joint")
         return tuple(out)

@@ -72,8 +72,10 @@ class FieldSpec:
     name : str
         Key as written in the file.
     kind : str
-        ``"str"``, ``"float"``, ``"int"``, ``"vec3"`` (3 floats), ``"inertia"`` (6 floats),
-        ``"int_list"``, ``"float_list"``, ``"str_list"``, ``"table"`` or ``"table_list"``.
+        ``"str"``, ``"name"`` (a name: :data:`tendyn.text.NAME_DOMAIN`), ``"text"`` (free text, no control
+        character but newline and tab: :func:`tendyn.text.text_problem`), ``"float"``, ``"int"``, ``"vec3"``
+        (3 floats), ``"inertia"`` (6 floats), ``"int_list"``, ``"float_list"``, ``"str_list"``, ``"table"`` or
+        ``"table_list"``.
         Integers are accepted where floats are expected; booleans never count as numbers.
     unit : str
         SI unit ("-" if dimensionless, "" for strings and tables).
@@ -169,8 +171,8 @@ ROUTINGS = ("one_per_joint", "n_plus_one")
 or N+1: n + 1 tendons on n actuated joints, K (n + 1, n) (issue 19; :mod:`tendyn.tendons`)."""
 
 DEVICE_FIELDS = (
-    _spec("name", "str", "", "device name (non-empty)"),
-    _spec("description", "str", "", "free text", required=False, default=""),
+    _spec("name", "name", "", "device name (non-empty)"),
+    _spec("description", "text", "", "free text", required=False, default=""),
     _spec("kind", "str", "", "device kind; \"tendon_bench_2n\" files are read by "
       "tendyn.device.tendon_bench.load_tendon_bench", required=False, default="serial", choices=DEVICE_KINDS),
     _spec("bandwidth_hz", "float", "Hz", "dynamic bandwidth of the joint motions (position loops); sets the "
@@ -192,6 +194,9 @@ KINEMATICS_FIELDS = (
       "not allowed for \"urdf\"", required=False),
     _spec("constraints", "table_list", "", "closed-loop constraints q_joint = sum(coef * q_active) + offset, "
       "one per passive non-cut joint (\"mdh\" only)", required=False, default=()),
+    _spec("closure_tolerance", "float", "m", "largest gap the loader accepts between the two frames of a cut "
+      "joint (sigma = 2) over poses inside the limits (closed loops, \"mdh\" only)", required=False,
+      default=1e-6, lo=0.0, lo_open=True, hi=0.01),
 )
 
 CONSTRAINT_FIELDS = (
@@ -213,7 +218,7 @@ _LINK_FIELDS = (
 )
 
 DH_JOINT_FIELDS = (
-    _spec("name", "str", "", "joint name, unique"),
+    _spec("name", "name", "", "joint name, unique"),
     _spec("a", "float", "m", "link length a_i (standard DH)", abs_max=10.0),
     _spec("alpha", "float", "rad", "link twist alpha_i", abs_max=TWO_PI),
     _spec("d", "float", "m", "link offset d_i", abs_max=10.0),
@@ -223,7 +228,7 @@ DH_JOINT_FIELDS = (
 ) + _LINK_FIELDS
 
 MDH_JOINT_FIELDS = (
-    _spec("name", "str", "", "frame/joint name, unique"),
+    _spec("name", "name", "", "frame/joint name, unique"),
     _spec("j", "int", "-", "frame number, 1-based; must equal the entry's position", lo=1),
     _spec("antecedent", "int", "-", "antecedent frame a(j); 0 = base; must be < j", lo=0),
     _spec("mu", "int", "-", "1 if the joint is actuated, else 0", choices=(0, 1)),
@@ -245,7 +250,7 @@ MDH_JOINT_FIELDS = (
 )
 
 TRANSMISSION_FIELDS = (
-    _spec("name", "str", "", "transmission name, unique"),
+    _spec("name", "name", "", "transmission name, unique"),
     _spec("joint", "int", "-", "driven joint number (1-based); every actuated joint is driven exactly once", lo=1),
     _spec("motor_radius", "float", "m", "motor pulley radius r_m", lo=0.0, lo_open=True, hi=1.0),
     _spec("crosses", "int_list", "-", "other joints the cable wraps, unique, != joint: before it (idle pulleys) "
@@ -305,7 +310,7 @@ SENSOR_FIELDS = (
 )
 
 DRIVE_FIELDS = (
-    _spec("name", "str", "", "drive name, unique (default \"drive<joint>\")", required=False),
+    _spec("name", "name", "", "drive name, unique (default \"drive<joint>\")", required=False),
     _spec("joint", "int", "-", "driven joint number (1-based, actuated); every actuated joint is driven "
       "exactly once", lo=1),
     _spec("ratio", "float", "-", "capstan ratio N: joint speed * N = motor speed", lo=0.0, lo_open=True,
@@ -327,7 +332,7 @@ DRIVE_FIELDS = (
 )
 
 ACTUATOR_FIELDS = (
-    _spec("name", "str", "", "actuator (motor) name, unique (default \"motor<joint>\")", required=False),
+    _spec("name", "name", "", "actuator (motor) name, unique (default \"motor<joint>\")", required=False),
     _spec("joint", "int", "-", "the joint this motor drives (1-based, actuated); every actuated joint is "
       "driven exactly once", lo=1),
     _spec("ratio", "float", "-", "gear ratio N (signed): motor angle = N * (q_joint + sum(coupling * q_k))",
@@ -352,7 +357,7 @@ TERM_KINDS = ("functions", "polynomial", "table", "spring", "offset", "known")
 table in the joint's q, a spring between two points of two links, a constant, or a known torque (no column)."""
 
 TERM_FIELDS = (
-    _spec("name", "str", "", "term name, unique; letters, digits and _ (its columns are named after it: "
+    _spec("name", "name", "", "term name, unique; letters, digits and _ (its columns are named after it: "
       "<name>_1, <name>_2, ... or <name>_k, <name>_kl0 for a spring, <name> for an offset)"),
     _spec("kind", "str", "", "what the term is", choices=TERM_KINDS),
     _spec("joint", "int", "-", "the joint the torque acts on (1-based; not for \"spring\", which acts on every "

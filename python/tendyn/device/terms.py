@@ -28,11 +28,15 @@ import math
 
 import numpy as np
 
-__all__ = ["EXPRESSION_FUNCTIONS", "check_expression", "evaluate_expression", "TermModel"]
+__all__ = ["EXPRESSION_FUNCTIONS", "EXPRESSION_MAX_CHARS", "check_expression", "evaluate_expression", "TermModel"]
 
 EXPRESSION_FUNCTIONS = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
                         "sqrt": np.sqrt, "abs": np.abs, "tanh": np.tanh, "sign": np.sign}
 """Functions an expression of a term may call (numpy, elementwise)."""
+
+EXPRESSION_MAX_CHARS = 1000
+"""Longest expression [characters]: with numbers evaluated as floats (:func:`_floats`), an expression's cost is
+bounded by its length (no ``9**9**9`` of Python integers, which would never end)."""
 
 _OPS = (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
 
@@ -40,10 +44,12 @@ _OPS = (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
 def check_expression(text: str, n_joints: int) -> set[int]:
     """Raise ValueError unless ``text`` is an expression of q, q1…q<n_joints>, numbers, pi and
     :data:`EXPRESSION_FUNCTIONS` with + − × / **; returns the joint numbers it reads (0 for plain ``q``)."""
+    if len(text) > EXPRESSION_MAX_CHARS:
+        raise ValueError(f"has {len(text)} characters, at most {EXPRESSION_MAX_CHARS} allowed")
     try:
         tree = ast.parse(text, mode="eval")
-    except SyntaxError as exc:
-        raise ValueError(f"not an expression: {exc.msg}") from None
+    except (SyntaxError, RecursionError, MemoryError) as exc:
+        raise ValueError(f"not an expression: {getattr(exc, 'msg', 'nested too deeply')}") from None
     used: set[int] = set()
     for node in ast.walk(tree):
         if isinstance(node, (ast.Expression, ast.Load) + _OPS):
@@ -72,7 +78,26 @@ def check_expression(text: str, n_joints: int) -> set[int]:
             raise ValueError(f"unknown name {name!r} (q, q1…q{n_joints}, pi, "
                              + ", ".join(EXPRESSION_FUNCTIONS) + ")")
         raise ValueError(f"{type(node).__name__} not allowed in an expression")
+    try:                                  # once on a sample: a constant part that overflows is refused here
+        with np.errstate(all="ignore"):
+            evaluate_expression(text, np.full(1, 0.5), {k: np.full(1, 0.5) for k in range(1, n_joints + 1)})
+    except (OverflowError, ZeroDivisionError) as exc:
+        raise ValueError(f"a constant part cannot be computed ({exc})") from None
     return used
+
+
+class _Floats(ast.NodeTransformer):
+    """Every number of an expression as a float: a power of constants overflows at once instead of growing a
+    Python integer without end."""
+
+    def visit_Constant(self, node):
+        if isinstance(node.value, int) and not isinstance(node.value, bool):
+            return ast.copy_location(ast.Constant(float(node.value)), node)
+        return node
+
+
+def _floats(text: str):
+    return ast.fix_missing_locations(_Floats().visit(ast.parse(text, mode="eval")))
 
 
 def evaluate_expression(text: str, q_own, q_by_number: dict) -> np.ndarray:
@@ -80,7 +105,7 @@ def evaluate_expression(text: str, q_own, q_by_number: dict) -> np.ndarray:
     number → (n,) positions [rad or m]."""
     env = dict(EXPRESSION_FUNCTIONS, pi=math.pi, q=q_own)
     env.update({f"q{k}": v for k, v in q_by_number.items()})
-    out = eval(compile(ast.parse(text, mode="eval"), "<term>", "eval"), {"__builtins__": {}}, env)  # checked
+    out = eval(compile(_floats(text), "<term>", "eval"), {"__builtins__": {}}, env)  # checked, numbers as floats
     return np.broadcast_to(np.asarray(out, float), np.shape(q_own)).copy()
 
 

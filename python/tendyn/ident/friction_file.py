@@ -105,8 +105,9 @@ def validate_friction(doc, device=None, source=None, physical: bool = False, for
         if not force and not device.is_named(doc["device"]):
             hint = " (or --force to use it anyway)" if force is False else ""
             bad("device", f"the file is about {doc['device']!r}, not {device.name!r}{hint}")
-        if n != device.n_transmissions:
-            bad("n_transmissions", f"{n} in the file, the device {device.name!r} has {device.n_transmissions}")
+        n_dev = device.n_transmissions or len(getattr(device, "drives", ()))   # capstan drives: one per drive
+        if n != n_dev:
+            bad("n_transmissions", f"{n} in the file, the device {device.name!r} has {n_dev}")
     for key in ("coulomb_motor", "viscous_motor"):
         arr = doc[key]
         if not isinstance(arr, list):

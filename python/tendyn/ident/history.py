@@ -240,10 +240,12 @@ class History(Result):
         import csv
         import io
 
+        from tendyn.text import spreadsheet_cell
+
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=["run", "kind", "created", "name", "value", "sigma", "unit", "drift"])
         w.writeheader()
-        w.writerows(self.rows)
+        w.writerows({k: spreadsheet_cell(v) for k, v in r.items()} for r in self.rows)   # no cell runs as a formula
         return buf.getvalue()
 
     def to_parquet(self) -> bytes:

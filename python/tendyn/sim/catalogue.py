@@ -438,9 +438,10 @@ def _check_memory(device, exp: Experiment, o: dict) -> None:
 
 def planned_test(device, o: dict):
     """The constant-velocity test of a cable device planned by :func:`tendyn.protocols.plan_test` from the
-    options (the same rule ``tendyn plan`` and ``identify-friction`` use), or None for a capstan-drive device
-    (its back-and-forth passes from q0 at the given speeds)."""
-    if not getattr(device, "transmissions", None) or getattr(device, "n_plus_one", False):
+    options (the same rule ``tendyn plan`` and ``identify-friction`` use) for cable transmissions and capstan
+    drives (strokes and poses inside every tree joint's limits), or None for an N+1 routing."""
+    if not (getattr(device, "transmissions", None) or getattr(device, "drives", None)) or \
+            getattr(device, "n_plus_one", False):
         return None   # N+1: constant_velocity's own stroke inside the joint's limits (no S0 statics to plan with)
     from tendyn.protocols import plan_test
 
@@ -449,10 +450,10 @@ def planned_test(device, o: dict):
 
 
 def _motor_from_joint(device) -> np.ndarray:
-    """G = R_m⁻¹ K of a cable device (motor from joint positions)."""
-    from tendyn.device import compile_device
+    """G = R_m⁻¹ K of a cable device, diag(N) of capstan drives (motor from active joint positions)."""
+    from tendyn.protocols import motor_from_joint
 
-    return compile_device(device).transmission.matrices()["motor_from_joint_position"]
+    return motor_from_joint(device)
 
 
 # ---- running -----------------------------------------------------------------------------------------
