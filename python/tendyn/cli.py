@@ -47,6 +47,13 @@ def _typed(name: str):
             raise argparse.ArgumentTypeError(exc.problem) from None
 
     convert.__name__ = name
+    opt = catalogue.OPTIONS[name]
+    if opt.kind in ("float", "int", "seed", "floats"):       # the declared domain, read by the domain fuzz
+        from tendyn.commands.args import Domain
+
+        seed = opt.kind == "seed"
+        convert.domain = Domain(0 if seed else opt.lo, 2 ** 64 - 1 if seed else opt.hi, opt.lo_open,
+                                opt.kind in ("int", "seed"), opt.unit, many=opt.kind == "floats")
     return convert
 
 
@@ -311,7 +318,10 @@ def _routing_lines(dev, doc: dict) -> list[str]:
         radii = " ".join(f"{1e3 * r:+7.1f}" for r in row["radius_at_joint_m"][:-1])
         lines.append(f"{row['transmission']:>3} {1e3 * row['motor_radius_m']:9.2f}  {radii:<36} "
                      f"{1e3 * row['driven_radius_m']:7.1f} {row['reducer_ratio']:5.1f} "
-                     f"{row['reducer_efficiency']:6.2f} {1 / row['joint_per_motor_ratio']:7.4f}")
+                     f"{row['reducer_efficiency']:6.2f} " + (f"{1 / row['joint_per_motor_ratio']:7.4f}"
+                                                             if row['joint_per_motor_ratio'] else f"{'—':>7}"))
+    if any(not row["joint_per_motor_ratio"] for row in doc["routing"]):     # a zero diagonal (driven_radius = 0)
+        lines.append("— : the cable does not wrap its own joint (driven_radius = 0): no ratio of its own")
     lines.append("\nR_m q_m = K q (S0 eqs. 1–2, corrected); G = R_m⁻¹K; τ_J = Kᵀ t, C_m = R_m t (eq. 5, corrected)")
     lines.append(_matrix_text("K", np.asarray(doc["K"]), "m"))
     return lines

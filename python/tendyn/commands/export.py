@@ -71,12 +71,14 @@ def add_arguments(subparsers) -> argparse.ArgumentParser:
                    help="the file to write (atomically): .comp, .model, .txt, .xml (mjcf) or .urdf (ros2-control)")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
     p.set_defaults(func=run_export)
+    conv.applies(p, "export")
     return p
 
 
 def run_export(args) -> int:
     from tendyn.commands.s0 import _print_json, cable_device
 
+    conv.check_applies(args)
     if args.out.suffix.lower() not in SUFFIXES[args.kind]:
         raise UsageError(f"must end in {' or '.join(SUFFIXES[args.kind])} for {args.kind} (got {str(args.out)!r})",
                          "out")

@@ -148,6 +148,8 @@ class _Parser:
 
     def value(self, v: Any, path: str, spec: FieldSpec) -> Any:
         kind = spec.kind
+        if spec.max_items is not None and isinstance(v, list) and len(v) > spec.max_items:
+            raise self.err(path, f"{len(v)} entries, more than the {spec.max_items} allowed")
         if kind in ("name", "text"):        # text from a file: a declared domain (tendyn.text, issue 36)
             if not isinstance(v, str):
                 raise self.err(path, f"must be a string (got {_typename(v)})")
@@ -391,12 +393,13 @@ class _Parser:
         of the tree, expressions that parse, increasing knots, one value per column."""
         import re
 
-        from .terms import check_expression
+        from .terms import check_expression, check_values, joint_range
 
         out: list[Term] = []
         names: set[str] = set()
         n = kin.n_joints
         tree = [num for num, js in enumerate(kin.joints, start=1) if js.sigma != 2]
+        ranges = {num: joint_range(kin.joints[num - 1]) for num in tree}
         for i, item in enumerate(raw or ()):
             path = f"terms[{i + 1}]"
             f = self.table(item, path, TERM_FIELDS)
@@ -424,10 +427,14 @@ class _Parser:
             exprs = list(f["functions"]) + ([f["function"]] if kind == "known" and f["function"] else [])
             for k, text in enumerate(exprs):
                 try:
-                    check_expression(text, n)
+                    read = check_expression(text, n)
+                    if not read - {0} <= set(tree):
+                        raise ValueError(f"reads joint {min(read - {0} - set(tree))}, a cut joint or fixed frame")
+                    check_values(text, f["joint"], ranges)
                 except ValueError as exc:
                     where = f"{path}.functions[{k + 1}]" if k < len(f["functions"]) else f"{path}.function"
-                    raise self.err(where, f"{text!r}: {exc}") from None
+                    shown = repr(text) if len(text) <= 60 else repr(text[:40]) + f"… ({len(text)} characters)"
+                    raise self.err(where, f"{shown}: {exc}") from None
             knots = f["knots"]
             if kind in ("table", "known") and knots:
                 if len(knots) < 2 or any(b <= a for a, b in zip(knots, knots[1:])):

@@ -97,6 +97,8 @@ class FieldSpec:
         Appended to the message when a value of 0 violates the range (e.g. singular routing).
     range_msg : str
         If set, the message used for any range violation (e.g. ``must be in (0, 1]``).
+    max_items : int or None
+        Most entries of a list (``*_list`` kinds): a file cannot make the tool allocate without bound.
     """
 
     name: str
@@ -114,6 +116,7 @@ class FieldSpec:
     doc: str = ""
     zero_hint: str = ""
     range_msg: str = ""
+    max_items: int | None = None
 
     def range_text(self) -> str:
         """Human-readable allowed range, e.g. ``(0, 1]`` or ``|x| <= 10`` (empty if unbounded)."""
@@ -132,6 +135,8 @@ class FieldSpec:
             parts.append("nonzero")
         if self.kind in ("float", "vec3", "inertia", "float_list"):
             parts.append("finite")
+        if self.max_items is not None:
+            parts.append(f"at most {self.max_items} entries")
         return ", ".join(parts)
 
 
@@ -352,6 +357,8 @@ ACTUATOR_FIELDS = (
       required=False, default=1.0, lo=0.0, lo_open=True, hi=1e3),
 )
 
+from .terms import MAX_EXPRESSION_CHARS, MAX_EXPRESSION_DEPTH, MAX_EXPRESSION_NODES, MAX_KNOTS, MAX_LITERAL  # noqa: E402
+
 TERM_KINDS = ("functions", "polynomial", "table", "spring", "offset", "known")
 """Kinds of ``[[terms]]`` entry (docs/device-file.md): τ linear in given functions of q, a polynomial or a
 table in the joint's q, a spring between two points of two links, a constant, or a known torque (no column)."""
@@ -364,13 +371,16 @@ TERM_FIELDS = (
       "joint between its two links)", required=False, lo=1),
     _spec("functions", "str_list", "", "\"functions\": expressions in q (this joint) and q1, q2, ... (file joint "
       "numbers) with + - * / ** and sin cos tan exp log sqrt abs tanh sign pi, e.g. [\"cos(q)\", \"sin(q)\"]; "
-      "the torque is sum(value_k * function_k) [N m, N at a prismatic joint]", required=False, default=()),
+      "the torque is sum(value_k * function_k) [N m, N at a prismatic joint]; float arithmetic, at most "
+      f"{MAX_EXPRESSION_CHARS} characters, {MAX_EXPRESSION_NODES} nodes, depth {MAX_EXPRESSION_DEPTH}, numbers "
+      f"within ±{MAX_LITERAL:g}, finite over the joint's range", required=False, default=(), max_items=32),
     _spec("degree", "int", "-", "\"polynomial\": torque = sum_{k=1..degree} value_k * q^k (the constant is the "
       "joint's OFFSET)", required=False, lo=1, hi=12),
     _spec("knots", "float_list", "rad or m", "\"table\" and tabulated \"known\": increasing positions of the "
-      "joint; between knots the torque is linear, beyond the ends constant", required=False, default=()),
+      "joint; between knots the torque is linear, beyond the ends constant", required=False, default=(),
+      max_items=MAX_KNOTS),
     _spec("torques", "float_list", "N m", "tabulated \"known\": the torque at each knot", required=False,
-      default=()),
+      default=(), max_items=MAX_KNOTS),
     _spec("function", "str", "", "\"known\": the torque [N m] as an expression (as for functions)",
       required=False),
     _spec("link_a", "int", "-", "\"spring\": the link of the first end (its joint number; 0 = the base)",
@@ -382,7 +392,8 @@ TERM_FIELDS = (
     _spec("rest_length", "float", "m", "\"spring\": free length l0 when known (one column, the stiffness k "
       "[N/m]); absent: two columns, k [N/m] and k*l0 [N]", required=False, lo=0.0, hi=10.0),
     _spec("values", "float_list", "", "the term's coefficients, one per column (units of the columns, "
-      "docs/device-file.md): a prior, and the twin's truth (absent: 0)", required=False, default=()),
+      "docs/device-file.md): a prior, and the twin's truth (absent: 0)", required=False, default=(),
+      max_items=MAX_KNOTS),
 )
 
 ALL_FIELD_TABLES = {
