@@ -267,7 +267,8 @@ ALLOWED = {
     "pipelines": {"pipelines", "sim", "analysis", "control", "ident", "device", "io", "results", "transmission",
                   "protocols", "_core"},
     "results": {"results"},
-    "report": {"report", "io"},       # turns results into pages: computes nothing, imports no physics
+    "report": {"report", "io", "drawing"},   # turns results into pages: computes nothing, imports no physics
+    "drawing": {"drawing"},           # the routing drawn (SVG) from the device it is given: a leaf
     "transmission": {"transmission", "_core", "device.schema"},
     "capstan": {"capstan"},
     "coupling": {"coupling"},

@@ -79,6 +79,32 @@ def existing_file(text: str) -> Path:
     return p
 
 
+def existing_input(text: str) -> Path:
+    """A RAW input of ``log import``: an existing regular file (CSV, .mat, .h5, .bag, .mcap, .db3) or a ROS 2 bag
+    folder (a folder holding ``metadata.yaml``)."""
+    p = Path(text)
+    if not p.exists():
+        raise argparse.ArgumentTypeError(f"{text}: file not found")
+    if p.is_dir():
+        if not (p / "metadata.yaml").is_file():
+            raise argparse.ArgumentTypeError(f"{text}: a folder, but not a ROS 2 bag (no metadata.yaml in it)")
+        return p
+    if not p.is_file():
+        raise argparse.ArgumentTypeError(f"{text}: not a regular file")
+    return p
+
+
+def report_dir(text: str) -> Path:
+    """``--report DIR``: a folder that exists or can be created (nothing is created here)."""
+    from tendyn.cli import _check_out_folder
+    from tendyn.errors import UsageError
+
+    try:
+        return Path(_check_out_folder(text, "report"))
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(exc.problem) from None
+
+
 def out_path(suffixes):
     """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
     def convert(text: str) -> Path:
