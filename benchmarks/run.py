@@ -321,6 +321,8 @@ ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
         "diff7_feedforward_mean": "differential", "nplus1_feedforward_mean": "tendons",
         "lexos_compensator_cycle_tracking": "tracking",
         "zwidth_grid": "zwidth", "tx40_identify": "tx40", "stream_identify_1h": "stream",
+        "design_evaluations_per_s": "design", "dask_design_speedup": "design", "dask_sweep_speedup": "sweep",
+        "dask_identify_speedup": "dask_identify",
         "python_suite_wall": "suite",
         "identify_iv_gen6_twin_end_to_end": "closed_loop", "identify_didim_gen6_twin_end_to_end": "closed_loop"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
@@ -355,6 +357,19 @@ def run_only(names: list[str]) -> int:
         from ident_scale import bench_stream
 
         bench_stream(results)
+    if "design" in groups:
+        from design_bench import bench_dask_design, bench_design_evaluations
+
+        bench_design_evaluations(results)
+        bench_dask_design(results)
+    if "sweep" in groups:
+        from s1_bench import bench_dask_sweep
+
+        bench_dask_sweep(results)
+    if "dask_identify" in groups:
+        from ident_scale import bench_dask
+
+        bench_dask(results)
     if "suite" in groups:
         from suite_bench import bench_test_suite
 
@@ -409,6 +424,10 @@ def main() -> int:
     bench_dask(results)
     bench_stream(results)
     bench_zwidth_grid(results)
+    from design_bench import bench_dask_design, bench_design_evaluations
+
+    bench_design_evaluations(results)
+    bench_dask_design(results)
     from cli_bench import bench_cli_latency, bench_identify_end_to_end
 
     bench_cli_latency(results)

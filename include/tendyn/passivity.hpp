@@ -47,12 +47,12 @@ struct PassivityModel {
     if (dissipation_coulomb.size() != n || dissipation_viscous.size() != n)
       return "passivity.dissipation_coulomb / dissipation_viscous: " + std::to_string(n) + " values each expected";
     for (int i = 0; i < n; ++i) {
-      if (!(dissipation_coulomb(i) >= 0.0 && std::isfinite(dissipation_coulomb(i))))
+      if (!(dissipation_coulomb(i) >= 0.0 && dissipation_coulomb(i) <= 1e6))
         return "passivity.dissipation_coulomb[" + std::to_string(i) + "] = " + format_double(dissipation_coulomb(i)) +
-               ": must be finite and >= 0 [N·m]";
-      if (!(dissipation_viscous(i) >= 0.0 && std::isfinite(dissipation_viscous(i))))
+               ": must be in [0, 1e6] [N·m] (the schema's bound on a motor's Coulomb friction)";
+      if (!(dissipation_viscous(i) >= 0.0 && dissipation_viscous(i) <= 1e6))
         return "passivity.dissipation_viscous[" + std::to_string(i) + "] = " + format_double(dissipation_viscous(i)) +
-               ": must be finite and >= 0 [N·m·s/rad]";
+               ": must be in [0, 1e6] [N·m·s/rad] (the schema's bound on a motor's viscous friction)";
     }
     if (!(reserve >= 0.0 && std::isfinite(reserve)))
       return "passivity.reserve = " + format_double(reserve) + ": must be finite and >= 0 [J]";

@@ -85,6 +85,31 @@ inline constexpr FieldInfo transmission_fields[] = {TENDYN_TRANSMISSION_FIELDS(T
 inline constexpr int transmission_field_count =
     static_cast<int>(sizeof(transmission_fields) / sizeof(transmission_fields[0]));
 
+/// Physical bound on the magnitude of each field's entries: the device schema's bounds
+/// (python/tendyn/device/schema.py; a test checks they agree), so that a model file or a C caller cannot hand the
+/// real-time core a Coulomb level of 1e308 N. The rule text carries the bound into the error message.
+struct FieldBound {
+  const char* name;  ///< core field name
+  double max_abs;    ///< |entry| <= max_abs
+  const char* rule;  ///< message, e.g. "must satisfy |value| <= 1e6 [N]"
+};
+inline constexpr FieldBound transmission_field_bounds[] = {
+    {"motor_radius", 1.0, "must be <= 1 [m] (the device schema's bound)"},
+    {"K", 1e4, "must satisfy |value| <= 1e4 [m] (driven_radius <= 1 m times reducer_ratio <= 1e4)"},
+    {"driven_radius", 1.0, "must satisfy |value| <= 1 [m] (the device schema's bound)"},
+    {"reducer_ratio", 1e4, "must be <= 1e4 [-] (the device schema's bound)"},
+    {"pretension", 1e6, "must be <= 1e6 [N] (the device schema's bound)"},
+    {"tau0", 1e6, "must be <= 1e6 [N] (the device schema's bound)"},
+    {"nu", 1e6, "must be <= 1e6 [N s/m] (the device schema's bound)"},
+    {"bearing_count", 1e3, "must be <= 1000 (bearings on one pulley)"},
+    {"bearing_radius", 1.0, "must be <= 1 [m] (the device schema's bound)"},
+    {"bearing_static_coefficient", 1.0, "must be <= 1 [m] (the device schema's bound)"},
+    {"bearing_dynamic_coefficient", 1.0, "must be <= 1 [m] (the device schema's bound)"},
+    {"bearing_h0", 1e3, "must be <= 1e3 [N m] (the device schema's bound)"},
+    {"bearing_h1", 1e3, "must be <= 1e3 [N m (rad/s)^(-2/3)] (the device schema's bound)"},
+    {"bearing_n0", 1e6, "must be <= 1e6 [rad/s] (the device schema's bound)"},
+};
+
 /// One problem found by TransmissionModel validation (setup time). Indices are 0-based, as in the
 /// arrays: [i] transmission, [i, j] transmission i and joint / branch j; -1 = not applicable.
 struct ValidationIssue {
@@ -395,6 +420,16 @@ inline int TransmissionModel::check(Sink&& sink) const {
     for (int i = 0; go && i < member.rows(); ++i)
       for (int j = 0; go && j < member.cols(); ++j)
         if (!std::isfinite(member(i, j))) go = report(info.name, i, info.dims == 1 ? -1 : j, member(i, j), "must be finite");
+  });
+  if (!go) return count;
+  // Every entry within its physical bound (transmission_field_bounds: the device schema's).
+  for_each_field([&](const FieldInfo& info, const auto& member) {
+    for (const auto& b : transmission_field_bounds) {
+      if (!go || std::string_view(b.name) != info.name) continue;
+      for (int i = 0; go && i < member.rows(); ++i)
+        for (int j = 0; go && j < member.cols(); ++j)
+          if (std::abs(member(i, j)) > b.max_abs) go = report(info.name, i, info.dims == 1 ? -1 : j, member(i, j), b.rule);
+    }
   });
   if (!go) return count;
   for (int i = 0; i < n && go; ++i) {

@@ -11,6 +11,7 @@ nothing written; 3 an unexpected error (one line; ``--debug`` shows the tracebac
 
 from __future__ import annotations
 
+import contextlib
 import argparse
 import json
 import os
@@ -46,6 +47,13 @@ def _typed(name: str):
             raise argparse.ArgumentTypeError(exc.problem) from None
 
     convert.__name__ = name
+    opt = catalogue.OPTIONS[name]
+    if opt.kind in ("float", "int", "seed", "floats"):       # the declared domain, read by the domain fuzz
+        from tendyn.commands.args import Domain
+
+        seed = opt.kind == "seed"
+        convert.domain = Domain(0 if seed else opt.lo, 2 ** 64 - 1 if seed else opt.hi, opt.lo_open,
+                                opt.kind in ("int", "seed"), opt.unit, many=opt.kind == "floats")
     return convert
 
 
@@ -191,8 +199,10 @@ def cmd_routing_show(args) -> int:
         doc["n"] = c.n_motors
         _print_json(doc)
         return 0
-    print("\n".join(head))
-    print(c.table())
+    from tendyn.text import printable
+
+    print(printable("\n".join(head)))     # names and paths come from files: no control character reaches the tty
+    print(printable(c.table()))
     return 0
 
 
@@ -278,7 +288,10 @@ def _routing_lines(dev, doc: dict) -> list[str]:
         radii = " ".join(f"{1e3 * r:+7.1f}" for r in row["radius_at_joint_m"][:-1])
         lines.append(f"{row['transmission']:>3} {1e3 * row['motor_radius_m']:9.2f}  {radii:<36} "
                      f"{1e3 * row['driven_radius_m']:7.1f} {row['reducer_ratio']:5.1f} "
-                     f"{row['reducer_efficiency']:6.2f} {1 / row['joint_per_motor_ratio']:7.4f}")
+                     f"{row['reducer_efficiency']:6.2f} " + (f"{1 / row['joint_per_motor_ratio']:7.4f}"
+                                                             if row['joint_per_motor_ratio'] else f"{'—':>7}"))
+    if any(not row["joint_per_motor_ratio"] for row in doc["routing"]):     # a zero diagonal (driven_radius = 0)
+        lines.append("— : the cable does not wrap its own joint (driven_radius = 0): no ratio of its own")
     lines.append("\nR_m q_m = K q (S0 eqs. 1–2, corrected); G = R_m⁻¹K; τ_J = Kᵀ t, C_m = R_m t (eq. 5, corrected)")
     lines.append(_matrix_text("K", np.asarray(doc["K"]), "m"))
     return lines
@@ -478,7 +491,9 @@ def cmd_demo(args) -> int:
     if args.json:
         _print_json(doc)
     else:
-        print("\n".join(lines))
+        from tendyn.text import printable
+
+        print(printable("\n".join(lines)))
     sys.stdout.flush()
     from tendyn.report import warn
 
@@ -568,6 +583,43 @@ def _demo_bench(bench, outputs: _Outputs):
 
 
 # ---- entry point ----------------------------------------------------------------------------------
+
+class _TerminalText:
+    """stdout on a terminal: every write shown without control characters (:func:`tendyn.text.printable`; newline,
+    tab and carriage return kept), so no text from a file (a name, a path, a log's meta) can drive the terminal.
+    A pipe or a file gets the bytes unchanged."""
+
+    def __init__(self, stream):
+        from tendyn.text import printable
+
+        self._stream, self._printable = stream, printable
+
+    def write(self, text: str) -> int:
+        self._stream.write(self._printable(text, keep="\n\t\r"))
+        return len(text)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+@contextlib.contextmanager
+def _terminal_stdout():
+    stream = sys.stdout
+    tty = False
+    try:
+        tty = stream.isatty()
+    except (AttributeError, ValueError):
+        pass
+    if not tty:
+        yield
+        return
+    sys.stdout = _TerminalText(stream)
+    try:
+        yield
+    finally:
+        if isinstance(sys.stdout, _TerminalText):
+            sys.stdout = stream
+
 
 def _quiet_stdout() -> None:
     """After a closed pipe: point stdout at /dev/null so the interpreter's final flush stays silent."""
@@ -664,7 +716,8 @@ def main(argv: list[str] | None = None) -> int:
                 argv = _join_negative_values(argv, {flag(k) for k in catalogue.OPTIONS})
             parser = build_parser()
         args = parser.parse_args(argv)
-        code = args.func(args)
+        with _terminal_stdout():
+            code = args.func(args)
         sys.stdout.flush()
         return code
     except KeyboardInterrupt:
@@ -704,7 +757,10 @@ def _name_too_long(exc: BaseException) -> bool:
 
 
 def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split())
+    """The message on one line, its control characters shown as escapes (a file or folder name can hold any)."""
+    from tendyn.text import printable
+
+    return printable(" ".join(str(exc).split()))
 
 
 if __name__ == "__main__":

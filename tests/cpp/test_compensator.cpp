@@ -163,6 +163,8 @@ int main(int argc, char** argv) {
     refused(replace_line(ptext, "reserve", "reserve -1"), "", "passivity.reserve", "negative reserve");
     refused(replace_line(ptext, "dissipation_coulomb", "dissipation_coulomb 1 2"), "", "dissipation_coulomb",
             "wrong count of dissipation_coulomb");
+    refused(replace_line(ptext, "dissipation_coulomb", "dissipation_coulomb 1e308 0.1 0.1 0.1"), "",
+            "must be in [0, 1e6]", "a certified Coulomb level of 1e308 N·m");
     refused(replace_line(ptext, "enabled", "enabled 2"), "", "enabled", "enabled not 0/1");
     refused(replace_line(ptext, "reserve", "reserve 1\nspeed 3"), "", "speed", "unknown passivity field");
     std::string v2 = ptext;
@@ -179,6 +181,12 @@ int main(int argc, char** argv) {
     std::string line = "tau0 nan";
     for (int k = 1; k < m.transmission.n * m.transmission.n; ++k) line += " 1";
     refused(replace_line(text, "tau0", line), "", "tau0", "NaN tau0");
+    // Physical bounds (issue 34): a Coulomb level of 1e308 N is finite but refused, the bound in the message.
+    std::string huge = "tau0 1e308";
+    for (int k = 1; k < m.transmission.n * m.transmission.n; ++k) huge += " 1";
+    refused(replace_line(text, "tau0", huge), "", "<= 1e6 [N]", "tau0 beyond its bound");
+    refused(replace_line(text, "pretension", "pretension 1e7 50 50 50"), "", "pretension[0] = 10000000: must be <= 1e6",
+            "pretension beyond its bound");
   }
   refused(replace_line(text, "underestimation", "underestimation 2"), "", "underestimation", "k out of range");
   refused(replace_line(text, "velocity_cutoff_hz", ""), "", "velocity_cutoff_hz", "missing setting");

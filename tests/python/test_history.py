@@ -74,12 +74,17 @@ def test_an_older_schema_is_migrated_and_a_newer_one_refused(tmp_path, lexos):
     con.execute("INSERT INTO parameters VALUES (1, 'C_m0[1]', 0.05, 0.002, 'N·m')")
     con.commit()
     con.close()
-    h = hist.history(lexos, db=path)                     # migrated on open, the v1 record kept
-    assert [r["name"] for r in h.rows] == ["C_m0[1]"]
+    before = path.read_bytes()
+    h = hist.history(lexos, db=path)                     # a read writes nothing, the v1 record is read
+    assert [r["name"] for r in h.rows] == ["C_m0[1]"] and path.read_bytes() == before
+    hist.connect(path).close()                           # migrated (and stamped) when opened for writing
+    assert [r["name"] for r in hist.history(lexos, db=path).rows] == ["C_m0[1]"]
     con = sqlite3.connect(path)
     assert con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()[0] == str(hist.SCHEMA_VERSION)
+    assert con.execute("PRAGMA application_id").fetchone()[0] == hist.APPLICATION_ID
+    assert con.execute("PRAGMA user_version").fetchone()[0] == hist.SCHEMA_VERSION
     assert "tendyn_version" in [c[1] for c in con.execute("PRAGMA table_info(runs)")]
-    con.execute("UPDATE meta SET value = '99' WHERE key = 'schema_version'")
+    con.execute("PRAGMA user_version = 99")
     con.commit()
     con.close()
     with pytest.raises(ValueError, match="newer"):
@@ -158,3 +163,84 @@ def test_record_options_are_checked_before_any_work(tmp_path):
     out = _tendyn("identify-friction", "lexos", str(bundled("lexos")), "--out", str(tmp_path / "f.json"),
                   "--db", str(tmp_path / "h.sqlite"))
     assert out.returncode == 2 and "--db needs --record" in out.stderr
+
+
+def _foreign(path):
+    """Another application's SQLite file (a notes app with its own tables)."""
+    con = sqlite3.connect(path)
+    con.execute("CREATE TABLE notes (id INTEGER PRIMARY KEY, body TEXT)")
+    con.execute("INSERT INTO notes (body) VALUES ('keep me')")
+    con.commit()
+    con.close()
+
+
+def _dropped(path, lexos):
+    hist.record(lexos, "validate", {"metrics": {"rms": 0.1}}, db=path)
+    con = sqlite3.connect(path)
+    con.execute("DROP TABLE parameters")
+    con.commit()
+    con.close()
+
+
+def _foreign_app_id(path, lexos):
+    _foreign(path)
+    con = sqlite3.connect(path)
+    con.execute("PRAGMA application_id = 1234")
+    con.commit()
+    con.close()
+
+
+def _extra_table(path, lexos):
+    hist.record(lexos, "validate", {"metrics": {"rms": 0.1}}, db=path)
+    con = sqlite3.connect(path)
+    con.execute("CREATE TABLE notes (id INTEGER)")
+    con.commit()
+    con.close()
+
+
+def _damaged(path, lexos):
+    hist.record(lexos, "validate", {"metrics": {"rms": 0.1}}, db=path)
+    data = bytearray(path.read_bytes())
+    data[100:4096] = b"\xff" * (4096 - 100)            # the first page's b-tree wrecked, the header kept
+    path.write_bytes(bytes(data))
+
+
+@pytest.mark.parametrize("make", ["foreign", "foreign_app_id", "dropped", "extra_table", "damaged", "junk"])
+def test_a_file_tendyn_does_not_own_is_refused_and_left_byte_identical(tmp_path, lexos, capsys, make):
+    """history --db F, identify --record --db F and the library calls on another application's database, a
+    history whose table was dropped or that gained a foreign table, a damaged file, junk: refused in one line
+    (exit 2), the file byte-identical afterwards (issue 34 item 4)."""
+    from tendyn.cli import main
+
+    path = tmp_path / "other.sqlite"
+    {"foreign": lambda: _foreign(path), "foreign_app_id": lambda: _foreign_app_id(path, lexos),
+     "dropped": lambda: _dropped(path, lexos), "extra_table": lambda: _extra_table(path, lexos),
+     "damaged": lambda: _damaged(path, lexos),
+     "junk": lambda: path.write_bytes(b"SQLite format 3\x00" + b"junk" * 300)}[make]()
+    before = path.read_bytes()
+    for call in (lambda: hist.check_db(path), lambda: hist.connect(path), lambda: hist.history(lexos, db=path),
+                 lambda: hist.record(lexos, "validate", {"metrics": {"rms": 0.1}}, db=path)):
+        with pytest.raises(ValueError, match="not a tendyn history database|damaged"):
+            call()
+        assert path.read_bytes() == before
+    for argv in (["history", "lexos", "--db", str(path)],
+                 ["identify-friction", "lexos", str(bundled("lexos")), "--out", str(tmp_path / "f.json"),
+                  "--record", "--db", str(path)]):
+        code = main(argv)
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and err.startswith("tendyn: error:") and str(path) in err, (argv, err)
+        assert path.read_bytes() == before
+
+
+def test_a_new_database_is_stamped_and_an_empty_file_is_adopted(tmp_path, lexos):
+    for path in (tmp_path / "new.sqlite", tmp_path / "empty.sqlite"):
+        if path.name == "empty.sqlite":
+            path.write_bytes(b"")
+        hist.record(lexos, "validate", {"metrics": {"rms": 0.1}}, db=path)
+        con = sqlite3.connect(path)
+        assert con.execute("PRAGMA application_id").fetchone()[0] == hist.APPLICATION_ID
+        assert con.execute("PRAGMA user_version").fetchone()[0] == hist.SCHEMA_VERSION
+        con.close()
+        before = path.read_bytes()
+        hist.history(lexos, db=path)
+        assert path.read_bytes() == before

@@ -481,6 +481,51 @@ def test_cli_validate(arm, tmp_path, capsys):
     assert "params[0].value" in err and len(err.splitlines()) == 1
 
 
+def test_validate_and_predict_apply_the_device_check_of_identify(arm, tmp_path, capsys):
+    """Issue 34 item 5: validate, IdentifiedModel.load and IdentifiedModel.predict refuse a PARAMS.json or a log of
+    another device unless --force / force=True, and a PARAMS.json with a parameter missing or unknown always (it
+    printed per-joint errors and exit 0)."""
+    import json
+
+    from tendyn.cli import main
+    from tendyn.ident.identified import IdentifiedModel
+    from tendyn.io import LogError, write_log
+    from tendyn.io.params import ParamsError
+
+    fit = write_log(synthetic_log(arm, duration=6.0, seed=31), tmp_path / "fit.csv")
+    params = tmp_path / "params.json"
+    assert main(["identify", str(arm.file), str(fit), "--out", str(params), "--quiet"]) == 0
+    capsys.readouterr()
+    doc = json.loads(params.read_text())
+    variants = {"other_device": dict(doc, device="L-EXOS"),
+                "missing": dict(doc, params=doc["params"][1:]),
+                "unknown": dict(doc, params=doc["params"] + [dict(doc["params"][0], name="ZZ9R", expression="ZZ9")])}
+    for name, bad in variants.items():
+        path = tmp_path / f"{name}.json"
+        path.write_text(json.dumps(bad))
+        assert main(["validate", str(arm.file), str(path), str(fit)]) == 2, name
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and err[0].startswith("tendyn: error:"), err
+        with pytest.raises(ParamsError):
+            IdentifiedModel.load(path, device=arm.device)
+    path = tmp_path / "other_device.json"
+    assert main(["validate", str(arm.file), str(path), str(fit), "--force"]) == 0
+    capsys.readouterr()
+    # a log of another device
+    other = synthetic_log(arm, duration=2.0, seed=32)
+    other.meta["device"] = "L-EXOS"
+    other_path = write_log(other, tmp_path / "otherdev.csv")
+    assert main(["validate", str(arm.file), str(params), str(other_path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "otherdev.csv" in err[0] and "'L-EXOS'" in err[0] and "--force" in err[0], err
+    assert main(["validate", str(arm.file), str(params), str(other_path), "--force"]) == 0
+    capsys.readouterr()
+    model = IdentifiedModel.load(params, device=arm.device)
+    with pytest.raises(LogError, match="L-EXOS"):
+        model.predict(other)
+    assert IdentifiedModel.load(params, device=arm.device, force=True).predict(other).joint.shape[1] == 2
+
+
 def test_cli_validate_record_goes_into_the_history(arm, tmp_path, capsys):
     """Issue 23: `tendyn validate --record` adds per joint relative_error[j] (over the logs, sample-weighted RMS)
     to the calibration history next to identify's parameters; a log with 3x the friction shows as a rise in

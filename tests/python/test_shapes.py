@@ -275,9 +275,10 @@ ALLOWED = {
     "interop": {"interop", "coupling", "device", "transmission", "_core"},
     "errors": {"errors"},
     "progress": {"progress"},
+    "text": {"text"},
 }
-for _sub in ALLOWED:   # the exceptions a user can cause, and progress on stderr, are leaves every package may use
-    ALLOWED[_sub] |= {"errors", "progress"}
+for _sub in ALLOWED:   # the exceptions a user can cause, progress on stderr and the domain of text read from a file
+    ALLOWED[_sub] |= {"errors", "progress", "text"}   # are leaves every package may use
 
 
 def _tendyn_imports(path: pathlib.Path):

@@ -4,12 +4,36 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import dataclass
 from pathlib import Path
+
+
+@dataclass(frozen=True)
+class Domain:
+    """The declared domain of a numeric option: what its converter accepts and what the fuzz reads
+    (tests/python/test_cli_domain_fuzz.py generates values just outside and inside it).
+
+    lo, hi : bounds (None: unbounded); lo_open : lo excluded; integer : integers only; unit : SI unit;
+    many : a comma-separated list; distinct : its entries must differ (a list)."""
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    integer: bool = False
+    unit: str = ""
+    many: bool = False
+    distinct: bool = False
+
+    def text(self) -> str:
+        lo_txt = "" if self.lo is None else f"{self.lo:g} {'<' if self.lo_open else '≤'} "
+        hi_txt = "" if self.hi is None else f" ≤ {self.hi:g}"
+        return f"{lo_txt}x{hi_txt}{f' [{self.unit}]' if self.unit else ''}"
 
 
 def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, integer: bool = False,
            unit: str = ""):
-    """A converter for a finite number (an integer if ``integer``) inside [lo, hi] (lo strict if ``lo_open``)."""
+    """A converter for a finite number (an integer if ``integer``) inside [lo, hi] (lo strict if ``lo_open``);
+    its :class:`Domain` is ``convert.domain``."""
     def convert(text: str):
         try:
             v = int(text, 10) if integer else float(text)
@@ -22,18 +46,26 @@ def number(lo: float | None = None, hi: float | None = None, *, lo_open: bool = 
             hi_txt = "" if hi is None else f" ≤ {hi:g}"
             raise argparse.ArgumentTypeError(f"must be {lo_txt}x{hi_txt}{f' [{unit}]' if unit else ''} (got {text})")
         return v
+    convert.domain = Domain(lo, hi, lo_open, integer, unit)
     return convert
 
 
-def numbers(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, unit: str = ""):
-    """A converter for a comma-separated list of numbers, each checked as by :func:`number`."""
+def numbers(lo: float | None = None, hi: float | None = None, *, lo_open: bool = False, unit: str = "",
+            distinct: bool = False):
+    """A converter for a comma-separated list of numbers, each checked as by :func:`number` (all different if
+    ``distinct``: a stepped sine's frequencies); its :class:`Domain` is ``convert.domain``."""
     one = number(lo, hi, lo_open=lo_open, unit=unit)
 
     def convert(text: str):
         parts = [p.strip() for p in text.split(",")]
         if not parts or any(p == "" for p in parts):
             raise argparse.ArgumentTypeError(f"expected comma-separated numbers without empty entries (got {text!r})")
-        return tuple(one(p) for p in parts)
+        values = tuple(one(p) for p in parts)
+        if distinct and len(set(values)) != len(values):
+            twice = sorted({v for v in values if values.count(v) > 1})
+            raise argparse.ArgumentTypeError(f"each value once (got {', '.join(f'{v:g}' for v in twice)} twice)")
+        return values
+    convert.domain = Domain(lo, hi, lo_open, False, unit, many=True, distinct=distinct)
     return convert
 
 
@@ -86,3 +118,128 @@ def refuse_other_device(source, named, dev, force: bool = False) -> None:
     if not force and not dev.is_named(named):
         raise UsageError(f"{source}: is about the device {named!r}, not {dev.name!r}; give the file of this device "
                          "(or --force to use it anyway)")
+
+
+# ---- kinds an option applies to, and relations between options and the data ---------------------------------
+# One table per command, read by the commands (check_applies, check_signals) and by the fuzz
+# (tests/python/test_cli_domain_fuzz.py). Add a row here, not a check in a command.
+
+_BENCH_PLANS = ("prbs", "multisine", "stepped-sine")
+APPLIES_TO: dict[str, tuple[str, dict[str, tuple[str, ...]]]] = {
+    "plan": ("experiment", {
+        "transmission": ("constant-velocity",), "strategy": ("constant-velocity",), "speeds": ("constant-velocity",),
+        "travel": ("constant-velocity",), "accel": ("constant-velocity",), "loads": ("constant-velocity",),
+        "q0": ("constant-velocity",),
+        "amplitude": _BENCH_PLANS, "duration": ("prbs", "multisine", "exciting"), "clock": ("prbs",),
+        "bits": ("prbs",), "band": ("multisine",), "period": ("multisine",), "frequencies": ("stepped-sine",),
+        "cycles": ("stepped-sine",), "settle": ("stepped-sine",), "seed": ("prbs", "exciting"),
+        "name": _BENCH_PLANS, "unit": _BENCH_PLANS,
+        "harmonics": ("exciting",), "base_hz": ("exciting",), "max_speed": ("exciting",),
+        "iterations": ("exciting",), "periods": ("exciting",)}),
+    "export": ("kind", {
+        "friction": ("compensator", "transmission"), "shares": ("compensator", "transmission"),
+        "k": ("compensator",), "velocity_band": ("compensator",), "velocity_cutoff": ("compensator",),
+        "rate": ("compensator",), "lossless": ("mjcf",), "timestep": ("mjcf",), "four_bar": ("ros2-control",)}),
+}
+"""command → (the option that names the kind, {option: the kinds that use it}). An option given (not its default)
+to a kind that ignores it is refused: ``plan exciting --transmission 1``, ``export mjcf --four-bar``."""
+
+
+def applies(parser: argparse.ArgumentParser, command: str) -> None:
+    """Bind :data:`APPLIES_TO`'s row of ``command`` to its parser (every option named must exist; the defaults
+    are read from the parser so "given" means "not its default")."""
+    dests = {a.dest: a.default for a in parser._actions}
+    kind, table = APPLIES_TO[command]
+    missing = [d for d in (kind, *table) if d not in dests]
+    assert not missing, f"APPLIES_TO[{command!r}] names options {missing} the parser lacks"
+    parser.set_defaults(_applies=(command, {d: dests[d] for d in table}))
+
+
+def check_applies(args) -> None:
+    """Refuse an option given to a kind that ignores it (before any work)."""
+    from tendyn.errors import UsageError
+
+    command, defaults = args._applies
+    kind_dest, table = APPLIES_TO[command]
+    kind = getattr(args, kind_dest)
+    for dest, kinds in table.items():
+        if kind not in kinds and getattr(args, dest, None) != defaults[dest]:
+            raise UsageError(f"means nothing for `{command} {kind}` (it applies to {', '.join(kinds)})", dest)
+
+
+@dataclass(frozen=True)
+class SignalDomain:
+    """What logs a signal command can identify from: at least ``min_samples`` rows, one sample rate over the
+    logs, an input and an output that vary (not constant, not all zero), ``nyquist`` options [Hz] whose largest
+    value stays at or below rate/2, ``within_log`` options [samples] at most the shortest log's rows."""
+
+    min_samples: int = 64
+    same_rate: bool = True
+    nyquist: tuple[str, ...] = ()
+    within_log: tuple[str, ...] = ()
+
+
+SIGNAL_DOMAINS = {
+    "frf": SignalDomain(nyquist=("band",), within_log=("segment",)),
+    "identify-bench": SignalDomain(),
+}
+"""command → the :class:`SignalDomain` its logs and options must satisfy (checked after reading, before work)."""
+
+PLAN_RELATIONS = {
+    "clock": "≤ --rate (one PRBS level per sample at most; its power, flat to 0.44 clock, then stays below the "
+             "Nyquist frequency rate/2)",
+    "band": "HI < --rate/2 (the Nyquist frequency)",
+    "frequencies": "each < --rate/4 (a tone sampled at least 4 times a period)",
+}
+"""plan options related to ``--rate``, checked by :func:`check_plan_relations`."""
+
+
+def check_plan_relations(args) -> None:
+    """The bench plans' options against ``--rate`` (:data:`PLAN_RELATIONS`), before any work."""
+    from tendyn.errors import UsageError
+
+    rate = args.rate
+    kind = args.experiment
+    if kind == "prbs" and args.clock is not None and args.clock > rate:
+        raise UsageError(f"{args.clock:g} Hz: must be {PLAN_RELATIONS['clock']} = {rate:g} Hz", "clock")
+    if kind == "multisine" and args.band is not None and max(args.band) >= rate / 2:
+        raise UsageError(f"{max(args.band):g} Hz: must be {PLAN_RELATIONS['band']} = {rate / 2:g} Hz", "band")
+    if kind == "stepped-sine" and args.frequencies is not None and max(args.frequencies) >= rate / 4:
+        raise UsageError(f"{max(args.frequencies):g} Hz: must be {PLAN_RELATIONS['frequencies']} = {rate / 4:g} Hz",
+                         "frequencies")
+
+
+def check_signals(command: str, args, logs, names, paths) -> None:
+    """The logs and options of ``command`` against its :data:`SIGNAL_DOMAINS` row: ``logs`` read, ``names`` the
+    (input, output) signals, ``paths`` the logs' files (for the message). Raises UsageError naming the option or
+    the log, the value and the domain."""
+    import numpy as np
+
+    from tendyn.errors import UsageError
+
+    dom = SIGNAL_DOMAINS[command]
+    rates = [float(lg.meta["rate_hz"]) for lg in logs]
+    for lg, path in zip(logs, paths):
+        if lg.n_samples < dom.min_samples:
+            raise UsageError(f"{Path(path).name}: {lg.n_samples} samples, fewer than the {dom.min_samples} a "
+                             f"{command} needs", "logs")
+        for name, opt in zip(names, ("input", "output")):
+            x = np.asarray(lg[lg.resolve(name)], float)
+            if not np.all(np.isfinite(x)):
+                raise UsageError(f"{Path(path).name}: {name} is not finite everywhere", opt)
+            if np.ptp(x) == 0:
+                raise UsageError(f"{Path(path).name}: {name} is constant ({x[0]:g}): nothing to identify from "
+                                 "(must vary)", opt)
+    if dom.same_rate and len(set(rates)) > 1:
+        raise UsageError(f"the logs have different sample rates ({', '.join(f'{r:g}' for r in rates)} Hz): must be "
+                         "one rate (resample them first)", "logs")
+    nyquist = min(rates) / 2
+    for opt in dom.nyquist:
+        v = getattr(args, opt, None)
+        if v is not None and max(v) > nyquist:
+            raise UsageError(f"{max(v):g} Hz: must be ≤ the logs' Nyquist frequency rate/2 = {nyquist:g} Hz", opt)
+    shortest = min(lg.n_samples for lg in logs)
+    for opt in dom.within_log:
+        v = getattr(args, opt, None)
+        if v is not None and v > shortest:
+            raise UsageError(f"{v} samples: must be ≤ the shortest log's {shortest} samples", opt)

@@ -147,6 +147,7 @@ def run_frf(args) -> int:
         raise UsageError(f"unknown window {args.window!r} ({exc})", "window") from None
     logs = _read(args.logs)
     i, o = _signals(logs, args.input, args.output, FRF_PAIRS)
+    conv.check_signals("frf", args, logs, (i, o), args.logs)
     try:
         frf = frf_from_logs(logs, i, o, estimator=args.estimator, nperseg=args.segment, window=args.window,
                             overlap=args.overlap, confidence=args.confidence, band_hz=args.band)
@@ -191,6 +192,7 @@ def run_identify_bench(args) -> int:
 
     fit_logs, val_logs = _read(args.logs), _read(args.validate)
     i, o = _signals(fit_logs + val_logs, args.input, args.output)
+    conv.check_signals("identify-bench", args, fit_logs + val_logs, (i, o), list(args.logs) + list(args.validate))
     try:
         recs, units = records_from_logs(fit_logs, i, o, args.shift)
         val, vunits = records_from_logs(val_logs, i, o, args.shift)

@@ -71,12 +71,14 @@ def add_arguments(subparsers) -> argparse.ArgumentParser:
                    help="the file to write (atomically): .comp, .model, .txt, .xml (mjcf) or .urdf (ros2-control)")
     p.add_argument("--json", action="store_true", help="print a summary as JSON on stdout")
     p.set_defaults(func=run_export)
+    conv.applies(p, "export")
     return p
 
 
 def run_export(args) -> int:
     from tendyn.commands.s0 import _print_json, cable_device
 
+    conv.check_applies(args)
     if args.out.suffix.lower() not in SUFFIXES[args.kind]:
         raise UsageError(f"must end in {' or '.join(SUFFIXES[args.kind])} for {args.kind} (got {str(args.out)!r})",
                          "out")
@@ -86,6 +88,12 @@ def run_export(args) -> int:
     from tendyn.ident.loss_model import LossModelError, identified_losses
 
     dev = cable_device(args.device, "to export", drives=True)
+    if args.kind == "compensator":        # before any file is read: the name must fit the .comp's device line
+        from tendyn.control.compensator import device_line_problem
+
+        problem = device_line_problem(dev.name)
+        if problem:
+            raise UsageError(f"its name {dev.name!r} cannot be written in a .comp file: {problem}", "device")
     if args.kind == "compensator" and args.friction is None:
         raise UsageError("a compensator is exported from identified friction (tendyn identify-friction); "
                          "without it, Compensator.from_device(device).export(path) uses the device file's "

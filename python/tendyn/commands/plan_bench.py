@@ -24,12 +24,15 @@ from tendyn.commands import args as conv
 from tendyn.errors import UsageError
 
 KINDS = ("prbs", "multisine", "stepped-sine")
+MAX_AMPLITUDE = 1e4
+"""Largest reference level a bench plan writes [N, or the --unit of a generic input]: the force an amplifier of a
+tendon bench can be asked for (a 1e308 N reference is refused, not written)."""
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of the bench plans, on the `plan` parser."""
     g = p.add_argument_group("prbs, multisine, stepped-sine (a bench's identification references)")
-    g.add_argument("--amplitude", type=conv.number(0.0, None, lo_open=True), default=None,
+    g.add_argument("--amplitude", type=conv.number(0.0, MAX_AMPLITUDE, lo_open=True, unit="N or --unit"), default=None,
                    help="level ±A of the PRBS, peak of the multisine, amplitude of the sines [N, or --unit]")
     g.add_argument("--duration", type=conv.number(0.0, 1e5, lo_open=True, unit="s"), default=None,
                    help="length of the PRBS or multisine [s]")
@@ -40,7 +43,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="multisine band [Hz]")
     g.add_argument("--period", type=conv.number(0.0, 1e4, lo_open=True, unit="s"), default=2.0,
                    help="multisine period [s] (lines every 1/period Hz; default 2)")
-    g.add_argument("--frequencies", type=conv.numbers(0.0, None, lo_open=True, unit="Hz"), default=None,
+    g.add_argument("--frequencies", type=conv.numbers(0.0, None, lo_open=True, unit="Hz", distinct=True), default=None,
                    metavar="F,…", help="stepped-sine frequencies [Hz]")
     g.add_argument("--cycles", type=conv.number(1, 100000, integer=True), default=10,
                    help="measured cycles per stepped sine (default 10)")

@@ -24,7 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "bandwidth_hz)")
     g.add_argument("--max-speed", type=conv.number(0.0, 1e3, lo_open=True, unit="rad/s"), default=1.5,
                    help="speed limit per joint [rad/s, m/s at a prismatic joint] (default 1.5)")
-    g.add_argument("--iterations", type=conv.number(0, 100000, integer=True), default=300,
+    g.add_argument("--iterations", type=conv.number(1, 100000, integer=True), default=300,
                    help="candidates tried by the optimiser (default 300)")
     g.add_argument("--periods", type=conv.number(1, 1000, integer=True), default=3,
                    help="periods written when --duration is not given (default 3)")

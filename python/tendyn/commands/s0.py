@@ -99,6 +99,7 @@ def add_plan_arguments(subparsers) -> argparse.ArgumentParser:
     plan_bench.add_arguments(p)
     plan_exciting.add_arguments(p)
     p.set_defaults(func=run_plan)
+    conv.applies(p, "plan")
     return p
 
 
@@ -137,7 +138,9 @@ def run_plan(args) -> int:
     from tendyn.io import write_log
     from tendyn.protocols import plan_test
 
+    conv.check_applies(args)
     if args.experiment in plan_bench.KINDS:
+        conv.check_plan_relations(args)
         return plan_bench.run(args, _load_device)
     if args.experiment in plan_exciting.KINDS:
         return plan_exciting.run(args, _load_device)

@@ -20,6 +20,8 @@ def register(subparsers) -> None:
     p.add_argument("logs", nargs="+", type=existing_file, metavar="LOG", help="log files (.parquet or .csv)")
     p.add_argument("--report", help="folder for report.html, the table, validate.json and one figure per log (one panel per joint)")
     p.add_argument("--json", action="store_true", help="print the errors as one JSON document on stdout")
+    p.add_argument("--force", action="store_true",
+                   help="use parameters or logs of another device (or of another version of its file) anyway")
     add_record_arguments(p)
     p.set_defaults(func=cmd_validate)
 
@@ -50,9 +52,14 @@ def cmd_validate(args) -> int:
         raise UsageError(f"{dev.name} is a {dev.kind}: validation needs a rigid serial device", "device")
     out = _check_out_folder(args.report) if args.report else None
     try:
-        model = IdentifiedModel.load(args.params, device=dev)
+        model = IdentifiedModel.load(args.params, device=dev, force=args.force)
     except ParamsError as exc:
         raise UsageError(str(exc)) from None
+    from tendyn.commands.args import refuse_other_device
+    from tendyn.io.logs import read_meta
+
+    for path in args.logs:                      # every log of this device, before any work
+        refuse_other_device(path.name, read_meta(path).get("device"), dev, args.force)
     results = []
     for path in args.logs:
         log = read_log(path)

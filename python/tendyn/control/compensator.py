@@ -26,7 +26,8 @@ from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.closed_loop import end_effector_point
 from tendyn.transmission import Transmission, as_vector
 
-__all__ = ["Compensator", "chain_model", "device_transmission", "end_effector_point", "transmission_with_friction",
+__all__ = ["Compensator", "chain_model", "device_line_problem", "device_transmission", "end_effector_point",
+           "transmission_with_friction",
            "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ",
            "IDENTIFIED_UNDERESTIMATION"]
 
@@ -40,6 +41,23 @@ DEFAULT_VELOCITY_BAND = 0.5
 """v_band [rad/s], motor side: below it the friction feedforward fades to zero (2 % of a slow 25 rad/s move)."""
 DEFAULT_VELOCITY_CUTOFF_HZ = 30.0
 """First-order velocity filter cut-off [Hz] (encoder quantisation noise at 1 kHz vs. phase lag)."""
+
+
+def device_line_problem(name: str) -> str | None:
+    """Why ``name`` cannot be the ``device`` line of a compensator file (None if it can): the file is line based,
+    ``#`` starts a comment and the rest of the line is read without its outer spaces, so a name must be a name
+    (:func:`tendyn.text.name_problem`: no newline, no control character) without ``#`` and without outer spaces,
+    or it would not read back as itself."""
+    from tendyn.text import name_problem
+
+    problem = name_problem(name)
+    if problem:
+        return problem
+    if "#" in name:
+        return "'#' starts a comment in that line-based file"
+    if name != name.strip():
+        return "a leading or trailing space is not kept by that line-based file"
+    return None
 
 
 def chain_model(device: Device | CompiledDevice) -> Any:
@@ -239,7 +257,11 @@ class Compensator:
         return Compensator(m)
 
     def export(self, path) -> None:
-        """Write the compensator model file atomically (read by ``tendyn_compensator_load``)."""
+        """Write the compensator model file atomically (read by ``tendyn_compensator_load``). ValueError (nothing
+        written) when the device name cannot be one ``device`` line of the file: :func:`device_line_problem`."""
+        problem = device_line_problem(self.device)
+        if problem:
+            raise ValueError(f"{path}: device name {self.device!r} cannot be written in a compensator file: {problem}")
         _core.save_compensator_model(self._model, str(path))
 
     def text(self) -> str:

@@ -54,6 +54,8 @@ from .schema import (
     _num,
     inertia_matrix,
 )
+from tendyn.text import name_problem, text_problem
+
 from ._toml import read_toml, typename as _typename
 from .base import Device
 from .tendon_bench import KIND as TENDON_BENCH_KIND
@@ -146,6 +148,15 @@ class _Parser:
 
     def value(self, v: Any, path: str, spec: FieldSpec) -> Any:
         kind = spec.kind
+        if spec.max_items is not None and isinstance(v, list) and len(v) > spec.max_items:
+            raise self.err(path, f"{len(v)} entries, more than the {spec.max_items} allowed")
+        if kind in ("name", "text"):        # text from a file: a declared domain (tendyn.text, issue 36)
+            if not isinstance(v, str):
+                raise self.err(path, f"must be a string (got {_typename(v)})")
+            problem = name_problem(v) if kind == "name" else text_problem(v)
+            if problem:
+                raise self.err(path, problem)
+            return v
         if kind == "str":
             if not isinstance(v, str):
                 raise self.err(path, f"must be a string (got {_typename(v)})")
@@ -319,17 +330,18 @@ class _Parser:
 
     def plausible(self, kin: Kinematics, trans: tuple, drives: tuple) -> None:
         """Magnitudes a device of desktop-to-robot size cannot have, refused with the likely unit mistake
-        named: a revolute limit beyond ±2π (degrees?), a capstan ratio below 1 (inverted: N = motor speed /
+        named: a revolute limit beyond two turns, ±4π (degrees?; a multi-turn roll such as the dVRK MTM's
+        ±8.7 rad stays allowed), a capstan ratio below 1 (inverted: N = motor speed /
         joint speed), a rotor inertia that peak torque accelerates at under 100 rad/s² (g·cm² or kg·cm² written
         as kg·m²?: real rotors reach 1e4–1e6 rad/s²)."""
-        two_pi = 2.0 * math.pi + 1e-9
+        two_turns = 4.0 * math.pi + 1e-9
         for num, js in enumerate(kin.joints, start=1):
             if getattr(js, "sigma", 0) == 0 and js.lower is not None and js.upper is not None:
                 for key in ("lower", "upper"):
                     v = getattr(js, key)
-                    if abs(v) > two_pi:
+                    if abs(v) > two_turns:
                         raise self.err(f"kinematics.joints[{num}].{key}",
-                                       f"{v:g} rad is beyond ±2π for a revolute joint: degrees? "
+                                       f"{v:g} rad is beyond ±4π (two turns) for a revolute joint: degrees? "
                                        f"({v:g}° = {math.radians(v):.4g} rad)")
         for section, items in (("transmissions", trans), ("drives", drives)):
             for i, t in enumerate(items, start=1):
@@ -381,12 +393,13 @@ class _Parser:
         of the tree, expressions that parse, increasing knots, one value per column."""
         import re
 
-        from .terms import check_expression
+        from .terms import check_expression, check_values, joint_range
 
         out: list[Term] = []
         names: set[str] = set()
         n = kin.n_joints
         tree = [num for num, js in enumerate(kin.joints, start=1) if js.sigma != 2]
+        ranges = {num: joint_range(kin.joints[num - 1]) for num in tree}
         for i, item in enumerate(raw or ()):
             path = f"terms[{i + 1}]"
             f = self.table(item, path, TERM_FIELDS)
@@ -414,10 +427,14 @@ class _Parser:
             exprs = list(f["functions"]) + ([f["function"]] if kind == "known" and f["function"] else [])
             for k, text in enumerate(exprs):
                 try:
-                    check_expression(text, n)
+                    read = check_expression(text, n)
+                    if not read - {0} <= set(tree):
+                        raise ValueError(f"reads joint {min(read - {0} - set(tree))}, a cut joint or fixed frame")
+                    check_values(text, f["joint"], ranges)
                 except ValueError as exc:
                     where = f"{path}.functions[{k + 1}]" if k < len(f["functions"]) else f"{path}.function"
-                    raise self.err(where, f"{text!r}: {exc}") from None
+                    shown = repr(text) if len(text) <= 60 else repr(text[:40]) + f"… ({len(text)} characters)"
+                    raise self.err(where, f"{shown}: {exc}") from None
             knots = f["knots"]
             if kind in ("table", "known") and knots:
                 if len(knots) < 2 or any(b <= a for a, b in zip(knots, knots[1:])):
@@ -721,7 +738,11 @@ class _Parser:
                     lower, upper = float(lim.get("lower", "0")), float(lim.get("upper", "0"))
                 except ValueError:
                     raise self.err(field, f"{urdf.name}: joint {jt.get('name')!r} has non-numeric limits") from None
-            out.append(JointSpec(name=jt.get("name") or f"joint{len(out) + 1}", lower=lower, upper=upper))
+            jname = jt.get("name") or f"joint{len(out) + 1}"
+            problem = name_problem(jname)
+            if problem:          # a name from the URDF file: the domain of tendyn.text, as in the device file
+                raise self.err(field, f"{urdf.name}: joint name {problem}")
+            out.append(JointSpec(name=jname, lower=lower, upper=upper))
         if not out:
             raise self.err(field, f"{urdf.name}: no movable joint")
         return tuple(out)

@@ -72,8 +72,10 @@ class FieldSpec:
     name : str
         Key as written in the file.
     kind : str
-        ``"str"``, ``"float"``, ``"int"``, ``"vec3"`` (3 floats), ``"inertia"`` (6 floats),
-        ``"int_list"``, ``"float_list"``, ``"str_list"``, ``"table"`` or ``"table_list"``.
+        ``"str"``, ``"name"`` (a name: :data:`tendyn.text.NAME_DOMAIN`), ``"text"`` (free text, no control
+        character but newline and tab: :func:`tendyn.text.text_problem`), ``"float"``, ``"int"``, ``"vec3"``
+        (3 floats), ``"inertia"`` (6 floats), ``"int_list"``, ``"float_list"``, ``"str_list"``, ``"table"`` or
+        ``"table_list"``.
         Integers are accepted where floats are expected; booleans never count as numbers.
     unit : str
         SI unit ("-" if dimensionless, "" for strings and tables).
@@ -95,6 +97,8 @@ class FieldSpec:
         Appended to the message when a value of 0 violates the range (e.g. singular routing).
     range_msg : str
         If set, the message used for any range violation (e.g. ``must be in (0, 1]``).
+    max_items : int or None
+        Most entries of a list (``*_list`` kinds): a file cannot make the tool allocate without bound.
     """
 
     name: str
@@ -112,6 +116,7 @@ class FieldSpec:
     doc: str = ""
     zero_hint: str = ""
     range_msg: str = ""
+    max_items: int | None = None
 
     def range_text(self) -> str:
         """Human-readable allowed range, e.g. ``(0, 1]`` or ``|x| <= 10`` (empty if unbounded)."""
@@ -130,6 +135,8 @@ class FieldSpec:
             parts.append("nonzero")
         if self.kind in ("float", "vec3", "inertia", "float_list"):
             parts.append("finite")
+        if self.max_items is not None:
+            parts.append(f"at most {self.max_items} entries")
         return ", ".join(parts)
 
 
@@ -169,8 +176,8 @@ ROUTINGS = ("one_per_joint", "n_plus_one")
 or N+1: n + 1 tendons on n actuated joints, K (n + 1, n) (issue 19; :mod:`tendyn.tendons`)."""
 
 DEVICE_FIELDS = (
-    _spec("name", "str", "", "device name (non-empty)"),
-    _spec("description", "str", "", "free text", required=False, default=""),
+    _spec("name", "name", "", "device name (non-empty)"),
+    _spec("description", "text", "", "free text", required=False, default=""),
     _spec("kind", "str", "", "device kind; \"tendon_bench_2n\" files are read by "
       "tendyn.device.tendon_bench.load_tendon_bench", required=False, default="serial", choices=DEVICE_KINDS),
     _spec("bandwidth_hz", "float", "Hz", "dynamic bandwidth of the joint motions (position loops); sets the "
@@ -216,7 +223,7 @@ _LINK_FIELDS = (
 )
 
 DH_JOINT_FIELDS = (
-    _spec("name", "str", "", "joint name, unique"),
+    _spec("name", "name", "", "joint name, unique"),
     _spec("a", "float", "m", "link length a_i (standard DH)", abs_max=10.0),
     _spec("alpha", "float", "rad", "link twist alpha_i", abs_max=TWO_PI),
     _spec("d", "float", "m", "link offset d_i", abs_max=10.0),
@@ -226,7 +233,7 @@ DH_JOINT_FIELDS = (
 ) + _LINK_FIELDS
 
 MDH_JOINT_FIELDS = (
-    _spec("name", "str", "", "frame/joint name, unique"),
+    _spec("name", "name", "", "frame/joint name, unique"),
     _spec("j", "int", "-", "frame number, 1-based; must equal the entry's position", lo=1),
     _spec("antecedent", "int", "-", "antecedent frame a(j); 0 = base; must be < j", lo=0),
     _spec("mu", "int", "-", "1 if the joint is actuated, else 0", choices=(0, 1)),
@@ -248,7 +255,7 @@ MDH_JOINT_FIELDS = (
 )
 
 TRANSMISSION_FIELDS = (
-    _spec("name", "str", "", "transmission name, unique"),
+    _spec("name", "name", "", "transmission name, unique"),
     _spec("joint", "int", "-", "driven joint number (1-based); every actuated joint is driven exactly once", lo=1),
     _spec("motor_radius", "float", "m", "motor pulley radius r_m", lo=0.0, lo_open=True, hi=1.0),
     _spec("crosses", "int_list", "-", "other joints the cable wraps, unique, != joint: before it (idle pulleys) "
@@ -308,7 +315,7 @@ SENSOR_FIELDS = (
 )
 
 DRIVE_FIELDS = (
-    _spec("name", "str", "", "drive name, unique (default \"drive<joint>\")", required=False),
+    _spec("name", "name", "", "drive name, unique (default \"drive<joint>\")", required=False),
     _spec("joint", "int", "-", "driven joint number (1-based, actuated); every actuated joint is driven "
       "exactly once", lo=1),
     _spec("ratio", "float", "-", "capstan ratio N: joint speed * N = motor speed", lo=0.0, lo_open=True,
@@ -330,7 +337,7 @@ DRIVE_FIELDS = (
 )
 
 ACTUATOR_FIELDS = (
-    _spec("name", "str", "", "actuator (motor) name, unique (default \"motor<joint>\")", required=False),
+    _spec("name", "name", "", "actuator (motor) name, unique (default \"motor<joint>\")", required=False),
     _spec("joint", "int", "-", "the joint this motor drives (1-based, actuated); every actuated joint is "
       "driven exactly once", lo=1),
     _spec("ratio", "float", "-", "gear ratio N (signed): motor angle = N * (q_joint + sum(coupling * q_k))",
@@ -350,25 +357,30 @@ ACTUATOR_FIELDS = (
       required=False, default=1.0, lo=0.0, lo_open=True, hi=1e3),
 )
 
+from .terms import MAX_EXPRESSION_CHARS, MAX_EXPRESSION_DEPTH, MAX_EXPRESSION_NODES, MAX_KNOTS, MAX_LITERAL  # noqa: E402
+
 TERM_KINDS = ("functions", "polynomial", "table", "spring", "offset", "known")
 """Kinds of ``[[terms]]`` entry (docs/device-file.md): τ linear in given functions of q, a polynomial or a
 table in the joint's q, a spring between two points of two links, a constant, or a known torque (no column)."""
 
 TERM_FIELDS = (
-    _spec("name", "str", "", "term name, unique; letters, digits and _ (its columns are named after it: "
+    _spec("name", "name", "", "term name, unique; letters, digits and _ (its columns are named after it: "
       "<name>_1, <name>_2, ... or <name>_k, <name>_kl0 for a spring, <name> for an offset)"),
     _spec("kind", "str", "", "what the term is", choices=TERM_KINDS),
     _spec("joint", "int", "-", "the joint the torque acts on (1-based; not for \"spring\", which acts on every "
       "joint between its two links)", required=False, lo=1),
     _spec("functions", "str_list", "", "\"functions\": expressions in q (this joint) and q1, q2, ... (file joint "
       "numbers) with + - * / ** and sin cos tan exp log sqrt abs tanh sign pi, e.g. [\"cos(q)\", \"sin(q)\"]; "
-      "the torque is sum(value_k * function_k) [N m, N at a prismatic joint]", required=False, default=()),
+      "the torque is sum(value_k * function_k) [N m, N at a prismatic joint]; float arithmetic, at most "
+      f"{MAX_EXPRESSION_CHARS} characters, {MAX_EXPRESSION_NODES} nodes, depth {MAX_EXPRESSION_DEPTH}, numbers "
+      f"within ±{MAX_LITERAL:g}, finite over the joint's range", required=False, default=(), max_items=32),
     _spec("degree", "int", "-", "\"polynomial\": torque = sum_{k=1..degree} value_k * q^k (the constant is the "
       "joint's OFFSET)", required=False, lo=1, hi=12),
     _spec("knots", "float_list", "rad or m", "\"table\" and tabulated \"known\": increasing positions of the "
-      "joint; between knots the torque is linear, beyond the ends constant", required=False, default=()),
+      "joint; between knots the torque is linear, beyond the ends constant", required=False, default=(),
+      max_items=MAX_KNOTS),
     _spec("torques", "float_list", "N m", "tabulated \"known\": the torque at each knot", required=False,
-      default=()),
+      default=(), max_items=MAX_KNOTS),
     _spec("function", "str", "", "\"known\": the torque [N m] as an expression (as for functions)",
       required=False),
     _spec("link_a", "int", "-", "\"spring\": the link of the first end (its joint number; 0 = the base)",
@@ -380,7 +392,8 @@ TERM_FIELDS = (
     _spec("rest_length", "float", "m", "\"spring\": free length l0 when known (one column, the stiffness k "
       "[N/m]); absent: two columns, k [N/m] and k*l0 [N]", required=False, lo=0.0, hi=10.0),
     _spec("values", "float_list", "", "the term's coefficients, one per column (units of the columns, "
-      "docs/device-file.md): a prior, and the twin's truth (absent: 0)", required=False, default=()),
+      "docs/device-file.md): a prior, and the twin's truth (absent: 0)", required=False, default=(),
+      max_items=MAX_KNOTS),
 )
 
 ALL_FIELD_TABLES = {

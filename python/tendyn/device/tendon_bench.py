@@ -22,6 +22,8 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 from ._toml import read_toml
+from tendyn.text import name_problem, text_problem
+
 from ._toml import typename as _typename
 from .base import Device
 from .schema import DeviceError
@@ -196,8 +198,9 @@ def load_tendon_bench(path: str | os.PathLike, raw: dict | None = None) -> Tendo
         raise DeviceError(f"must be {KIND!r} for a tendon bench file (got {dev['kind']!r})", file=fname,
                           field="device.kind")
     name = dev.get("name", TendonBench.name)
-    if not name.strip():
-        raise DeviceError("must not be empty", file=fname, field="device.name")
+    for key, problem in (("name", name_problem(name)), ("description", text_problem(dev.get("description", "")))):
+        if problem:       # the domains of tendyn.text (issue 36), as for any device file
+            raise DeviceError(problem, file=fname, field=f"device.{key}")
 
     # [bench]
     bench = raw.get("bench")

@@ -28,31 +28,81 @@ import math
 
 import numpy as np
 
-__all__ = ["EXPRESSION_FUNCTIONS", "check_expression", "evaluate_expression", "TermModel"]
+__all__ = ["EXPRESSION_FUNCTIONS", "check_expression", "check_values", "evaluate_expression", "TermModel",
+           "MAX_EXPRESSION_CHARS", "EXPRESSION_MAX_CHARS", "MAX_EXPRESSION_NODES", "MAX_EXPRESSION_DEPTH", "MAX_LITERAL", "MAX_KNOTS"]
 
 EXPRESSION_FUNCTIONS = {"sin": np.sin, "cos": np.cos, "tan": np.tan, "exp": np.exp, "log": np.log,
                         "sqrt": np.sqrt, "abs": np.abs, "tanh": np.tanh, "sign": np.sign}
 """Functions an expression of a term may call (numpy, elementwise)."""
 
-_OPS = (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd)
+_BINOPS = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply, ast.Div: np.divide,
+           ast.Pow: np.power}
+_UNOPS = {ast.USub: np.negative, ast.UAdd: np.positive}
+
+MAX_EXPRESSION_CHARS = 400
+"""Longest expression text [characters]; checked before the text is parsed (a 100k-long chain is refused
+without building its tree)."""
+EXPRESSION_MAX_CHARS = MAX_EXPRESSION_CHARS
+"""The same limit under the name issue 36 gave it."""
+MAX_EXPRESSION_NODES = 200
+"""Most syntax-tree nodes (names, numbers, operators, calls) in one expression."""
+MAX_EXPRESSION_DEPTH = 20
+"""Deepest nesting of operators and calls in one expression."""
+MAX_LITERAL = 1e9
+"""Largest magnitude of a number written in an expression [-]: every number is a float (no unbounded integer
+arithmetic), and a power tower of floats overflows to a refusal at load instead of spinning."""
+
+
+def _depth(node: ast.AST, limit: int) -> int:
+    """Nesting depth of ``node``, iteratively (a deep tree cannot exhaust the interpreter's stack)."""
+    deepest, stack = 0, [(node, 1)]
+    while stack:
+        n, d = stack.pop()
+        deepest = max(deepest, d)
+        if deepest > limit:
+            return deepest
+        stack.extend((c, d + 1) for c in ast.iter_child_nodes(n)
+                     if not isinstance(c, (ast.Load, ast.operator, ast.unaryop)))
+    return deepest
 
 
 def check_expression(text: str, n_joints: int) -> set[int]:
     """Raise ValueError unless ``text`` is an expression of q, q1…q<n_joints>, numbers, pi and
-    :data:`EXPRESSION_FUNCTIONS` with + − × / **; returns the joint numbers it reads (0 for plain ``q``)."""
+    :data:`EXPRESSION_FUNCTIONS` with + − × / **, within the limits (:data:`MAX_EXPRESSION_CHARS` characters,
+    :data:`MAX_EXPRESSION_NODES` nodes, depth :data:`MAX_EXPRESSION_DEPTH`, numbers of magnitude at most
+    :data:`MAX_LITERAL`); returns the joint numbers it reads (0 for plain ``q``). Its values are checked by
+    :func:`check_values` (finite over the joint's range)."""
+    if not isinstance(text, str):
+        raise ValueError("must be a string")
+    if len(text) > MAX_EXPRESSION_CHARS:
+        raise ValueError(f"{len(text)} characters, more than the {MAX_EXPRESSION_CHARS} an expression may have")
     try:
-        tree = ast.parse(text, mode="eval")
-    except SyntaxError as exc:
-        raise ValueError(f"not an expression: {exc.msg}") from None
+        tree = ast.parse(text.strip(), mode="eval")
+    except (SyntaxError, ValueError, MemoryError, RecursionError) as exc:
+        raise ValueError(f"not an expression: {getattr(exc, 'msg', None) or exc}") from None
+    nodes = list(ast.walk(tree))
+    n_nodes = sum(not isinstance(n, (ast.Load, ast.operator, ast.unaryop)) for n in nodes)
+    if n_nodes > MAX_EXPRESSION_NODES:
+        raise ValueError(f"{n_nodes} terms and operators, more than the {MAX_EXPRESSION_NODES} allowed")
+    if _depth(tree, MAX_EXPRESSION_DEPTH) > MAX_EXPRESSION_DEPTH:
+        raise ValueError(f"nested deeper than {MAX_EXPRESSION_DEPTH} levels")
     used: set[int] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, (ast.Expression, ast.Load) + _OPS):
+    for node in nodes:
+        if isinstance(node, (ast.Expression, ast.Load, ast.operator, ast.unaryop)):
+            if isinstance(node, (ast.operator, ast.unaryop)) and type(node) not in _BINOPS and \
+                    type(node) not in _UNOPS:
+                raise ValueError(f"operator {type(node).__name__} not allowed (+ - * / ** only)")
             continue
         if isinstance(node, (ast.BinOp, ast.UnaryOp)):
-            if not isinstance(node.op, _OPS):
-                raise ValueError(f"operator {type(node.op).__name__} not allowed (+ - * / ** only)")
             continue
         if isinstance(node, ast.Constant) and isinstance(node.value, (int, float)) and not isinstance(node.value, bool):
+            try:
+                x = float(node.value)
+            except OverflowError:
+                x = math.inf
+            if not math.isfinite(x) or abs(x) > MAX_LITERAL:
+                raise ValueError(f"the number {str(node.value)[:20]}{'…' if len(str(node.value)) > 20 else ''} is "
+                                 f"beyond ±{MAX_LITERAL:g} (the largest number an expression may hold)")
             continue
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.func.id not in EXPRESSION_FUNCTIONS or node.keywords \
@@ -75,21 +125,78 @@ def check_expression(text: str, n_joints: int) -> set[int]:
     return used
 
 
-def evaluate_expression(text: str, q_own, q_by_number: dict) -> np.ndarray:
+def _evaluate(node: ast.AST, env: dict):
+    """Float-only evaluation of a checked tree (no ``eval``, no Python integers: numbers become float64)."""
+    if isinstance(node, ast.Expression):
+        return _evaluate(node.body, env)
+    if isinstance(node, ast.Constant):
+        return np.float64(node.value)
+    if isinstance(node, ast.Name):
+        return env[node.id]
+    if isinstance(node, ast.UnaryOp):
+        return _UNOPS[type(node.op)](_evaluate(node.operand, env))
+    if isinstance(node, ast.BinOp):
+        return _BINOPS[type(node.op)](_evaluate(node.left, env), _evaluate(node.right, env))
+    if isinstance(node, ast.Call):
+        return EXPRESSION_FUNCTIONS[node.func.id](_evaluate(node.args[0], env))
+    raise ValueError(f"{type(node).__name__} not allowed in an expression")  # pragma: no cover - checked
+
+
+def evaluate_expression(text: str, q_own, q_by_number: dict, *, strict: bool = False) -> np.ndarray:
     """Value of a checked expression on samples: ``q_own`` (n,) the term's joint, ``q_by_number`` file joint
-    number → (n,) positions [rad or m]."""
-    env = dict(EXPRESSION_FUNCTIONS, pi=math.pi, q=q_own)
-    env.update({f"q{k}": v for k, v in q_by_number.items()})
-    out = eval(compile(ast.parse(text, mode="eval"), "<term>", "eval"), {"__builtins__": {}}, env)  # checked
+    number → (n,) positions [rad or m]. Float arithmetic only; with ``strict`` a division by zero, an overflow
+    or an invalid operation (0 ** −1, log of a negative number) raises FloatingPointError."""
+    env = dict(EXPRESSION_FUNCTIONS, pi=np.float64(math.pi), q=np.asarray(q_own, float))
+    env.update({f"q{k}": np.asarray(v, float) for k, v in q_by_number.items()})
+    with np.errstate(all="raise" if strict else "ignore"):
+        out = _evaluate(ast.parse(text.strip(), mode="eval"), env)
     return np.broadcast_to(np.asarray(out, float), np.shape(q_own)).copy()
+
+
+def joint_range(joint, margin: float = 0.5) -> tuple[float, float]:
+    """The span [rad or m] over which the terms of a joint are checked at load and tabulated by the twin: its
+    limits (absent: ±π) widened by ``margin`` of their width on each side."""
+    lo = joint.lower if joint.lower is not None else -np.pi
+    hi = joint.upper if joint.upper is not None else np.pi
+    return lo - margin * (hi - lo), hi + margin * (hi - lo)
+
+
+def check_values(text: str, own: int, ranges: dict, n_samples: int = 257) -> None:
+    """Raise ValueError unless the checked expression ``text`` is finite, without a division by zero, an overflow
+    or an invalid operation, on ``n_samples`` positions of its joint ``own`` spanning its range and the other
+    joints at seeded positions in theirs (``ranges``: joint number → (lo, hi) [rad or m], the ranges the twin
+    tabulates). Evaluated once, at load."""
+    rng = np.random.default_rng(0)
+    lo, hi = ranges[own]
+    q_own = np.linspace(lo, hi, n_samples)
+    byn = {num: (q_own if num == own else rng.uniform(a, b, n_samples)) for num, (a, b) in ranges.items()}
+    try:
+        x = evaluate_expression(text, q_own, byn, strict=True)
+    except FloatingPointError as exc:
+        what = {"divide": "divides by zero", "overflow": "overflows", "invalid": "is undefined"}
+        kind = next((v for k, v in what.items() if k in str(exc)), "fails")
+        raise ValueError(f"{kind} for joint {own} in [{lo:.4g}, {hi:.4g}] (float arithmetic; e.g. 0 ** -1, "
+                         f"a power tower, log of 0)") from None
+    if not np.all(np.isfinite(x)):
+        raise ValueError(f"is not finite for joint {own} in [{lo:.4g}, {hi:.4g}]")
+
+
+MAX_KNOTS = 512
+"""Most knots of a ``table`` or tabulated ``known`` term (the twin tabulates n_samples × knots weights)."""
 
 
 def hat_basis(x, knots) -> np.ndarray:
     """(n, k) linear-interpolation weights of x on the knots (constant beyond the ends): Σ_k B_k(x) θ_k is the
-    piecewise-linear table through (knots, θ)."""
+    piecewise-linear table through (knots, θ). Two nonzero weights per row; memory n × k."""
     knots = np.asarray(knots, float)
-    eye = np.eye(knots.size)
-    return np.column_stack([np.interp(x, knots, eye[k]) for k in range(knots.size)])
+    x = np.clip(np.asarray(x, float).ravel(), knots[0], knots[-1])
+    j = np.clip(np.searchsorted(knots, x, side="right") - 1, 0, knots.size - 2)
+    w = (x - knots[j]) / (knots[j + 1] - knots[j])
+    B = np.zeros((x.size, knots.size))
+    rows = np.arange(x.size)
+    B[rows, j] = 1.0 - w
+    B[rows, j + 1] += w
+    return B
 
 
 class TermModel:
@@ -250,9 +357,7 @@ class TermModel:
         lo_hi = []
         active_numbers = [self.numbers[k] for k in compiled.active_joints]
         for num in active_numbers:
-            js = self.device.kinematics.joints[num - 1]
-            lo, hi = (js.lower if js.lower is not None else -np.pi), (js.upper if js.upper is not None else np.pi)
-            lo_hi.append((lo - margin * (hi - lo), hi + margin * (hi - lo)))
+            lo_hi.append(joint_range(self.device.kinematics.joints[num - 1], margin))
         rng = np.random.default_rng(0)
         base = np.array([rng.uniform(a, b) for a, b in lo_hi])
         lo = np.array([a for a, _ in lo_hi])
@@ -262,6 +367,13 @@ class TermModel:
             q = np.tile(base, (n_knots, 1))
             q[:, i] = lo[i] + step[i] * np.arange(n_knots)
             tau = self.torque(q)
+            if not np.all(np.isfinite(tau)):
+                from .schema import DeviceError
+
+                path = getattr(self.device, "path", None)
+                raise DeviceError(f"the terms' torque on joint {active_numbers[i]} is not finite over "
+                                  f"[{lo_hi[i][0]:.4g}, {lo_hi[i][1]:.4g}]", file=None if path is None else path.name,
+                                  field="terms")
             table[i] = tau[:, i]
             # the torque must be this joint's alone, of this joint's coordinate alone
             other = np.delete(tau - tau[:1], i, axis=1)

@@ -62,6 +62,20 @@ def _treat_log(device, log, parts, settings):
     return IDIM._treat_here(cached_model(device), log, parts, settings)
 
 
+def _treat_logs(device, logs, parts, settings):
+    """:func:`_treat_log` of several logs in one Dask task (a campaign is split into one batch per worker: one
+    task, one model look-up and one round trip per batch, not per log)."""
+    model = cached_model(device)
+    return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+
+
+def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
+    """Log indices split into contiguous batches, one per worker (at most one log per batch when there are
+    fewer logs than workers); the batches' results concatenated in order are the logs' in order."""
+    k = max(1, min(n_logs, n_workers))
+    return [list(map(int, b)) for b in np.array_split(np.arange(n_logs), k) if len(b)]
+
+
 _MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a viscous coefficient",
                      "FVm": "a viscous coefficient", "FS": "a Coulomb friction", "FSm": "a Coulomb friction"}
 """Stems of the parameters that are physically ≥ 0 on their own (not regrouped: a name without the R)."""
@@ -419,19 +433,25 @@ class IDIM:
 
             client = connect_scheduler(self.scheduler)     # ConnectionError naming the address
         try:
-            futures = [client.submit(_treat_log, dev, log, parts, settings, pure=False) for log in logs]
-            index = {f.key: i for i, f in enumerate(futures)}
-            results = [None] * len(futures)
+            shipped = client.scatter(dev, broadcast=True)      # the device goes to each worker once
+            workers = len(client.scheduler_info().get("workers", {})) or len(logs)
+            batches = campaign_batches(len(logs), workers)
+            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False)
+                       for b in batches]
+            index = {f.key: k for k, f in enumerate(futures)}
+            done = [None] * len(futures)
             bar = None
             if self.progress:
                 from tqdm import tqdm
-                bar = tqdm(total=len(futures), desc="treating logs (dask)", unit="log", file=sys.stderr)
+                bar = tqdm(total=len(logs), desc="treating logs (dask)", unit="log", file=sys.stderr)
             for fut in as_completed(futures):
-                results[index[fut.key]] = fut.result()
+                k = index[fut.key]
+                done[k] = fut.result()
                 if bar is not None:
-                    bar.update(1)
+                    bar.update(len(batches[k]))
             if bar is not None:
                 bar.close()
+            results = [r for batch in done for r in batch]
             return results
         finally:
             client.close()

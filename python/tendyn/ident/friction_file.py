@@ -62,6 +62,16 @@ def write_friction(doc: dict, path) -> Path:
     return path
 
 
+def _schema_bounds() -> dict:
+    """The device schema's specs of the motor-side friction a FRICTION.json holds (one declared bound)."""
+    from tendyn.device.schema import DRIVE_FIELDS
+
+    return {spec.name: spec for spec in DRIVE_FIELDS if spec.name in ("coulomb_motor", "viscous_motor")}
+
+
+_SCHEMA_BOUNDS = _schema_bounds()
+
+
 def read_friction(path, device=None, physical: bool = False, force: bool | None = None) -> dict:
     """Read and validate a FRICTION.json; with ``device`` also check it is about that device (unless ``force``)
     and has exactly its transmissions; ``physical``: no negative friction (:func:`validate_friction`)."""
@@ -115,9 +125,13 @@ def validate_friction(doc, device=None, source=None, physical: bool = False, for
         if len(arr) != n:
             missing = f" (transmission {len(arr) + 1} missing)" if len(arr) < n else ""
             bad(key, f"{len(arr)} values for {n} transmissions{missing}")
+        bound = _SCHEMA_BOUNDS[key]
         for k, x in enumerate(arr):
             if not _finite(x):
                 bad(f"{key}[{k + 1}]", f"must be a finite number (got {x!r})")
+            if abs(x) > bound.hi:
+                bad(f"{key}[{k + 1}]", f"|{x!r}| is beyond {bound.hi:g} [{bound.unit}] (the device schema's bound on "
+                                       f"{key})")
             if physical and x < 0:
                 bad(f"{key}[{k + 1}]", f"must be >= 0 (got {x!r}): negative friction is not physical")
     load = doc.get("load_coefficient")   # optional: files of tendyn < 0.2 and fits without a load term

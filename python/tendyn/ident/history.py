@@ -5,8 +5,11 @@ another database than :func:`default_db`); ``tendyn history DEVICE`` shows each 
 flags a change beyond 3σ from one record to the next, plots it and exports CSV or Parquet.
 
 Records are keyed by the device hash — SHA-256 of the device file's bytes, so an edited device file is another
-device — and the UTC date. The schema is versioned (table ``meta``, key ``schema_version``); :func:`connect`
-migrates an older database in place, step by step (:data:`MIGRATIONS`), and refuses a newer one.
+device — and the UTC date. The file carries SQLite's ``application_id`` (:data:`APPLICATION_ID`) and its schema
+version in ``user_version`` (also table ``meta``, key ``schema_version``); before anything is written
+:func:`check_db` / :func:`connect` refuse another application's database, a damaged one or one whose tables are
+not exactly those of its version (issue 34: a file tendyn does not own stays byte-identical); :func:`connect`
+migrates an older tendyn database in place, step by step (:data:`MIGRATIONS`), and refuses a newer one.
 Standard library only (``sqlite3``).
 """
 
@@ -25,7 +28,7 @@ import numpy as np
 
 from tendyn.results import Result, format_table
 
-__all__ = ["SCHEMA_VERSION", "MIGRATIONS", "KINDS", "default_db", "device_hash", "check_db", "connect", "record",
+__all__ = ["APPLICATION_ID", "SCHEMA_VERSION", "MIGRATIONS", "KINDS", "default_db", "device_hash", "check_db", "connect", "record",
            "parameters_of", "history", "History", "DRIFT_SIGMAS"]
 
 KINDS = ("identify", "identify-friction", "validate")
@@ -64,10 +67,86 @@ def device_hash(device) -> str:
     return hashlib.sha256(Path(device.path).read_bytes()).hexdigest()
 
 
+APPLICATION_ID = 0x54445948
+"""SQLite ``application_id`` of a tendyn history database ("TDYH"): a file without it is another application's
+(a database written before issue 34 is recognised by its exact tables and stamped on its next write)."""
+
+
+def _expected_schema(version: int) -> dict[str, tuple[str, ...]]:
+    """{table or index name: column names} of a history database of schema ``version`` (built in memory from
+    :data:`MIGRATIONS`, the one definition)."""
+    con = sqlite3.connect(":memory:")
+    try:
+        con.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
+        for step in MIGRATIONS[:version]:
+            for sql in step:
+                con.execute(sql)
+        return _schema_of(con)
+    finally:
+        con.close()
+
+
+def _schema_of(con: sqlite3.Connection) -> dict[str, tuple[str, ...]]:
+    out = {}
+    for kind, name in con.execute("SELECT type, name FROM sqlite_master WHERE type IN ('table', 'index') "
+                                  "AND name NOT LIKE 'sqlite_%'"):
+        pragma = "table_info" if kind == "table" else "index_info"
+        out[f"{kind} {name}"] = tuple(r[2] if kind == "index" else r[1]
+                                      for r in con.execute(f"PRAGMA {pragma}(\"{name}\")"))
+    return out
+
+
+def _inspect(path: Path) -> tuple[int, bool]:
+    """(schema version, stamped) of the existing file ``path``, read-only; raises ValueError unless it is a
+    tendyn history database of this or an older schema, undamaged, with exactly the tables of its version."""
+    if path.stat().st_size == 0:
+        return 0, False                         # an empty file holds nobody's data: a new database
+    try:
+        con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
+    except sqlite3.Error as exc:
+        raise ValueError(f"{path}: cannot open ({exc})") from None
+    try:
+        app = con.execute("PRAGMA application_id").fetchone()[0]
+        user_version = con.execute("PRAGMA user_version").fetchone()[0]
+        ok = con.execute("PRAGMA quick_check").fetchone()[0]
+        if ok != "ok":
+            raise ValueError(f"{path}: damaged database ({ok}); left unchanged")
+        schema = _schema_of(con)
+        if app == APPLICATION_ID:
+            version = int(user_version)
+        elif app == 0 and user_version == 0 and "table meta" in schema:
+            row = con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+            version = int(row[0]) if row else -1
+        else:
+            raise ValueError(f"{path}: not a tendyn history database (application_id {app:#x}, tendyn's is "
+                             f"{APPLICATION_ID:#x}); left unchanged")
+    except sqlite3.DatabaseError as exc:
+        raise ValueError(f"{path}: not a tendyn history database ({exc}); left unchanged") from None
+    except (TypeError, ValueError) as exc:
+        if str(exc).startswith(f"{path}:"):
+            raise
+        raise ValueError(f"{path}: not a tendyn history database (bad schema version: {exc}); left unchanged") \
+            from None
+    finally:
+        con.close()
+    if version > SCHEMA_VERSION:
+        raise ValueError(f"{path}: schema version {version} is newer than this tendyn's ({SCHEMA_VERSION}); "
+                         "left unchanged")
+    if version < 1 or schema != _expected_schema(version):
+        missing = sorted(set(_expected_schema(max(version, 1))) - set(schema))
+        extra = sorted(set(schema) - set(_expected_schema(max(version, 1))))
+        what = "; ".join(x for x in (f"missing {', '.join(missing)}" if missing else "",
+                                     f"foreign {', '.join(extra)}" if extra else "") if x) or "columns differ"
+        raise ValueError(f"{path}: not a tendyn history database of schema {version} ({what}); left unchanged")
+    return version, app == APPLICATION_ID
+
+
 def check_db(path=None) -> Path:
     """Before any work: the database at ``path`` (default :func:`default_db`) can be recorded into — an existing
-    tendyn history database of this or an older schema that this user can write, or a file that can be created.
-    Reads only, creates nothing (a command refused later leaves no empty database behind). Raises ValueError."""
+    tendyn history database (its ``application_id``, ``user_version`` ≤ :data:`SCHEMA_VERSION`, undamaged, exactly
+    the tables of its version) that this user can write, or a file that can be created. Reads only, creates
+    nothing (a command refused later leaves no empty database behind), never writes a file tendyn does not own.
+    Raises ValueError."""
     from tendyn.io.files import creatable
 
     path = Path(path) if path is not None else default_db()
@@ -80,47 +159,36 @@ def check_db(path=None) -> Path:
         raise ValueError(f"{path}: not a file")
     if not os.access(path, os.R_OK | os.W_OK):
         raise ValueError(f"{path}: permission denied")
-    try:
-        con = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
-    except sqlite3.Error as exc:
-        raise ValueError(f"{path}: cannot open ({exc})") from None
-    try:
-        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
-        row = con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone() \
-            if "meta" in tables else None
-        version = int(row[0]) if row else 0
-    except (sqlite3.DatabaseError, ValueError) as exc:
-        raise ValueError(f"{path}: not a tendyn history database ({exc})") from None
-    finally:
-        con.close()
-    if version > SCHEMA_VERSION:
-        raise ValueError(f"{path}: schema version {version} is newer than this tendyn's ({SCHEMA_VERSION})")
+    _inspect(path)
     return path
 
 
-def connect(path=None) -> sqlite3.Connection:
-    """Open (create) the database at ``path`` (default :func:`default_db`) and bring its schema up to
-    :data:`SCHEMA_VERSION`. Raises ValueError for a database written by a newer tendyn or not a database."""
+def connect(path=None, *, write: bool = True) -> sqlite3.Connection:
+    """Open the database at ``path`` (default :func:`default_db`), checked first as by :func:`check_db` (a file
+    tendyn does not own is refused before anything is written); with ``write`` create it and bring its schema up
+    to :data:`SCHEMA_VERSION` (stamping ``application_id`` and ``user_version``), else open it read-only.
+    Raises ValueError."""
     path = Path(path) if path is not None else default_db()
+    version, stamped = _inspect(path) if path.exists() else (0, False)
+    if not write:
+        return sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True)
     path.parent.mkdir(parents=True, exist_ok=True)
     con = sqlite3.connect(path)
+    if version == SCHEMA_VERSION and stamped:
+        return con
     try:
-        con.execute("CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
-        row = con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
-        version = int(row[0]) if row else 0
-        if version > SCHEMA_VERSION:
-            raise ValueError(f"{path}: schema version {version} is newer than this tendyn's ({SCHEMA_VERSION})")
         with con:
+            if version == 0:
+                con.execute("CREATE TABLE meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)")
             for step in MIGRATIONS[version:]:
                 for sql in step:
                     con.execute(sql)
             con.execute("INSERT OR REPLACE INTO meta (key, value) VALUES ('schema_version', ?)", (str(SCHEMA_VERSION),))
+            con.execute(f"PRAGMA application_id = {APPLICATION_ID}")
+            con.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
     except sqlite3.DatabaseError as exc:
         con.close()
         raise ValueError(f"{path}: not a tendyn history database ({exc})") from None
-    except ValueError:
-        con.close()
-        raise
     return con
 
 
@@ -240,10 +308,12 @@ class History(Result):
         import csv
         import io
 
+        from tendyn.text import spreadsheet_cell
+
         buf = io.StringIO()
         w = csv.DictWriter(buf, fieldnames=["run", "kind", "created", "name", "value", "sigma", "unit", "drift"])
         w.writeheader()
-        w.writerows(self.rows)
+        w.writerows({k: spreadsheet_cell(v) for k, v in r.items()} for r in self.rows)   # no cell runs as a formula
         return buf.getvalue()
 
     def to_parquet(self) -> bytes:
@@ -265,7 +335,7 @@ def history(device, *, db=None, names=None) -> History:
     path = Path(db) if db is not None else default_db()
     if not path.exists():                       # nothing recorded yet: a read creates no database
         return History(device.name, h, [], 0)
-    con = connect(path)
+    con = connect(path, write=False)            # a read writes nothing (no migration, no stamp)
     try:
         rows = con.execute("SELECT r.id, r.kind, r.created, p.name, p.value, p.sigma, p.unit FROM runs r JOIN "
                            "parameters p ON p.run_id = r.id WHERE r.device_hash = ? ORDER BY r.created, r.id",

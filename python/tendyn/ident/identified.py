@@ -116,15 +116,18 @@ class IdentifiedModel:
         The treatment of the identification (:meth:`Treatment.to_dict`): its cut-off and order filter the
         positions of a predicted log (capped below the log's Nyquist frequency), its ``velocities`` choice
         applies.
+    force : bool
+        Predict logs of another device (``meta.device``) anyway (``--force``); default refused, as by identify.
     """
 
-    def __init__(self, device, params, method="ols", treatment=None):
+    def __init__(self, device, params, method="ols", treatment=None, force: bool = False):
         from tendyn.device.compiled import as_device
 
         self.device = as_device(device) if not isinstance(device, (str, Path)) else _load_device(device)
         self.params = [dict(p) for p in params]
         self.method = method
         self.treatment = dict(treatment or {})
+        self.force = bool(force)
 
     # -- file -------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
@@ -139,11 +142,13 @@ class IdentifiedModel:
         return Path(path)
 
     @classmethod
-    def load(cls, path, device=None) -> "IdentifiedModel":
+    def load(cls, path, device=None, force: bool = False) -> "IdentifiedModel":
         """Read a PARAMS.json (``tendyn identify --out``). ``device``: the device (object, file or bundled
         name); default the file it names (``device_file``, else the bundled device of its name). Raises
         :class:`tendyn.io.params.ParamsError` (a ValueError naming the file and the field) for a bad
-        document or one identified on another version of the device file (its SHA-256 differs)."""
+        document, one of another device or identified on another version of the device file (its SHA-256
+        differs) — both accepted with ``force`` — and, always, one with a parameter the device does not have
+        or missing one of its base parameters (the same checks as ``identify --stream`` and ``maps``)."""
         from tendyn.io.params import ParamsError, read_params
 
         params = read_params(path)          # the one validated reader of PARAMS.json
@@ -156,9 +161,11 @@ class IdentifiedModel:
         if device is None:
             device = doc.get("device_file") if doc.get("device_file") and Path(doc["device_file"]).is_file() \
                 else doc.get("device")
-        model = cls(device, params, doc.get("method", "ols"), doc.get("treatment"))
+        model = cls(device, params, doc.get("method", "ols"), doc.get("treatment"), force=force)
+        m = model._model()
+        read_params(path, model.device, force, standard_names=m.standard_names, base_names=m.base.names)
         want, have = doc.get("device_sha256"), device_digest(model.device)
-        if want and have and want != have:
+        if want and have and want != have and not force:
             raise ParamsError(f"identified on another version of {model.device.name}'s file (SHA-256 {want[:12]}… "
                               f"in PARAMS.json, {have[:12]}… now)", "device_sha256", str(path))
         return model
@@ -179,6 +186,12 @@ class IdentifiedModel:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
+        named = log.meta.get("device")
+        if not self.force and named is not None and not self.device.is_named(named):
+            from tendyn.io.logs import LogError
+
+            raise LogError(f"is a log of the device {named!r}, not {self.device.name!r} (force=True, --force, to "
+                           "predict it anyway)", file=getattr(log, "path", None), column="meta.device")
         m = self._model()
         time, q, tau = m.joint_signals(log)
         qd_log = None if self.treatment.get("velocities") == "differentiate" else m.joint_velocities(log)

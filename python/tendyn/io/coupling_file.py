@@ -27,6 +27,14 @@ from pathlib import Path
 import numpy as np
 
 FORMATS = ("auto", "dvrk", "libbarrett", "icub", "plain")
+MAX_COUPLING_BYTES = 1 << 20
+"""Largest coupling file read [bytes] (checked before reading; real ones are a few KiB)."""
+MAX_COUPLING_SIZE = 64
+"""Largest coupling matrix [rows] (a robot's motors; dVRK pads to 7)."""
+MAX_COUPLING_ENTRY = 1e6
+"""Largest |entry| of a coupling matrix [rad/rad] (a reduction ratio; larger is a unit or typing error)."""
+MAX_JSON_DEPTH = 64
+"""Deepest nesting of a dVRK JSON file (its coupling sits 2–4 levels down)."""
 CONSISTENCY_RTOL = 1e-3
 """Relative tolerance [-] of the inverse/transpose checks between matrices of one file (printed decimals)."""
 
@@ -53,6 +61,10 @@ def read_coupling(path, fmt: str = "auto") -> tuple[np.ndarray, str]:
     if fmt not in FORMATS[1:]:
         raise CouplingFileError(f"unknown coupling format {fmt!r}; expected one of {', '.join(FORMATS)}")
     try:
+        size = path.stat().st_size
+        if size > MAX_COUPLING_BYTES:
+            raise CouplingFileError(f"{path.name}: {size} bytes, larger than the {MAX_COUPLING_BYTES} a coupling file "
+                                    "may have")
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise CouplingFileError(f"{path}: cannot read: {exc}") from None
@@ -70,6 +82,14 @@ def _square(rows, where: str) -> np.ndarray:
         raise CouplingFileError(f"{where}: not a matrix of numbers (ragged rows or text)") from None
     if M.ndim != 2 or M.shape[0] != M.shape[1] or M.size == 0:
         raise CouplingFileError(f"{where}: must be a square matrix (got shape {M.shape})")
+    if M.shape[0] > MAX_COUPLING_SIZE:
+        raise CouplingFileError(f"{where}: {M.shape[0]}×{M.shape[0]}, larger than {MAX_COUPLING_SIZE}×"
+                                f"{MAX_COUPLING_SIZE}")
+    if not np.all(np.isfinite(M)):
+        raise CouplingFileError(f"{where}: entries must be finite numbers (got {M[~np.isfinite(M)][0]})")
+    if np.abs(M).max() > MAX_COUPLING_ENTRY:
+        raise CouplingFileError(f"{where}: an entry of magnitude {np.abs(M).max():.3g} is beyond "
+                                f"±{MAX_COUPLING_ENTRY:g} [rad/rad]")
     return M
 
 
@@ -149,10 +169,24 @@ def _position_map(forward, inverse, name: str, forward_label: str, inverse_label
 
 
 def _dvrk(text: str, name: str) -> np.ndarray:
+    def no_constant(word):
+        raise CouplingFileError(f"{name}: {word} is not a number a coupling can hold")
+
     try:
-        doc = json.loads(_strip_js_comments(text))
+        doc = json.loads(_strip_js_comments(text), parse_constant=no_constant)
     except json.JSONDecodeError as exc:
         raise CouplingFileError(f"{name}: not JSON: {exc}") from None
+    except RecursionError:
+        raise CouplingFileError(f"{name}: not JSON: nested too deep") from None
+    stack = [(doc, 1)]                      # iterative: the search below may then recurse safely
+    while stack:
+        node, depth = stack.pop()
+        if depth > MAX_JSON_DEPTH:
+            raise CouplingFileError(f"{name}: nested deeper than {MAX_JSON_DEPTH} levels")
+        if isinstance(node, dict):
+            stack.extend((v, depth + 1) for v in node.values())
+        elif isinstance(node, list):
+            stack.extend((v, depth + 1) for v in node)
     coup = _find_coupling(doc)
     if coup is None:
         raise CouplingFileError(f"{name}: no \"coupling\" object (dVRK: coupling.ActuatorToJointPosition …)")

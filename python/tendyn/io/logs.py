@@ -417,9 +417,10 @@ def _check_signals(signals, bad) -> None:
         if not isinstance(entry, dict) or set(entry) != {"name", "unit"}:
             raise bad("signals", f"{col}: got {entry!r}, expected exactly the keys name and unit")
         for key in ("name", "unit"):
-            if not isinstance(entry[key], str) or not entry[key].strip() or any(c in entry[key] for c in "[],"):
-                raise bad("signals", f"{col}.{key}: got {entry[key]!r}, expected a non-empty string without "
-                          "brackets or commas")
+            if not isinstance(entry[key], str) or not entry[key].strip() or any(c in entry[key] for c in "[],") \
+                    or not entry[key].isprintable():          # no control character or newline (docs/security.md)
+                raise bad("signals", f"{col}.{key}: got {entry[key]!r}, expected a non-empty printable string "
+                          "without brackets or commas")
         if entry["name"] in names:
             raise bad("signals", f"{col}.name: {entry['name']!r} also names {names[entry['name']]}")
         names[entry["name"]] = col

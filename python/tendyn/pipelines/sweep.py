@@ -1,9 +1,10 @@
 """Design sweeps of the nonlinear McGill twin on Dask (issue 11, item 8).
 
 A grid of designs (bench fields, each ``NAME=LO:HI:N``, log-spaced when LO and HI are > 0 and span more than
-a decade, else linear) × a set of stepped sines at several input amplitudes. Each design point is one task
-(:func:`evaluate_design`, a pure function of plain values) run on a local Dask cluster (default) or on a given
-scheduler. Metrics per design:
+a decade, else linear) × a set of stepped sines at several input amplitudes. Each design point is evaluated by
+:func:`evaluate_design`, a pure function of plain values; the designs go to the workers in a few contiguous
+batches per worker (:func:`batches`, :func:`evaluate_designs`: one task and one round trip per batch), run on
+a local Dask cluster (default) or on a given scheduler. Metrics per design:
 
 * ``peak_shift_hz``: max − min over the amplitudes of the open-loop resonance peak [Hz] (C22);
 * ``open_loop_spread_db``: spread of |F_m/F_τ| across the amplitudes below 30 Hz [dB];
@@ -32,7 +33,8 @@ import numpy as np
 from tendyn.device import compile_device
 from tendyn.results import Result, format_table
 
-__all__ = ["LOOPS", "METRICS", "SweepResult", "design_grid", "evaluate_design", "local_cluster", "memory_needed",
+__all__ = ["LOOPS", "METRICS", "SweepResult", "batches", "design_grid", "evaluate_design", "evaluate_designs",
+           "local_cluster", "memory_needed",
            "parse_param", "run_sweep"]
 
 METRICS = ("peak_shift_hz", "open_loop_spread_db", "closed_loop_spread_db", "robust_performance")
@@ -135,6 +137,20 @@ def evaluate_design(bench_fields: dict, design: dict, amplitudes: Sequence[float
             row[f"closed_peak_hz_{a:g}N"] = float(fr.peak_hz())
         row["closed_loop_spread_db"] = spread_db(closed, 30.0) if has_band else float("nan")
     return row
+
+
+def evaluate_designs(bench_fields: dict, designs: Sequence[dict], amplitudes: Sequence[float],
+                     freqs_hz: Sequence[float], cycles: int = 4, loop: str = "open") -> list[dict]:
+    """:func:`evaluate_design` of several designs in one Dask task (a sweep is split into a few batches per
+    worker: one task and one round trip per batch, not per design)."""
+    return [evaluate_design(bench_fields, d, amplitudes, freqs_hz, cycles, loop) for d in designs]
+
+
+def batches(n: int, n_workers: int, per_worker: int = 2) -> list[list[int]]:
+    """Indices 0…n−1 in contiguous batches, ``per_worker`` per worker (for balance when designs differ in cost),
+    at most n; concatenated in order they are 0…n−1."""
+    k = max(1, min(n, n_workers * per_worker))
+    return [list(map(int, b)) for b in np.array_split(np.arange(n), k) if len(b)]
 
 
 @dataclass(eq=False)
@@ -297,8 +313,10 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
                    "fewer designs, amplitudes or --workers", f"a sweep of {designs} designs")
     grid = design_grid(params)
     with dask_client(scheduler, n_workers, client) as client:
-        futures = client.map(evaluate_design, [fields] * len(grid), grid, [list(amplitudes)] * len(grid),
-                             [freqs_hz] * len(grid), loop=loop, pure=False)
-        rows = gather_in_order(futures, f"{bench.name}: sweep", "design", progress)
+        workers = len(client.scheduler_info().get("workers", {})) or n_workers
+        parts = batches(len(grid), workers)
+        futures = [client.submit(evaluate_designs, fields, [grid[i] for i in b], list(amplitudes), freqs_hz,
+                                 loop=loop, pure=False) for b in parts]
+        rows = [r for batch in gather_in_order(futures, f"{bench.name}: sweep", "batch", progress) for r in batch]
     return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)",
                        [float(f) for f in freqs_hz])

@@ -1,7 +1,9 @@
 """One HTML page per run of a command: an index of what ran, warnings, tables and figures (SVG), the JSON beside.
 
 The page is self-contained (figures are SVG embedded as data URIs, the style is inline, no script, nothing
-fetched) and is written from the Jinja2 template ``templates/report.html.j2`` shipped with the package. This
+fetched) and is written from the Jinja2 template ``templates/report.html.j2`` shipped with the package. Every
+text on it is data (docs/security.md): escaped whatever it holds, and the page's Content-Security-Policy forbids
+script and any load but its own data-URI figures and its one inline style block (by hash). This
 module turns result objects into sections and sections into the page; it computes nothing (DESIGN: ``report/``).
 
 Public API (stable: other commands, e.g. ``tendyn claims``, call it):
@@ -143,10 +145,21 @@ def _svg_data_uri(fig) -> tuple[str, tuple[float, float]]:
 
 
 def _env():
-    from jinja2 import Environment, PackageLoader, StrictUndefined, select_autoescape
+    """The page's template engine: every ``{{ … }}`` is HTML-escaped whatever the template's file name
+    (``select_autoescape`` decides from the name, and ``report.html.j2`` does not end in ``.html``: issue 36); only
+    what tendyn generates itself (the figures' data URIs) is marked safe, in :func:`render_html`."""
+    from jinja2 import Environment, PackageLoader, StrictUndefined
 
-    return Environment(loader=PackageLoader("tendyn.report", "templates"), autoescape=select_autoescape(["html"]),
-                       undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env = Environment(loader=PackageLoader("tendyn.report", "templates"), autoescape=True,
+                      undefined=StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+    env.filters["csp_sha256"] = _csp_sha256
+    return env
+
+
+def _csp_sha256(text) -> str:
+    """The Content-Security-Policy source of an inline block: ``'sha256-<base64 of its SHA-256>'``."""
+    digest = hashlib.sha256(str(text).encode("utf-8")).digest()
+    return f"'sha256-{base64.b64encode(digest).decode('ascii')}'"
 
 
 def render_html(title: str, info: dict, sections: Sequence[Section], *, files: Sequence[str] = (),
@@ -154,6 +167,8 @@ def render_html(title: str, info: dict, sections: Sequence[Section], *, files: S
                 png_dir: Path | None = None) -> str:
     """The page as a string (see :func:`write_html_report`); with ``png_dir`` each figure is also saved there as
     ``NAME.png`` at ``png_dpi``."""
+    from markupsafe import Markup
+
     from tendyn.io import save_png
 
     rendered = []
@@ -165,7 +180,7 @@ def render_html(title: str, info: dict, sections: Sequence[Section], *, files: S
         for f in sec.figures:
             fig = f.matplotlib()
             uri, (w, h) = _svg_data_uri(fig)
-            figs.append({"uri": uri, "caption": f.text(), "name": f.name, "width_in": w, "height_in": h})
+            figs.append({"uri": Markup(uri), "caption": f.text(), "name": f.name, "width_in": w, "height_in": h})
             if png_dir is not None and f.name:
                 _freeze_layout(fig)    # the layout of the SVG, not computed again (seconds on log axes)
                 save_png(fig, png_dir / f"{f.name}.png", **({"dpi": png_dpi} if png_dpi else {}))

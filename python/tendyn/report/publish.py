@@ -19,9 +19,12 @@ __all__ = ["publish", "warn", "sections_of", "write_report", "write_beside"]
 
 
 def warn(command: str, warnings: Sequence[str]) -> None:
-    """Each warning as one line ``tendyn COMMAND: warning: …`` on stderr."""
+    """Each warning as one line ``tendyn COMMAND: warning: …`` on stderr (control characters shown as escapes:
+    :func:`tendyn.text.printable`)."""
+    from tendyn.text import printable
+
     for w in warnings:
-        print(f"tendyn {command}: warning: {w}", file=sys.stderr)
+        print(printable(f"tendyn {command}: warning: {w}", keep=""), file=sys.stderr)
 
 
 def sections_of(table: str, figures: Mapping[str, Any], summary: str = "Summary") -> list[Section]:
@@ -96,10 +99,12 @@ def publish(args, doc: dict, table: str, figures: Mapping[str, Any], out, json_n
     if args.json:
         print(json.dumps(to_jsonable(doc), indent=2))
     else:
+        from tendyn.text import printable
+
         if not quiet_table:
-            print(table)
+            print(printable(table))
         if out is not None:
-            print(f"report: {out / HTML_NAME}")
+            print(printable(f"report: {out / HTML_NAME}"))
     sys.stdout.flush()
     warn(command, warnings)
     return 0

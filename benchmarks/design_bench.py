@@ -1,0 +1,83 @@
+"""Issue 32: `tendyn design` benchmarks.
+
+* ``design_evaluations_per_s``: statics-and-maps evaluations of L-EXOS designs (4 transmissions × motor radius,
+  driven radius, reducer ratio; every quantity of :class:`tendyn.analysis.design_space.DesignSpace` over its pose
+  grid) per second, in batches (numpy over the designs); baseline: the same objectives evaluated one design at a
+  time (a plain per-design loop of the same numpy code), same run.
+* ``dask_design_speedup``: a design run of 4 NSGA-II islands on 2 local Dask workers (the design space scattered
+  once to each worker, one task per island) against the same islands one after the other in one process.
+
+The machine is shared: the 1-minute load average is recorded beside each number.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import numpy as np
+
+VARY = {f"t{i}.{f}": rng for i in range(1, 5)
+        for f, rng in (("motor_radius", (0.004, 0.02)), ("driven_radius", (0.02, 0.1)), ("reducer_ratio", (1.0, 16.0)))}
+
+
+def bench_design_evaluations(results: list, n: int = 20_000, baseline_n: int = 300) -> None:
+    from tendyn.analysis.design_space import DesignSpace
+
+    space = DesignSpace("lexos", VARY)
+    rng = np.random.default_rng(0)
+    X = rng.uniform(space.lower, space.upper, (n, len(space.names)))
+    space.evaluate(X[:10])                                   # warm
+    t0 = time.perf_counter()
+    for k in range(0, n, 2000):                              # batches of 2000 (the memory of one batch ~ 100 MB)
+        space.evaluate(X[k:k + 2000])
+    batch = n / (time.perf_counter() - t0)
+    t0 = time.perf_counter()
+    for x in X[:baseline_n]:
+        space.evaluate(x[None])
+    plain = baseline_n / (time.perf_counter() - t0)
+    load = os.getloadavg()[0]
+    print(f"[bench] design_evaluations_per_s: batch {batch:.0f}/s, per design {plain:.0f}/s "
+          f"({len(space.serial.Q)} poses, load {load:.1f})", file=sys.stderr)
+    results.append(dict(name="design_evaluations_per_s", value=batch, unit="1/s",
+                        baseline="the same objectives one design at a time (plain numpy loop)", baseline_value=plain,
+                        ratio=batch / plain, poses=len(space.serial.Q), designs=n, load_average_1min=load,
+                        cpu_count=os.cpu_count()))
+
+
+def bench_dask_design(results: list, islands: int = 4, population: int = 64, generations: int = 80) -> None:
+    from dask.distributed import Client
+
+    from tendyn.analysis.design_space import DesignSpace
+    from tendyn.pipelines.design import island, run_design
+    from tendyn.pipelines.sweep import local_cluster
+
+    from s1_bench import _cpu_seconds, session_parallelism
+
+    space = DesignSpace("lexos", VARY)
+    obj = ["apparent_mass", "dry_friction", "peak_force"]
+    island(space, obj, [], 0, 8, 2)                          # warm (imports)
+    load = os.getloadavg()[0]
+    par = session_parallelism()
+    c0, t0 = _cpu_seconds(), time.perf_counter()
+    here = run_design(space, obj, population=population, generations=generations, islands=islands)
+    serial, serial_cpu = time.perf_counter() - t0, _cpu_seconds() - c0
+    with local_cluster(2) as cluster, Client(cluster) as client:
+        client.run(island, space, obj, [], 0, 8, 2)          # warm the workers as this process is warm
+        w0 = client.run(_cpu_seconds)
+        t0 = time.perf_counter()
+        there = run_design(space, obj, population=population, generations=generations, islands=islands,
+                           client=client)
+        dask_s = time.perf_counter() - t0
+        w1 = client.run(_cpu_seconds)
+    busiest = max(w1[k] - w0[k] for k in w1)
+    assert np.array_equal(here.X, there.X)
+    print(f"[bench] dask_design_speedup: {islands} islands, one process {serial:.2f} s, 2 workers {dask_s:.2f} s, "
+          f"CPU speed-up (one core per worker) {serial_cpu / busiest:.2f}; session parallelism now {par:.2f} "
+          f"(load {load:.1f} on {os.cpu_count()} cores)", file=sys.stderr)
+    results.append(dict(name="dask_design_speedup", value=dask_s, unit="s",
+                        baseline=f"{islands} NSGA-II islands one after the other in one process",
+                        baseline_value=serial, ratio=serial / dask_s, cpu_speedup=serial_cpu / busiest,
+                        serial_cpu_s=serial_cpu, busiest_worker_cpu_s=busiest, session_parallelism=par,
+                        load_average_1min=load, cpu_count=os.cpu_count()))

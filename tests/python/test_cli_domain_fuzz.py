@@ -1,0 +1,150 @@
+"""The fuzz reads the domains (issue 34 item 2): for every command of the parser, every option whose converter
+declares a :class:`tendyn.commands.args.Domain` (the options of tendyn.commands and simulate's catalogue) is given
+values just outside its domain — exit 2, one line naming the option — and just inside — the converter accepts it
+and the command never ends in an internal error (exit 3).
+
+Seeded: ``TENDYN_FUZZ_SEED`` (default 34) draws the far-outside values and the sample the fast run takes; the count
+and the seed are printed. ``pytest -m slow`` runs every case and more far-outside draws.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import random
+
+import numpy as np
+import pytest
+
+from tendyn.cli import build_parser, main
+
+SEED = int(os.environ.get("TENDYN_FUZZ_SEED", "34"))
+FAST_CASES = 160
+"""Cases of the fast run (a seeded sample of all); the slow run takes every one."""
+
+
+def commands(parser: argparse.ArgumentParser, path=()):
+    subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    if not subs:
+        yield path, parser
+        return
+    seen = set()
+    for name, p in subs[0].choices.items():
+        if id(p) not in seen:
+            seen.add(id(p))
+            yield from commands(p, path + (name,))
+
+
+def _fmt(x, integer: bool) -> str:
+    return str(int(x)) if integer else repr(float(x))
+
+
+def outside(dom, rng: random.Random, far: int) -> list[str]:
+    """Values just outside ``dom`` (at an open bound, one integer or one ulp past a closed one), ``far`` draws far
+    outside, and non-numbers."""
+    vals = []
+    if dom.lo is not None:
+        if dom.integer:
+            vals.append(math.ceil(dom.lo) if dom.lo_open and float(dom.lo).is_integer() else math.ceil(dom.lo) - 1)
+        else:
+            vals.append(dom.lo if dom.lo_open else np.nextafter(dom.lo, -np.inf))
+        vals += [dom.lo - abs(dom.lo or 1.0) * 10 ** rng.uniform(0, 6) for _ in range(far)]
+    if dom.hi is not None:
+        vals.append(math.floor(dom.hi) + 1 if dom.integer else np.nextafter(dom.hi, np.inf))
+        vals += [dom.hi + abs(dom.hi or 1.0) * 10 ** rng.uniform(0, 6) for _ in range(far)]
+    out = [_fmt(v, dom.integer) for v in vals]
+    if dom.integer:
+        out.append("1.5")
+    else:
+        out += ["nan", "inf"]
+    if dom.many:
+        good = inside(dom)[0]
+        out = [f"{good},{v}" for v in out] + [f"{good},,{good}"]
+        if dom.distinct:
+            out.append(f"{good},{good}")
+    return out
+
+
+def inside(dom) -> list[str]:
+    """Values just inside ``dom``: each closed bound, next to an open one, a middle value."""
+    lo = dom.lo if dom.lo is not None else (-1.0 if dom.hi is None or dom.hi > -1 else dom.hi - 1)
+    hi = dom.hi if dom.hi is not None else lo + 10.0
+    vals = []
+    if dom.integer:
+        first = math.floor(lo) + 1 if dom.lo_open and float(lo).is_integer() else math.ceil(lo)
+        vals += [first, math.floor(hi), (first + math.floor(hi)) // 2]
+    else:
+        vals += [np.nextafter(lo, np.inf) if dom.lo_open else lo, hi, lo + (hi - lo) / 3]
+    return [_fmt(v, dom.integer) for v in vals]
+
+
+def cases(far: int):
+    rng = random.Random(SEED)
+    out = []
+    for words, parser in sorted(commands(build_parser()), key=lambda c: c[0]):
+        for action in parser._actions:
+            dom = getattr(action.type, "domain", None)
+            if dom is None or not action.option_strings:
+                continue
+            flag = max(action.option_strings, key=len)
+            out += [(words, flag, v, "outside") for v in outside(dom, rng, far)]
+            out += [(words, flag, v, "inside") for v in inside(dom)]
+    return out
+
+
+def _run(capsys, words, flag, value, where, converter):
+    code = main([*words, f"{flag}={value}"])
+    err = capsys.readouterr().err
+    lines = err.strip().splitlines()
+    shown = f"{' '.join(words)} {flag}={value} ({where}): exit {code}\n{err[-1500:]}"
+    assert code != 3 and "Traceback" not in err, shown
+    if where == "outside":
+        assert code == 2 and len(lines) == 1 and lines[0].startswith("tendyn: error:") and flag in lines[0], shown
+    else:
+        converter(value)                        # the declared domain accepts it (raises otherwise)
+    return code
+
+
+def _converters():
+    out = {}
+    for words, parser in commands(build_parser()):
+        for a in parser._actions:
+            if getattr(a.type, "domain", None) is not None and a.option_strings:
+                out[(words, max(a.option_strings, key=len))] = a.type
+    return out
+
+
+def _fuzz(capsys, tmp_path, monkeypatch, n_cases, far):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    every = cases(far)
+    picked = every if n_cases is None else random.Random(SEED).sample(every, min(n_cases, len(every)))
+    conv = _converters()
+    counts = {"outside": 0, "inside": 0}
+    for words, flag, value, where in picked:
+        _run(capsys, words, flag, value, where, conv[(words, flag)])
+        counts[where] += 1
+    with capsys.disabled():
+        print(f"\ndomain fuzz: {len(picked)} of {len(every)} cases ({counts['outside']} outside, {counts['inside']} "
+              f"inside), {len({(w, f) for w, f, _, _ in every})} options, seed {SEED}")
+    assert not list(tmp_path.glob("*.csv")) and not list(tmp_path.glob("*.json"))
+
+
+def test_every_declared_domain_is_fuzzed(capsys, tmp_path, monkeypatch):
+    _fuzz(capsys, tmp_path, monkeypatch, FAST_CASES, far=1)
+
+
+@pytest.mark.slow
+def test_every_declared_domain_is_fuzzed_long(capsys, tmp_path, monkeypatch):
+    _fuzz(capsys, tmp_path, monkeypatch, None, far=6)
+
+
+def test_the_domains_cover_the_options():
+    """Every numeric option of tendyn.commands and simulate declares its domain (a new one without is caught)."""
+    opts = {(w, max(a.option_strings, key=len)) for w, p in commands(build_parser()) for a in p._actions
+            if getattr(a.type, "domain", None) is not None and a.option_strings}
+    assert len(opts) >= 60, len(opts)
+    for must in [(("plan",), "--amplitude"), (("plan",), "--iterations"), (("frf",), "--segment"),
+                 (("simulate",), "--rate"), (("export",), "--timestep")]:
+        assert must in opts, must
