@@ -23,6 +23,7 @@ from tendyn.control import Compensator, chain_model
 from tendyn.device import compile_device
 from tendyn.devices import load
 from tendyn.devices.generate import write_parallelogram_arm
+from tendyn.device.schema import DRIVE_MOTOR_RADIUS
 
 SEEDS = (0, 1, 2)
 
@@ -111,7 +112,8 @@ def test_export_compensator_of_capstan_drives_loads_in_c(tmp_path, seed):
     c0 = np.array([d.coulomb_motor for d in dev.drives]) * 1.05      # "identified": not the file's values
     nu = np.array([d.viscous_motor for d in dev.drives]) * 0.9
     fr = tmp_path / "friction.json"
-    fr.write_text(json.dumps({"device": dev.name, "tau0": np.diag(c0).tolist(), "nu": np.diag(nu).tolist()}))
+    r = DRIVE_MOTOR_RADIUS     # per-branch arrays at the drive's equivalent motor radius: τ0 = C_m0 / r, ν = ν_m / r²
+    fr.write_text(json.dumps({"device": dev.name, "tau0": np.diag(c0 / r).tolist(), "nu": np.diag(nu / r ** 2).tolist()}))
     out = tmp_path / "arm.comp"
     r = _cli("export", "compensator", arm, "--friction", fr, "--out", out, "--json", cwd=tmp_path)
     assert r.returncode == 0, r.stderr
@@ -163,7 +165,8 @@ def test_a_drive_friction_file_is_read_per_drive(tmp_path):
     dev = _arm(tmp_path, seed=1)
     c0 = [0.001, 0.002, 0.003]
     nu = [1e-6, 2e-6, 3e-6]
-    losses = identified_losses(dev, {"tau0": np.diag(c0), "nu": np.diag(nu)})
+    r = DRIVE_MOTOR_RADIUS
+    losses = identified_losses(dev, {"tau0": np.diag(c0) / r, "nu": np.diag(nu) / r ** 2})
     tr = losses.transmission(dev)
     N = np.array([d.ratio for d in dev.drives])
     np.testing.assert_allclose(np.array(tr.model.joint_from_motor_position), np.diag(1.0 / N), rtol=1e-14)

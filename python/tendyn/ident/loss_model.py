@@ -257,7 +257,9 @@ def _from_friction_file(dev, doc, shares, src):
     if not dev.transmissions:   # capstan drives: one branch each at unit motor radius (drive_routing_arrays)
         if shares is not None:
             raise LossModelError("capstan drives have one cable stretch each: shares split nothing", field="shares")
-        return np.diag(c0), np.diag(nu), np.zeros((n, n)), None, load, {}
+        from tendyn.device.schema import DRIVE_MOTOR_RADIUS as r
+
+        return np.diag(c0 / r), np.diag(nu / r ** 2), np.zeros((n, n)), None, load, {}
     p = pp = None
     if isinstance(shares, (str, Path)):
         try:

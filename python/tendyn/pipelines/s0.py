@@ -22,8 +22,8 @@ def drive_identification_parts(device, seed: int = 0) -> dict:
     constant-velocity test (:func:`tendyn.protocols.plan_test`, every tree joint inside its limits) on the twin,
     fitted at the motor (S0 eq. 13, :class:`tendyn.ident.friction.TransmissionFriction`). A drive is one cable
     stretch: S1 and S2 are the same move and there is nothing to decompose, so ``transmissions`` has one fit per
-    drive (``s2_*`` keys, as for cables) and ``decomposition`` lists the drive itself (τ0 = C_m0, ν = ν_m at the
-    unit motor radius of :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`)."""
+    drive (``s2_*`` keys, as for cables) and ``decomposition`` lists the drive itself (τ0 = C_m0 / r_m, ν = ν_m / r_m² at the
+    motor radius of :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`)."""
     from tendyn.ident.friction import TransmissionFriction
     from tendyn.ident.friction_file import friction_document
     from tendyn.protocols import plan_test
@@ -46,8 +46,10 @@ def drive_identification_parts(device, seed: int = 0) -> dict:
                      "s2_coulomb_error_pct": 100.0 * (fit.coulomb_motor / c0 - 1.0),
                      "s2_viscous_error_pct": 100.0 * (fit.viscous_motor / nu - 1.0)})
     friction = friction_document(device.name, fits)
-    branches = [{"transmission": r["transmission"], "branch": 0, "tau0_N": r["s2_coulomb_motor"],
-                 "nu_Ns_m": r["s2_viscous_motor"], "p": 1.0, "p_prime": 1.0} for r in rows]
+    from tendyn.device.schema import DRIVE_MOTOR_RADIUS as rm
+
+    branches = [{"transmission": r["transmission"], "branch": 0, "tau0_N": r["s2_coulomb_motor"] / rm,
+                 "nu_Ns_m": r["s2_viscous_motor"] / rm ** 2, "p": 1.0, "p_prime": 1.0} for r in rows]
     return {"transmissions": rows, "decomposition": branches, "friction": friction,
             "identification": {"strategy_for_compensation": "S2 (a capstan drive: one cable stretch, S1 = S2)",
                                "error_pct": "RMS over the test speeds of the fitted minus true motor friction "
