@@ -22,7 +22,7 @@ def _arm(tmp_path, **kw):
     return load(str(write_parallelogram_arm(tmp_path, **kw)))
 
 
-def _falling(dev, seconds, friction=False, stops=True, q0=(0.0, 0.3, 1.0)):
+def _falling(dev, seconds, friction=False, stops=True, q0=(0.0, 0.3, 1.0)):  # noqa: D103
     """The arm released in torque mode (no motor torque) at q0: it falls into its stops."""
     from tendyn.sim.model import run_log, sim_model
 

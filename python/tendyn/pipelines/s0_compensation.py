@@ -267,7 +267,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     compiled = _device(device)
     task = hand_task(compiled)
     radius = task.radius if radius is None else radius
-    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0 = task.q0 if q0 is None else np.asarray(q0, float)
     if twin_friction_scale != 1.0:
@@ -365,7 +365,7 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     ``passivity``: the compensator's passivity controller (:meth:`tendyn.control.Compensator.from_device`)."""
     compiled = _device(device)
     task = hand_task(compiled)
-    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0 = task.q0 if q0 is None else np.asarray(q0, float)
     _reset(sim, data, q0, seed)

@@ -96,7 +96,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
         comp = comp.with_settings(passivity=None)
     elif not comp.model.passivity.enabled:
         comp = comp.with_settings(passivity=passivity_model(compiled, rate_hz=control_hz))
-    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0, normal = _task(compiled, q0, normal)
     _reset(sim, data, q0, seed)

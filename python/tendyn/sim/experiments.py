@@ -205,7 +205,7 @@ def constant_velocity(device, transmission: int | None = None, speeds=None, stra
     if strategy not in ("S1", "S2"):
         raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     na = m.na
     _check_index(transmission, na, "transmission")
     given_q0 = q0
@@ -532,7 +532,7 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
     friction : False runs the twin without its friction sources (a rigid-body-plus-terms truth).
     """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction, stops=True)
     na = m.na
     dev_bw = getattr(device.device, "bandwidth_hz", None)
     if design is None:
@@ -572,7 +572,7 @@ def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.
     """Blocked-link test (S2 §V-C): every link blocked, triangular motor torque [N·m] on one motor;
     the motor rotates against the cable/capstan stiffness (and its friction: hysteresis)."""
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     na = m.na
     _check_index(joint, na, "joint")
     m.lock_joint = np.ones(na)
@@ -598,7 +598,7 @@ def stepped_sine(device: Device | CompiledDevice, transmission: int, *, omega, a
     runs = []
     for w in np.asarray(omega, float).ravel():
         f = w / (2 * math.pi)
-        m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+        m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
         na = m.na
         _check_index(transmission, na, "transmission")
         q = torque_mode_start(device, m, q0)
@@ -665,7 +665,7 @@ def joint_friction_trajectory(device, weights, speeds, travel: float = 0.6, acce
         together; joints not listed are held still. speeds [rad/s], travel [rad] per stroke.
     This is how S2 §V-C builds t1 (q̇5 = q̇2), t2 (q̇5 = 0) and t3 (q̇2 = 0) on the CEA branch."""
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     na = m.na
     lo, hi = _active_limits(device)
     q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
@@ -705,7 +705,7 @@ def swept_sine(device: Device | CompiledDevice, transmission: int, amplitude: fl
     free (see :func:`swept_sine_response`)."""
     device = compile_device(device)
     f0, f1 = f0_hz, f1_hz
-    m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz, stops=True)
     na = m.na
     _check_index(transmission, na, "transmission")
     q = torque_mode_start(device, m, q0)

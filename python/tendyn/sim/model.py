@@ -60,7 +60,7 @@ def end_stops(compiled: CompiledDevice, m: _core.SimModel) -> None:
 
 
 def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, control_hz: float | None = None,
-              friction: bool = True, sensors: bool = True, stops: bool = True) -> _core.SimModel:
+              friction: bool = True, sensors: bool = True, stops: bool = False) -> _core.SimModel:
     """A new simulator model of ``device`` (a Device or its CompiledDevice; nothing is rebuilt).
 
     Parameters
@@ -70,8 +70,10 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
         a multiple of it
     friction : False switches every friction source off (energy checks, FRFs)
     sensors : False gives ideal sensors (no quantisation, no current noise)
-    stops : False leaves the joint limits without end stops (:func:`end_stops`; issue 40: on by default, the
-        twin keeps to the device's limits)
+    stops : True puts end stops at the device's joint limits (:func:`end_stops`, issue 40); the experiments
+        (:mod:`tendyn.sim.experiments`: constant velocity, exciting, stepped and swept sines, friction
+        trajectories) and the hand and wall runs of Fig. 7 / Z-width turn them on; the bare model (physics
+        checks from arbitrary states) leaves them off
     """
     if not CHAIN_RATE_HZ[0] <= rate_hz <= CHAIN_RATE_HZ[1]:
         raise ValueError(f"rate_hz must be within 1–20 kHz (got {rate_hz})")
