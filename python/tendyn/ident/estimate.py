@@ -567,7 +567,7 @@ class IDIM:
         res.plain = plain
         res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(plain.warnings)[:400]
                             + "): the physically consistent estimate (pseudo-inertia LMIs) is reported instead "
-                              "(--consistent off: the plain one)")
+                              "(--plain: the plain one)")
         return self
 
     def _essential(self, Wb, Y, rows, na):
