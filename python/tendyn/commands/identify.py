@@ -37,7 +37,11 @@ def register(subparsers) -> None:
                    help="iv/didim: at most this many iterations (simulations)")
     p.add_argument("--tol", type=number(0.0, 1.0, lo_open=True), default=1e-3,
                    help="iv/didim: stop when |dX|/|X| falls below this [-]")
-    p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
+    p.add_argument("--consistent", action="store_true",
+                   help="physically consistent (pseudo-inertia LMIs) always [default: only when the plain least "
+                        "squares is not physical, with a warning saying so]")
+    p.add_argument("--plain", action="store_true",
+                   help="the plain least squares even when it is not physical (its warnings say so)")
     p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
                    help="-3 dB cut-off of the zero-phase Butterworth on positions [Hz] (default 5 x bandwidth)")
     p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
@@ -125,6 +129,8 @@ def cmd_identify(args) -> int:
                 raise UsageError(f"is for --method iv or didim (got --method {args.method})", opt)
     if args.method == "didim" and args.output == "position" and args.jacobian != "fd":
         raise UsageError("position needs --jacobian fd (the regressor Jacobian is that of the torques)", "output")
+    if args.consistent and args.plain:
+        raise UsageError("--consistent and --plain exclude each other", "plain")
     controller = None
     if args.controller is not None:
         try:
@@ -150,8 +156,10 @@ def cmd_identify(args) -> int:
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
-    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz, decimate=args.decimate,
-               velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
+    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
+               decimate=args.decimate,
+               velocity_threshold=args.velocity_threshold, essential=args.essential,
+               consistent=True if args.consistent else (False if args.plain else "auto"),
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
                parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto",
                treatment=args.treatment, controller=controller, output=args.output, jacobian=args.jacobian,

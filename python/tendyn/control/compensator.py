@@ -26,7 +26,8 @@ from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.closed_loop import end_effector_point
 from tendyn.transmission import Transmission, as_vector
 
-__all__ = ["Compensator", "chain_model", "device_line_problem", "end_effector_point", "transmission_with_friction",
+__all__ = ["Compensator", "chain_model", "device_line_problem", "device_transmission", "end_effector_point",
+           "transmission_with_friction",
            "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ",
            "IDENTIFIED_UNDERESTIMATION"]
 
@@ -61,7 +62,9 @@ def device_line_problem(name: str) -> str | None:
 
 def chain_model(device: Device | CompiledDevice) -> Any:
     """The core :class:`tendyn._core.ChainModel` (kinematics + gravity, no Pinocchio) of a serial device,
-    from the same joint frames as its Pinocchio model."""
+    from the same joint frames as its Pinocchio model. A closed-loop tree (σ = 2 cut frames, passive joints)
+    keeps every tree joint and gets its active map q = L q_a + c (``active_map``, ``active_offset``): the
+    compensator then sees the gravity Lᵀ g(q) and the Jacobian J L at the actuated joints (virtual work)."""
     compiled = compile_device(device)
     frames = compiled.joint_frames
     c = _core.ChainModel(len(frames))
@@ -74,6 +77,10 @@ def chain_model(device: Device | CompiledDevice) -> Any:
     c.mass = np.array([f.mass for f in frames], float)
     c.com = [np.asarray(f.com, float) for f in frames]
     c.ee_joint, c.ee_point = end_effector_point(compiled)
+    L, offset = compiled.active_map
+    if L.shape[0] != L.shape[1] or not np.array_equal(L, np.eye(L.shape[0])) or np.any(offset != 0):
+        c.active_map = np.asarray(L, float)
+        c.active_offset = np.asarray(offset, float)
     problem = c.first_issue()
     if problem:
         raise ValueError(f"{compiled.name}: chain model: {problem}")
@@ -95,13 +102,34 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None, s
         a negative or non-finite value, naming the source and field.
     """
     compiled = compile_device(device)
-    if compiled.transmission is None:
-        raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
     if friction is None:
-        return compiled.transmission
+        return device_transmission(compiled)
     from tendyn.ident.loss_model import identified_losses
 
     return identified_losses(compiled, friction, shares).transmission(compiled.device)
+
+
+def device_transmission(device: Device | CompiledDevice) -> Transmission:
+    """The transmission a compensator of ``device`` drives with the device file's losses: its cable
+    transmissions, or its capstan ``[[drives]]`` as one-branch transmissions (S0 eq. 17 with one branch:
+    C_m = τ/N + C_m0 sgn(q̇_m) + ν_m q̇_m; :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`).
+
+    Raises
+    ------
+    ValueError
+        A device with neither (a tendon bench, geared ``[[actuators]]``).
+    """
+    compiled = compile_device(device)
+    if compiled.transmission is not None:
+        return compiled.transmission
+    dev = compiled.device
+    if compiled.kind == "serial" and getattr(dev, "drives", ()):
+        from tendyn.transmission import LOSS_FIELDS
+
+        a = dev.drive_routing_arrays()
+        return Transmission.from_arrays(a["motor_radius"], a["K"], a["reducer_ratio"], a["reducer_efficiency"],
+                                        a["pretension"], **{k: a[k] for k in LOSS_FIELDS})
+    raise ValueError(f"{compiled.name}: no cable transmissions or capstan drives to compensate")
 
 
 def _passivity(compiled: CompiledDevice, passivity, friction, rate_hz: float) -> Any:
@@ -159,7 +187,8 @@ class Compensator:
                     velocity_band: float = DEFAULT_VELOCITY_BAND,
                     velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ,
                     rate_hz: float = 1000.0, passivity=None, tracking=None) -> "Compensator":
-        """Compensator of a serial cable-driven device.
+        """Compensator of a serial (or closed-loop tree) device driven by cables or capstan ``[[drives]]``
+        (one-branch transmissions: :func:`device_transmission`).
 
         Parameters
         ----------
@@ -182,11 +211,9 @@ class Compensator:
             ``covariance_max``) or a ``_core.FrictionTrackingModel``: online friction tracking (RLS)
         """
         compiled = compile_device(device)
-        if compiled.transmission is None:
-            raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
         m = _core.CompensatorModel()
         if friction is None:
-            m.transmission = compiled.transmission.model
+            m.transmission = device_transmission(compiled).model
         else:
             from tendyn.ident.loss_model import identified_losses
 

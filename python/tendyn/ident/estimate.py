@@ -93,6 +93,10 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
             out.append(f"{n} = {v:.4g} {unit}{sig} is negative, which {_MUST_BE_POSITIVE[stem]} cannot be: either "
                        "the data do not determine it (excite that joint more) or the model misses a term; "
                        "--consistent constrains it to be physical")
+        elif stem in _MUST_BE_POSITIVE and stderr is not None and abs(stderr[i]) > abs(v):
+            unit = units[i] if units else unit_of(n)
+            out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: its σ exceeds its value, so the data do not "
+                       f"determine {_MUST_BE_POSITIVE[stem]} (excite that joint faster or longer)")
     return out
 
 
@@ -132,6 +136,14 @@ def motor_space_residual(G, Y, y_hat, rows, samples, n_active, fitted_space: str
     y = tau @ to_other.T                           # motor torques y = G⁻ᵀ τ (or joint τ = Gᵀ y)
     y_h = tau_hat @ to_other.T
     return [float(v) for v in np.linalg.norm(y - y_h, axis=0) / np.maximum(np.linalg.norm(y, axis=0), 1e-300)]
+
+
+def not_physical(result) -> bool:
+    """True when an identification result cannot be a real device's: a link whose pseudo-inertia no completion
+    makes positive (semi)definite, or a negative rotor inertia, viscous or Coulomb coefficient."""
+    links = any(not p["ok"] for p in (result.pseudo_inertia or []))
+    signs = any(n.rstrip("0123456789") in _MUST_BE_POSITIVE and v < 0 for n, v in zip(result.names, result.values))
+    return bool(links or signs)
 
 
 class IdentificationResult(Result):
@@ -307,8 +319,10 @@ class IDIM:
         Keep only the essential parameters.
     essential_tol : float
         Allowed relative growth of the relative residual when dropping a parameter.
-    consistent : bool
-        Physically consistent estimate (pseudo-inertia LMIs, cvxpy + Clarabel).
+    consistent : bool or "auto"
+        Physically consistent estimate (pseudo-inertia LMIs, cvxpy + Clarabel). "auto" (``tendyn identify``'s
+        default): the plain estimate, replaced by the consistent one when it is not physical
+        (:func:`not_physical`), with a warning that says so and the plain values in ``result_.plain``.
     scheduler : None, "local" or str
         Where the logs of a campaign are treated: None in this process, ``"local"`` on a local Dask cluster,
         otherwise the address of a Dask scheduler (``tcp://host:8786``).
@@ -543,6 +557,8 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.consistent == "auto":
+            return self._fit_auto(logs, crossval)
         if self.method in CLOSED_LOOP:
             from .closed_loop import fit_closed_loop
 
@@ -601,6 +617,25 @@ class IDIM:
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self.result_.flag_pseudo_inertia(model)
         self._cols = cols
+        return self
+
+    def _fit_auto(self, logs, crossval):
+        """``consistent="auto"``: the plain fit, then the consistent one when the plain is not physical."""
+        self.consistent = False
+        try:
+            self._fit(logs, crossval)
+            plain = self.result_
+            if not not_physical(plain) or self.method in CLOSED_LOOP:
+                return self
+            self.consistent = True
+            self._fit(logs, crossval)
+        finally:
+            self.consistent = "auto"
+        res = self.result_
+        res.plain = plain
+        res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(plain.warnings)[:400]
+                            + "): the physically consistent estimate (pseudo-inertia LMIs) is reported instead "
+                              "(--plain: the plain one)")
         return self
 
     def _essential(self, Wb, Y, rows, na):
