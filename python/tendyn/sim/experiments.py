@@ -369,13 +369,16 @@ def stops_touched(device, q_active) -> list[int]:
 
 
 def torque_mode_start(device, m: _core.SimModel, q0=None) -> np.ndarray:
-    """Start pose [rad] of a torque-mode test (stepped or swept sine) and its gravity compensation: ``q0``, or
-    q = 0 when every tree joint is inside its limits there, else the pose nearest (least squares) the middle of
+    """Start pose [rad] of a torque-mode test (stepped or swept sine) and its gravity compensation: ``q0``, else
+    the device file's ``home_pose`` when it has one inside the limits, else q = 0 when every tree joint is inside its limits there, else the pose nearest (least squares) the middle of
     every tree joint's range; an arm under gravity gets the controller's gravity compensation
     (``SimModel.gravity_compensation``: the lossless motor torques of g at the encoder estimate), so the test
     excites the arm about that pose instead of letting it fall into its stops. Raises ValueError when the pose
     is outside the limits."""
     lo, hi, L, c = tree_limits(device)
+    home = getattr(compile_device(device).device, "home_pose", None)
+    if q0 is None and home is not None and len(home) == m.na and not stops_touched(device, np.asarray(home, float)):
+        q0 = home                       # the device's own rest pose (its file's home_pose) when it has one
     if q0 is None:
         q = np.zeros(m.na)
         if stops_touched(device, q):
