@@ -7,7 +7,7 @@ STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-steps test-python test-cpp test-asan tools demo bench mutants docs clean
+.PHONY: install test test-steps test-python test-cpp test-asan tools demo bench realdata mutants docs clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -95,6 +95,11 @@ bench: install
 	TENDYN_ROUTING_TIMER=$(abspath build/bench/benchmarks/routing_timer) \
 	TENDYN_TENDON_TIMER=$(abspath build/bench/benchmarks/tendon_timer) \
 	TENDYN_COMPENSATOR_TIMER=$(abspath build/bench/benchmarks/compensator_timer) $(VPY) benchmarks/run.py $(BENCH_ARGS)
+
+# Every real data set of ../shared/external-data against its peers' published numbers (docs/realdata.md):
+# benchmarks/realdata.json, the page in build/realdata/report.html and the table on stdout.
+realdata: install
+	$(VPY) benchmarks/realdata/run.py $(REALDATA_ARGS)
 
 clean:
 	rm -rf build $(VENV) out

@@ -82,3 +82,24 @@ if __name__ == "__main__":
     res: list = []
     bench_blockmodel_fit(res, rounds=1)
     print(res)
+
+
+def bench_blockmodel_amplitudes(results: list, amplitude_N: float = 1.0, duration_s: float = 4.0) -> None:
+    """Issue 30, item 4: the amplitude check. On the McGill twin, PRBS logs at A, 0.5 A and 1.5 A (4 s each); the
+    push-pull Lur'e model and the one-loop Lur'e model (the baseline) fitted at A only; value = the worst NRMS
+    ratio (record at 0.5 A or 1.5 A over the fit's own NRMS; goal ≤ 1.2), ratio = baseline's worst / ours."""
+    from tendyn.device.tendon_bench import load_tendon_bench
+    from tendyn.devices import bundled
+    from tendyn.ident.blockmodel import BlockModel
+    from tendyn.pipelines import s1_logs
+
+    bench = load_tendon_bench(bundled("mcgill_bench"))
+    recs = s1_logs.bench_records(s1_logs.prbs_logs(bench, (amplitude_N, 0.5 * amplitude_N, 1.5 * amplitude_N), 300,
+                                                   duration_s))
+    worst = {}
+    for st in ("push-pull", "lure"):
+        m = BlockModel(st, "coulomb", order=2).fit(recs[:1])
+        worst[st] = max(m.nrms(r.u, r.y) / m.fit_nrms_ for r in recs[1:])
+    results.append(dict(name="blockmodel_amplitude_mcgill", value=worst["push-pull"], unit="NRMS ratio (0.5x, 1.5x)",
+                        baseline="one-loop Lur'e model, same records", baseline_value=worst["lure"],
+                        ratio=worst["lure"] / worst["push-pull"]))

@@ -324,7 +324,8 @@ ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
         "design_evaluations_per_s": "design", "dask_design_speedup": "design", "dask_sweep_speedup": "sweep",
         "dask_identify_speedup": "dask_identify",
         "python_suite_wall": "suite",
-        "identify_iv_gen6_twin_end_to_end": "closed_loop", "identify_didim_gen6_twin_end_to_end": "closed_loop"}
+        "identify_iv_gen6_twin_end_to_end": "closed_loop", "identify_didim_gen6_twin_end_to_end": "closed_loop",
+        "blockmodel_amplitude_mcgill": "amplitude"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 
@@ -378,6 +379,10 @@ def run_only(names: list[str]) -> int:
         from closed_loop_bench import bench_closed_loop_identify
 
         bench_closed_loop_identify(results)
+    if "amplitude" in groups:
+        from blockmodel_bench import bench_blockmodel_amplitudes
+
+        bench_blockmodel_amplitudes(results)
     path = HERE / "results.json"
     old = json.loads(path.read_text(encoding="utf-8")) if path.exists() else []
     new = {r["name"] for r in results}
@@ -413,9 +418,10 @@ def main() -> int:
 
     bench_sensitivity_sweep(results)
     bench_dask_sweep(results)
-    from blockmodel_bench import bench_blockmodel_fit
+    from blockmodel_bench import bench_blockmodel_amplitudes, bench_blockmodel_fit
 
     bench_blockmodel_fit(results)
+    bench_blockmodel_amplitudes(results)
     from tx40_identify import bench_tx40_identify
 
     bench_tx40_identify(results)

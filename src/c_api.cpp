@@ -256,7 +256,7 @@ tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, d
     if (q) Eigen::Map<Eigen::VectorXd>(q, n) = c->data.q;
     if (qd) Eigen::Map<Eigen::VectorXd>(qd, n) = c->data.qd;
     if (qd_motor) Eigen::Map<Eigen::VectorXd>(qd_motor, n) = c->data.qd_motor;
-    if (gravity_torque) Eigen::Map<Eigen::VectorXd>(gravity_torque, n) = c->data.chain.gravity_torque;
+    if (gravity_torque) Eigen::Map<Eigen::VectorXd>(gravity_torque, n) = c->data.chain.gravity_active;
     if (ee_position) std::memcpy(ee_position, c->data.chain.ee_position.data(), 3 * sizeof(double));
     return TENDYN_OK;
   });

@@ -4,9 +4,8 @@ published IDIM-LS values (M = 95.1089 kg, Fv = 203.5034 N·s/m, Fc = 20.3935 N, 
 
 The loop: DATA_EMPS.mat itself gives the drive gain gtau [N/V] and the cascade's gains, kp [1/s] (position, P)
 and kv [V/(m/s)] (velocity, P): u = kv (kp (qg − qm) − q̇m) [V], force = gtau u. No integral action is given.
-The motor position qm [m] and the reference qg [m] are logged at 1 kHz. This module builds its own minimal
-1-DOF prismatic device and log in memory (to be reconciled with the EMPS device/loader of the real-data suite
-when it lands: only :func:`emps_device_toml` and :func:`emps_log` would change).
+The motor position qm [m] and the reference qg [m] are logged at 1 kHz. The device and the log are the suite's
+(benchmarks/realdata/emps.py: emps.toml, ``load(shared, loop=True)``).
 
 Interface of the real-data suite: ``rows(shared) -> list[dict]`` with keys dataset, peer, metric, item,
 peer_value, tendyn_preset (IDIM-IV), tendyn_default (IDIM-LS), unit, and extra keys tendyn_didim and the σ.
@@ -16,62 +15,29 @@ from __future__ import annotations
 
 import contextlib
 import io
-import tempfile
+import sys
 from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import emps  # noqa: E402  (the suite's EMPS loader and device)
+
 PUBLISHED = {"M": (95.1089, "kg"), "Fv": (203.5034, "N·s/m"), "Fc": (20.3935, "N"), "offset": (-3.1648, "N")}
 
 
-def emps_device_toml(mass_guess: float = 100.0) -> str:
-    """A horizontal prismatic axis driven directly (ratio 1): the device file's mass is a prior only."""
-    return "\n".join([
-        "schema = 1", "[device]", 'name = "emps"', 'description = "EMPS linear axis (Janot et al. 2019)"',
-        "bandwidth_hz = 5.0", "[kinematics]", 'convention = "mdh"', "gravity = [0.0, 0.0, 0.0]",
-        "[[kinematics.joints]]", 'name = "x"', "j = 1", "antecedent = 0", "mu = 1", "sigma = 1", "alpha = 0.0",
-        "d = 0.0", "r = 0.0", "lower = -1.0", "upper = 1.0", f"mass = {mass_guess!r}", "com = [0.0, 0.0, 0.0]",
-        "inertia = [0.01, 0.01, 0.01, 0.0, 0.0, 0.0]", "[[actuators]]", "joint = 1", "ratio = 1.0"]) + "\n"
-
-
-def emps_log(mat: Path):
-    """The tendyn log of DATA_EMPS.mat (q_motor_1 = qm [m], torque_motor_1 = gtau·vir [N], q_ref_1 = qg [m]) and
-    the controller the file gives."""
-    import scipy.io
-
-    from tendyn.ident.closed_loop import LoopController
-    from tendyn.io.logs import make_log
-
-    d = scipy.io.loadmat(mat)
-    t, qm, qg, vir = (np.ravel(d[k]).astype(float) for k in ("t", "qm", "qg", "vir"))
-    gtau, kp, kv = (float(np.ravel(d[k])[0]) for k in ("gtau", "kp", "kv"))
-    rate = 1.0 / float(np.median(np.diff(t)))
-    t = np.arange(t.size) / round(rate)
-    ctrl = LoopController(kp=(kv * kp,), kd=(kv,), ki=(0.0,), velocity_feedforward=False, gain=(gtau,),
-                          label=f"EMPS cascade P-P (kp {kp:g} 1/s, kv {kv:g} V/(m/s), gtau {gtau:.6g} N/V)")
-    log = make_log({"time": t, "q_motor_1": qm, "torque_motor_1": gtau * vir, "q_ref_1": qg}, device="emps",
-                   rate_hz=float(round(rate)), seed=None, experiment="emps",
-                   options={"controller": ctrl.to_dict()},
-                   units={"q_motor_1": "m", "torque_motor_1": "N", "q_ref_1": "m"})
-    return log
-
-
 def fits(shared: Path) -> dict:
-    """{method: (names, values, stderr)} for ols, iv, didim on DATA_EMPS.mat."""
-    from tendyn.device import load_device
+    """{method: (names, values, stderr)} for ols, iv, didim on DATA_EMPS.mat (the suite's EMPS device and log,
+    benchmarks/realdata/emps.py, with the reference and the controller)."""
     from tendyn.ident import IDIM
 
-    mat = Path(shared) / "external-data" / "emps" / "DATA_EMPS.mat"
-    log = emps_log(mat)
-    with tempfile.TemporaryDirectory() as tmp:
-        f = Path(tmp) / "emps.toml"
-        f.write_text(emps_device_toml())
-        dev = load_device(f)
-        out = {}
-        for m in ("ols", "iv", "didim"):
-            with contextlib.redirect_stderr(io.StringIO()):
-                e = IDIM(dev, method=m, velocity_threshold=0.0).fit(log, crossval=False)
-            out[m] = (list(e.names_), np.asarray(e.params_), np.asarray(e.stderr_))
+    log = emps.load(shared, loop=True)
+    dev = emps.device()
+    out = {}
+    for m in ("ols", "iv", "didim"):
+        with contextlib.redirect_stderr(io.StringIO()):
+            e = IDIM(dev, method=m, velocity_threshold=0.0).fit(log, crossval=False)
+        out[m] = (list(e.names_), np.asarray(e.params_), np.asarray(e.stderr_))
     return out
 
 
@@ -107,7 +73,6 @@ def rows(shared: Path) -> list[dict]:
 
 if __name__ == "__main__":
     import json
-    import sys
 
     shared = Path(sys.argv[1]) if len(sys.argv) > 1 else Path(__file__).resolve().parents[3] / "shared"
     print(json.dumps(rows(shared), indent=1))

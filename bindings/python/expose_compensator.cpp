@@ -25,6 +25,9 @@ void expose_compensator(nb::module_& m) {
       .def_rw("com", &C::com)
       .def_rw("ee_joint", &C::ee_joint)
       .def_rw("ee_point", &C::ee_point)
+      .def_rw("active_map", &C::active_map)
+      .def_rw("active_offset", &C::active_offset)
+      .def("n_active", &C::n_active)
       .def("first_issue", [](const C& c) {
         int j = -1;
         const char* what = c.first_issue(&j);
@@ -35,7 +38,10 @@ void expose_compensator(nb::module_& m) {
       .def_ro("gravity_torque", &CD::gravity_torque)
       .def_ro("ee_position", &CD::ee_position)
       .def_ro("ee_jacobian", &CD::ee_jacobian)
-      .def_ro("subtree_mass", &CD::subtree_mass);
+      .def_ro("subtree_mass", &CD::subtree_mass)
+      .def_ro("q_tree", &CD::q_tree)
+      .def_ro("gravity_active", &CD::gravity_active)
+      .def_ro("ee_jacobian_active", &CD::ee_jacobian_active);
   auto need_valid = [](const C& c) {
     if (c.validate() != Status::Ok) throw nb::value_error(("ChainModel: " + std::string(c.first_issue(nullptr))).c_str());
   };
@@ -45,6 +51,12 @@ void expose_compensator(nb::module_& m) {
   m.def("chain_gravity_torque",
         [need_valid](const C& c, CD& d, VecRef q) { need_valid(c); return check(chain_gravity_torque(c, d, q), "chain_gravity_torque"); },
         nb::arg("model"), nb::arg("data"), nb::arg("q"));
+  m.def("chain_active",
+        [need_valid](const C& c, CD& d, VecRef q_active, bool jacobian) {
+          need_valid(c);
+          return check(chain_active(c, d, q_active, jacobian), "chain_active");
+        },
+        nb::arg("model"), nb::arg("data"), nb::arg("q_active"), nb::arg("jacobian") = true);
 
   using PM = PassivityModel;
   using PD = PassivityData;
@@ -154,9 +166,9 @@ void expose_compensator(nb::module_& m) {
       .def_ro("torque_motor", &D::torque_motor)
       .def_ro("cycles", &D::cycles)
       .def_ro("compute_time", &D::compute_time)
-      .def_prop_ro("gravity_torque", [](const D& d) { return Eigen::VectorXd(d.chain.gravity_torque); })
+      .def_prop_ro("gravity_torque", [](const D& d) { return Eigen::VectorXd(d.chain.gravity_active); })
       .def_prop_ro("ee_position", [](const D& d) { return Eigen::Vector3d(d.chain.ee_position); })
-      .def_prop_ro("ee_jacobian", [](const D& d) { return Eigen::MatrixXd(d.chain.ee_jacobian); });
+      .def_prop_ro("ee_jacobian", [](const D& d) { return Eigen::MatrixXd(d.chain.ee_jacobian_active); });
   m.def("compensator_cycle",
         [](const M& mo, D& d, VecRef qm, VecRef tj) {
           if (qm.size() != d.q_motor.size()) throw nb::value_error("compensator_cycle: data is not from this model");

@@ -112,7 +112,8 @@ TENDYN_API tendyn_status tendyn_compensator_cycle_force(tendyn_compensator* c, c
                                                         const double* force_ee, double* torque_motor,
                                                         double* compute_time);
 /* State of the last cycle; any pointer may be NULL: q, qd (n) joint estimates [rad, rad/s], qd_motor (n)
- * filtered motor velocity [rad/s], gravity_torque (n) [N m], ee_position (3) [m]. */
+ * filtered motor velocity [rad/s], gravity_torque (n) [N m] at the actuated joints (L^T g(q) on a closed-loop
+ * tree, chain.hpp), ee_position (3) [m]. */
 TENDYN_API tendyn_status tendyn_compensator_state(const tendyn_compensator* c, double* q, double* qd,
                                                   double* qd_motor, double* gravity_torque, double* ee_position);
 

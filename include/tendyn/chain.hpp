@@ -14,6 +14,11 @@
 //   gravity (= ∂V/∂q, Pinocchio's computeGeneralizedGravity convention, M q̈ + C q̇ + g = τ):
 //       revolute:  g_j = −z_jᵀ ((h̄_j − m̄_j o_j) × g⃗),   prismatic:  g_j = −m̄_j z_jᵀ g⃗,   z_j = R_j a_j.
 //
+// Closed-loop trees (σ = 2 cut frames, python/tendyn/device/closed_loop.py): the tree's joints follow the
+// n_a actuated joints through the linear map q = L q_a + c (active_map, active_offset). By virtual work
+// (δW = g(q)ᵀ δq = g(q)ᵀ L δq_a) the gravity torques at the actuated joints are Lᵀ g(q) and the end-effector
+// Jacobian is J L (chain_active below). An empty map is the identity (a serial chain, n_a = n).
+//
 // Model / Data convention: ChainModel is immutable after setup; ChainData holds every output; the
 // real-time calls allocate nothing and return a Status.
 #pragma once
@@ -41,6 +46,12 @@ struct ChainModel {
   std::vector<Eigen::Vector3d> com;         ///< (n) centre of mass in the joint frame [m]
   int ee_joint = -1;                        ///< 0-based joint carrying the end effector (−1: the last)
   Eigen::Vector3d ee_point = Eigen::Vector3d::Zero();  ///< end-effector point in that joint frame [m]
+  /// (n, n_a) L of q = L q_a + c for a closed-loop tree driven by n_a actuated joints; empty = identity.
+  Eigen::MatrixXd active_map;
+  Eigen::VectorXd active_offset;            ///< (n) c [rad or m]; empty with an empty active_map
+
+  /// Number of actuated joints n_a: the columns of active_map, n without one.
+  int n_active() const { return active_map.size() ? static_cast<int>(active_map.cols()) : n; }
 
   ChainModel() = default;
   /// n joints at their defaults: serial (parent j − 1), identity placements, revolute about z, no mass.
@@ -81,6 +92,11 @@ struct ChainModel {
     if (j) *j = -1;
     if (!(ee_joint >= 0 && ee_joint < n)) return "ee_joint: must be a joint index in [0, n)";
     if (!ee_point.allFinite()) return "ee_point: must be finite";
+    if (active_map.size() || active_offset.size()) {
+      if (active_map.rows() != n || active_map.cols() < 1) return "active_map: must be (n, n_active), n_active >= 1";
+      if (active_offset.size() != n) return "active_offset: must have n entries";
+      if (!active_map.allFinite() || !active_offset.allFinite()) return "active_map: must be finite";
+    }
     return nullptr;
   }
   Status validate() const { return first_issue(nullptr) ? Status::InvalidModel : Status::Ok; }
@@ -98,13 +114,18 @@ struct ChainData {
   Eigen::Matrix<double, 3, Eigen::Dynamic> ee_jacobian;   ///< (3, n) ∂x_ee/∂q [m/rad]
   Eigen::VectorXi on_ee_path;           ///< 1 where joint j moves the end effector
   Eigen::VectorXi axis_z;               ///< 1 where the axis is exactly +z (fast rotation)
+  Eigen::VectorXd q_tree;               ///< (n) q = L q_a + c of the last chain_active call [rad or m]
+  Eigen::VectorXd gravity_active;       ///< (n_a) Lᵀ g(q) [N·m or N] (chain_active)
+  Eigen::Matrix<double, 3, Eigen::Dynamic> ee_jacobian_active;  ///< (3, n_a) J L [m/rad] (chain_active)
 
   explicit ChainData(const ChainModel& m)
       : R(m.n, Eigen::Matrix3d::Identity()), origin(m.n, Eigen::Vector3d::Zero()),
         z(m.n, Eigen::Vector3d::UnitZ()), moment(m.n, Eigen::Vector3d::Zero()),
         subtree_mass(Eigen::VectorXd::Zero(m.n)), gravity_torque(Eigen::VectorXd::Zero(m.n)),
         ee_jacobian(Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, m.n)), on_ee_path(Eigen::VectorXi::Zero(m.n)),
-        axis_z(Eigen::VectorXi::Zero(m.n)) {
+        axis_z(Eigen::VectorXi::Zero(m.n)), q_tree(Eigen::VectorXd::Zero(m.n)),
+        gravity_active(Eigen::VectorXd::Zero(m.n_active())),
+        ee_jacobian_active(Eigen::Matrix<double, 3, Eigen::Dynamic>::Zero(3, m.n_active())) {
     if (m.n < 1 || m.parent.size() != m.n || static_cast<int>(m.axis.size()) != m.n) return;
     for (int k = 0; k < m.n; ++k) axis_z(k) = m.axis[k] == Eigen::Vector3d::UnitZ();
     int j = m.ee_joint >= 0 && m.ee_joint < m.n ? m.ee_joint : m.n - 1;
@@ -207,6 +228,35 @@ inline Status chain_gravity_torque(const ChainModel& m, ChainData& d, const V& q
   const Status s = chain_forward_kinematics(m, d, q);
   if (is_error(s)) return s;
   chain_gravity_from_frames(m, d);
+  return Status::Ok;
+}
+
+/// Frames, gravity and (with `jacobian`) the end-effector Jacobian at the actuated joint positions q_a (n_a)
+/// [rad or m]: q = L q_a + c (identity without an active map), then chain_frames, chain_gravity_from_frames and
+/// chain_end_effector at q, and the actuated-joint views gravity_active = Lᵀ g(q) [N·m], ee_jacobian_active = J L
+/// (virtual work, header comment). Writes data.q_tree and everything those calls write. Allocates nothing.
+template <class V>
+inline Status chain_active(const ChainModel& m, ChainData& d, const V& q_active, bool jacobian = true) {
+  const bool mapped = m.active_map.size() > 0;
+  if (q_active.size() != m.n_active()) return Status::SizeMismatch;
+  if (!all_finite(q_active)) return Status::NonFiniteInput;
+  if (mapped) {
+    d.q_tree = m.active_offset;
+    for (int k = 0; k < m.active_map.cols(); ++k) d.q_tree += m.active_map.col(k) * q_active(k);
+  } else {
+    for (int j = 0; j < m.n; ++j) d.q_tree(j) = q_active(j);
+  }
+  const Status s = chain_frames(m, d, d.q_tree);
+  if (is_error(s)) return s;
+  chain_gravity_from_frames(m, d);
+  chain_end_effector(m, d, jacobian);
+  if (mapped) {
+    d.gravity_active.noalias() = m.active_map.transpose().lazyProduct(d.gravity_torque);
+    if (jacobian) d.ee_jacobian_active.noalias() = d.ee_jacobian.lazyProduct(m.active_map);
+  } else {
+    d.gravity_active = d.gravity_torque;
+    if (jacobian) d.ee_jacobian_active = d.ee_jacobian;
+  }
   return Status::Ok;
 }
 

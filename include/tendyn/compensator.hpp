@@ -96,9 +96,11 @@ struct CompensatorModel {
     int j = -1;
     if (const char* what = chain.first_issue(&j))
       return std::string("chain.") + what + (j >= 0 ? " (joint " + std::to_string(j) + ")" : std::string());
-    if (chain.n != transmission.n)
-      return "chain.n = " + std::to_string(chain.n) + ": must equal the number of transmissions (" +
-             std::to_string(transmission.n) + "): the chain belongs to another device";
+    if (chain.n_active() != transmission.n)
+      return (chain.active_map.size() ? "chain.active_map has " + std::to_string(chain.n_active()) + " columns"
+                                      : "chain.n = " + std::to_string(chain.n)) +
+             ": must equal the number of transmissions (" + std::to_string(transmission.n) +
+             "): the chain belongs to another device";
     if (!(underestimation >= 0.0 && underestimation <= 1.5))
       return "underestimation = " + format_double(underestimation) + ": must be in [0, 1.5]";
     if (!(velocity_band >= 0.0 && std::isfinite(velocity_band)))
@@ -177,7 +179,7 @@ struct CompensatorData {
 
 /// Steps 1–3: read the encoders, estimate velocity, joint state, frames, end effector and gravity.
 /// @param q_motor   motor encoder positions (n) [rad]
-/// @param jacobian  also compute the end-effector Jacobian (data.chain.ee_jacobian); the wanted-joint-torque
+/// @param jacobian  also compute the end-effector Jacobian (data.chain.ee_jacobian_active, actuated joints); the wanted-joint-torque
 ///                  cycle does not need it
 template <class V>
 inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, const V& q_motor,
@@ -201,11 +203,7 @@ inline Status compensator_sense(const CompensatorModel& m, CompensatorData& d, c
   if (is_error(s)) return s;
   d.q = d.transmission.q;
   d.qd.noalias() = m.transmission.joint_from_motor_position.lazyProduct(d.qd_motor);
-  s = chain_frames(m.chain, d.chain, d.q);
-  if (is_error(s)) return s;
-  chain_gravity_from_frames(m.chain, d.chain);
-  chain_end_effector(m.chain, d.chain, jacobian);
-  return Status::Ok;
+  return chain_active(m.chain, d.chain, d.q, jacobian);
 }
 
 namespace detail {
@@ -253,7 +251,7 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
   if (!all_finite(torque_joint_wanted)) return Status::NonFiniteInput;
   for (int i = 0; i < n; ++i) {
     d.torque_joint_wanted(i) = torque_joint_wanted(i);
-    d.torque_joint(i) = torque_joint_wanted(i) + d.chain.gravity_torque(i);
+    d.torque_joint(i) = torque_joint_wanted(i) + d.chain.gravity_active(i);
   }
   d.torque_motor_lossless.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.torque_joint);
   Status s = Status::Ok;
@@ -288,7 +286,7 @@ inline Status compensator_command(const CompensatorModel& m, CompensatorData& d,
   }
   if (tracking) {  // what the next cycle's tracker update measures against
     d.tracking.torque_motor_prev = d.torque_motor;
-    d.tracking.gravity_motor_prev.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.chain.gravity_torque);
+    d.tracking.gravity_motor_prev.noalias() = m.transmission.motor_from_joint_torque.lazyProduct(d.chain.gravity_active);
     d.tracking.velocity_prev = d.qd_motor;
     d.tracking.has_prev = true;
   }
@@ -327,7 +325,7 @@ inline Status compensator_cycle_force(const CompensatorModel& m, CompensatorData
   Status s = compensator_sense(m, d, q_motor);
   if (!is_error(s)) {
     const Eigen::Vector3d f(force_ee(0), force_ee(1), force_ee(2));
-    d.torque_joint_wanted.noalias() = d.chain.ee_jacobian.transpose() * f;
+    d.torque_joint_wanted.noalias() = d.chain.ee_jacobian_active.transpose() * f;
     s = compensator_command(m, d, d.torque_joint_wanted);
   }
   d.compute_time = detail::seconds_since(t0);

@@ -20,6 +20,9 @@
 //     com 0.05 0 0 …                         (3 per joint) [m], joint frame
 //     ee_joint 3                             0-based joint carrying the end effector
 //     ee_point 0.32 0 0                      [m], in that joint frame
+//     active_map 1 0 0 …                     (optional, closed-loop trees: n × n_a values row-major, n_a = the
+//                                             transmissions; q = L q_a + c, chain.hpp)
+//     active_offset 0 0 1.57 …               (with active_map: n values, c [rad or m])
 //     section compensator 1
 //     underestimation 0.9                    k [-] in [0, 1.5]
 //     velocity_band 0.5                      [rad/s], motor side
@@ -110,6 +113,13 @@ inline std::string compensator_model_text(const CompensatorModel& m) {
   const double ee = c.ee_joint;
   line("ee_joint", &ee, 1);
   line("ee_point", c.ee_point.data(), 3);
+  if (c.active_map.size()) {  // written only for closed-loop trees: serial files stay as they were
+    v.clear();
+    for (int j = 0; j < c.active_map.rows(); ++j)
+      for (int k = 0; k < c.active_map.cols(); ++k) v.push_back(c.active_map(j, k));
+    line("active_map", v.data(), static_cast<int>(v.size()));
+    line("active_offset", c.active_offset.data(), static_cast<int>(c.active_offset.size()));
+  }
   out += "section compensator " + std::to_string(compensator_section_version) + "\n";
   out += "# settings: k [-], velocity band [rad/s] motor side, filter cut-off [Hz], control rate [Hz]\n";
   line("underestimation", &m.underestimation, 1);
@@ -168,13 +178,13 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
   CompensatorModel m;
   if (!parse_transmission_model(text, name, &m.transmission, error)) return false;
 
-  static const char* chain_keys[] = {"device", "n", "gravity", "parent", "placement", "axis",
-                                     "prismatic", "mass", "com", "ee_joint", "ee_point"};
+  static const char* chain_keys[] = {"device", "n",  "gravity",  "parent",     "placement",    "axis", "prismatic",
+                                     "mass",   "com", "ee_joint", "ee_point", "active_map", "active_offset"};
   static const char* comp_keys[] = {"underestimation", "velocity_band", "velocity_cutoff_hz", "rate_hz"};
   static const char* pass_keys[] = {"enabled", "dissipation_coulomb", "dissipation_viscous", "reserve", "damping_max"};
   static const char* track_keys[] = {"enabled",   "forgetting", "velocity_min", "acceleration_max",
                                      "scale_min", "scale_max",  "covariance_max"};
-  constexpr int n_chain = 11, n_comp = 4, n_pass = 5, n_track = 7;
+  constexpr int n_chain = 13, n_chain_required = 11, n_comp = 4, n_pass = 5, n_track = 7;
   int chain_seen[n_chain] = {0}, comp_seen[n_comp] = {0}, pass_seen[n_pass] = {0}, track_seen[n_track] = {0};
   static const char* section_names[] = {"", "chain", "compensator", "losses", "passivity", "tracking"};
   int section = 0;  // 0 transmission part, 1 chain, 2 compensator, 3 losses, 4 passivity, 5 tracking
@@ -365,12 +375,25 @@ inline bool parse_compensator_model(const std::string& text, const std::string& 
         if (!expect(3, "x y z")) return false;
         m.chain.ee_point = Eigen::Vector3d(values[0], values[1], values[2]);
         break;
+      case 11: {
+        const int na = m.transmission.n;
+        if (!expect(n * na, "n × transmissions, row-major")) return false;
+        m.chain.active_map = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+            values.data(), n, na);
+        break;
+      }
+      case 12:
+        if (!expect(n, "n")) return false;
+        m.chain.active_offset = Eigen::Map<const Eigen::VectorXd>(values.data(), n);
+        break;
     }
   }
   if (!section_line[1]) return fail(0, "section chain: missing (a compensator file needs the chain and its gravity)");
   if (!section_line[2]) return fail(0, "section compensator: missing (its settings are required)");
-  for (int k = 0; k < n_chain; ++k)
+  for (int k = 0; k < n_chain_required; ++k)
     if (!chain_seen[k]) return fail(0, std::string("chain.") + chain_keys[k] + ": missing required field");
+  if (chain_seen[11] && !chain_seen[12]) return fail(0, "chain.active_offset: missing (active_map is given)");
+  if (chain_seen[12] && !chain_seen[11]) return fail(0, "chain.active_map: missing (active_offset is given)");
   for (int k = 0; k < n_comp; ++k)
     if (!comp_seen[k]) return fail(0, std::string(comp_keys[k]) + ": missing required field");
   if (section_line[3])

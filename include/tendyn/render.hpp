@@ -226,10 +226,10 @@ inline Status render_cycle(const RenderModel& r, RenderData& d, const Compensato
   Status s = compensator_sense(cm, cd, q_motor);
   if (!is_error(s)) {
     d.x_hat = cd.chain.ee_position;
-    d.xd_hat.noalias() = cd.chain.ee_jacobian * cd.qd;
+    d.xd_hat.noalias() = cd.chain.ee_jacobian_active * cd.qd;
     render_proxy(r, d);
     render_force(r, d);
-    cd.torque_joint_wanted.noalias() = cd.chain.ee_jacobian.transpose() * d.force;
+    cd.torque_joint_wanted.noalias() = cd.chain.ee_jacobian_active.transpose() * d.force;
     s = compensator_command(cm, cd, cd.torque_joint_wanted);
   }
   d.compute_time = detail::seconds_since(t0);

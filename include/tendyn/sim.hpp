@@ -133,6 +133,22 @@ struct SimModel {
   Eigen::VectorXd term_lo;          ///< (na) position of the first knot [rad or m]
   Eigen::VectorXd term_step;        ///< (na) knot spacing [rad or m], > 0
   Eigen::MatrixXd term_torque;      ///< (na, knots) torque at each knot [N·m or N]
+  /// End stops of the tree joints (issue 40: the twin keeps to the device's limits). A tree joint k past its
+  /// range by δ_k (q_k − upper_k > 0 or q_k − lower_k < 0) meets the spring–damper τ_k = −K_s δ_k − B_s q̇_k,
+  /// applied linearly implicit (the spring at the step's end, K_s (δ_k + h q̇_k⁺): stable at any K_s); through
+  /// the map, the active joints feel Lᵀ τ. Energy: ½ K_s δ² is in mechanical_energy; each step adds to
+  /// data.dissipated what the stop took, −h q̇⁺ τ − Δ(½ K_s δ²) (the damper's h B_s q̇², the implicit spring's
+  /// ½ K_s h² q̇², and the entry/exit steps exactly). Open: on an arm falling into its stops the balance
+  /// closes to ~8 % of the energy exchanged (1e-3 without stops): the implicit step's impact loss is not booked. Both empty
+  /// (the default) = no stops; ±inf = no stop on that side.
+  Eigen::VectorXd stop_lower;       ///< (nq_tree) [rad or m]
+  Eigen::VectorXd stop_upper;       ///< (nq_tree) [rad or m]
+  double stop_stiffness = 0.0;      ///< K_s [N·m/rad or N/m], >= 0
+  double stop_damping = 0.0;        ///< B_s [N·m·s/rad or N·s/m], >= 0
+  /// Torque mode: the controller adds the lossless motor torques of gravity at its encoder estimate,
+  /// C_g = motor_from_joint_torque · Lᵀ g(L q̂ + c) (what a lab's controller runs under a torque-mode test
+  /// such as a stepped sine: the arm is held where gravity would pull it into a stop).
+  bool gravity_compensation = false;
 
   // Sensors.
   Eigen::VectorXd encoder_counts;   ///< counts per motor revolution after decoding (0 = ideal)
@@ -207,6 +223,9 @@ struct SimData {
   Eigen::MatrixXd ML, M, Mt, Linv, Minv, B;  // Mt: Cholesky factor L of M + hD; Minv = (M + hD)⁻¹; B = Minv Gᵀ
   Eigen::VectorXd F, v, rhs, vfree, Lrecip, Wdiag, Wrecip, sdot, u, p, lo, hi;  // sdot: site speeds at the step start; Lrecip = 1/L_jj; Wrecip = 1/W_kk
   Eigen::VectorXd ext;              ///< external joint torque net of the offset, this step [N·m]
+  Eigen::VectorXd stop_depth;       ///< (nq_tree) δ_k past the end stop at the step start (0 inside) [rad or m]
+  int stops_touched = 0;            ///< tree joints past a stop at the last step's start
+  double stop_contact_time = 0.0;   ///< time spent with some joint past a stop since the reset [s]
   Eigen::VectorXi active;           ///< indices of the sites in this step's friction solve
   Eigen::VectorXi site_state;       ///< where each site ended the last step: 0 inside its box, 1 at lo, 2 at hi
   // exact finish (detail::finish_friction): ≤ nv kept stuck sites, A-orthogonal directions, coefficients
@@ -263,6 +282,13 @@ inline Status SimModel::finalize() {
       return Status::InvalidModel;
   }
   identity_map = L.rows() == na && L.isIdentity(0.0) && c.isZero(0.0);
+  if (stop_lower.size() || stop_upper.size()) {
+    const int nt = static_cast<int>(L.rows());
+    if (stop_lower.size() != nt || stop_upper.size() != nt || !(stop_lower.array() <= stop_upper.array()).all() ||
+        stop_lower.hasNaN() || stop_upper.hasNaN() || !(stop_stiffness >= 0.0) || !(stop_damping >= 0.0) ||
+        !std::isfinite(stop_stiffness) || !std::isfinite(stop_damping))
+      return Status::InvalidModel;
+  }
 
   if (drive == DriveKind::Tendon) {
     if (tendon.n != na || is_error(tendon.validate())) return Status::InvalidModel;
@@ -383,6 +409,7 @@ inline SimData::SimData(const SimModel& m)
       sdot(Eigen::VectorXd::Zero(m.n_sites)),
       u(Eigen::VectorXd::Zero(m.n_sites)), p(Eigen::VectorXd::Zero(m.n_sites)),
       lo(Eigen::VectorXd::Zero(m.n_sites)), hi(Eigen::VectorXd::Zero(m.n_sites)), ext(Eigen::VectorXd::Zero(m.na)),
+      stop_depth(Eigen::VectorXd::Zero(m.nq_tree())),
       active(Eigen::VectorXi::Zero(m.n_sites)), site_state(Eigen::VectorXi::Zero(m.n_sites)),
       fin_e(Eigen::MatrixXd::Zero(m.nv, m.nv)), fin_f(Eigen::MatrixXd::Zero(m.nv, m.nv)),
       fin_c(Eigen::MatrixXd::Zero(m.nv, m.nv)), fin_piv(Eigen::VectorXd::Zero(m.nv)),
@@ -446,6 +473,13 @@ inline void control(const SimModel& m, SimData& d, const V1& ref_q, const V2& re
   switch (m.mode) {
     case ControlMode::Torque:
       for (int i = 0; i < m.nm; ++i) d.torque_motor_cmd(i) = ff(i);
+      if (m.gravity_compensation) {
+        d.q_tree.noalias() = m.L.lazyProduct(d.q_est);
+        d.q_tree += m.c;
+        pinocchio::computeGeneralizedGravity(m.body.pin, d.body.pin, d.q_tree);
+        d.tmp_na.noalias() = m.L.transpose().lazyProduct(d.body.pin.g);
+        d.torque_motor_cmd.noalias() += m.motor_from_joint_torque.lazyProduct(d.tmp_na);
+      }
       break;
     case ControlMode::JointPID:
       for (int i = 0; i < m.na; ++i) {
@@ -813,6 +847,19 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
   const double* D = m.D.data();
   for (int c = 0; c < nv; ++c)
     for (int r = c; r < nv; ++r) L[r + c * nv] = M[r + c * nv] + h * D[r + c * nv];
+  if (d.stops_touched) {  // end stops, linearly implicit: (M + hD + Σ (h B_s + h² K_s) l_k l_kᵀ) v⁺ = … − h K_s δ_k l_k
+    const double a = h * m.stop_damping + h * h * m.stop_stiffness;
+    for (int k = 0; k < m.L.rows(); ++k) {
+      const double dk = d.stop_depth(k);
+      if (dk == 0.0) continue;
+      for (int c = 0; c < na; ++c) {
+        const double lc = m.L(k, c);
+        if (lc == 0.0) continue;
+        F[c] -= m.stop_stiffness * dk * lc;
+        for (int r = c; r < na; ++r) L[r + c * nv] += a * m.L(k, r) * lc;
+      }
+    }
+  }
   for (int j = 0; j < nv; ++j) {
     double diag = L[j + j * nv];
     for (int k = 0; k < j; ++k) diag -= L[j + k * nv] * L[j + k * nv];
@@ -964,6 +1011,16 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
     d.v_tree.noalias() = m.L.lazyProduct(d.qd);
     tree_dynamics(m, d, d.q_tree, d.v_tree, Mtree, nle);
   }
+  d.stops_touched = 0;
+  if (m.stop_lower.size()) {
+    for (int k = 0; k < m.L.rows(); ++k) {
+      const double qk = m.identity_map ? d.q(k) : d.q_tree(k);
+      const double dk = qk > m.stop_upper(k) ? qk - m.stop_upper(k) : qk < m.stop_lower(k) ? qk - m.stop_lower(k) : 0.0;
+      d.stop_depth(k) = dk;
+      d.stops_touched += dk != 0.0;
+    }
+    if (d.stops_touched) d.stop_contact_time += h;
+  }
   Status st;
   switch (m.nv) {  // fixed sizes for the small systems (loops unrolled), run-time size above
     case 1: st = detail::step_core<1>(m, d, *Mtree, *nle); break;
@@ -988,6 +1045,19 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
       d.q_motor(i) += h * d.qd_motor(i);
     }
   }
+  if (m.stop_lower.size()) {  // the stops' energy, exactly: dissipated += −(work of the stop force) − ΔV_stop
+    for (int k = 0; k < m.L.rows(); ++k) {
+      double qk = m.c(k), vk = 0.0;
+      for (int c = 0; c < na; ++c) {
+        qk += m.L(k, c) * d.q(c);
+        vk += m.L(k, c) * d.qd(c);
+      }
+      const double d0 = d.stop_depth(k);
+      const double d1 = qk > m.stop_upper(k) ? qk - m.stop_upper(k) : qk < m.stop_lower(k) ? qk - m.stop_lower(k) : 0.0;
+      const double f = d0 != 0.0 ? -m.stop_stiffness * (d0 + h * vk) - m.stop_damping * vk : 0.0;
+      d.dissipated += -h * vk * f - 0.5 * m.stop_stiffness * (d1 * d1 - d0 * d0);
+    }
+  }
   motor_state(m, d);
   if (!all_finite(d.qd) || !all_finite(d.qd_motor) || !all_finite(d.q)) return Status::Diverged;
   for (int i = 0; i < m.nm; ++i) d.work_motor += h * d.torque_motor(i) * d.qd_motor(i);
@@ -997,13 +1067,18 @@ inline Status step(const SimModel& m, SimData& d, const V1& ref_q, const V2& ref
   return Status::Ok;
 }
 
-/// Mechanical energy [J]: kinetic (links + rotors) + gravity + capstan springs.
+/// Mechanical energy [J]: kinetic (links + rotors) + gravity + capstan springs + end-stop springs.
 inline double mechanical_energy(const SimModel& m, SimData& d) {
   d.q_tree.noalias() = m.L * d.q;
   d.q_tree += m.c;
   d.v_tree.noalias() = m.L * d.qd;
   double e = pinocchio::computeKineticEnergy(m.body.pin, d.body.pin, d.q_tree, d.v_tree);
   e += pinocchio::computePotentialEnergy(m.body.pin, d.body.pin, d.q_tree);
+  for (int k = 0; k < m.stop_lower.size(); ++k) {
+    const double qk = d.q_tree(k);
+    const double dk = qk > m.stop_upper(k) ? qk - m.stop_upper(k) : qk < m.stop_lower(k) ? qk - m.stop_lower(k) : 0.0;
+    e += 0.5 * m.stop_stiffness * dk * dk;
+  }
   for (int i = 0; i < m.nm; ++i) {
     e += 0.5 * m.rotor_inertia(i) * d.qd_motor(i) * d.qd_motor(i);
     if (m.drive == DriveKind::Elastic) {
@@ -1036,6 +1111,9 @@ inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
   rng = Rng{};
   rng.state = seed;
   work_motor = work_external = dissipated = 0.0;
+  stop_depth.setZero();
+  stops_touched = 0;
+  stop_contact_time = 0.0;
 }
 
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;

@@ -9,6 +9,7 @@
 //   kinematics (base → tip):  R_j = R_p(j) R°_j Rot(a_j, q_j),  o_j = o_p(j) + R_p(j) p°_j (+ z_j q_j, prismatic)
 //       z_j = R_p(j) R°_j a_j;  motion subspace at the origin S_j = (v, ω) = (o_j × z_j, z_j) revolute, (z_j, 0) prismatic
 //   body inertia about the origin:  m_j,  h_j = m_j c_j (c_j world COM),  I_O,j = R_j I_c,j R_jᵀ + m_j (|c_j|² 1 − c_j c_jᵀ)
+//       (computed from the link's ten dynamic parameters about its joint origin, linear: set_parameters)
 //       applied to a motion (v, ω):  f = m v + ω × h,  n = I_O ω + h × v        (momentum about the origin)
 //   bias forces (RNEA with q̈ = 0, Featherstone ch. 5 in base coordinates):
 //       V_j = V_p + S_j q̇_j,  A_j = A_p + (V_j × S_j) q̇_j,  A_0 = (−g, 0)
@@ -54,8 +55,12 @@ struct TreeDynamicsModel {
   std::vector<int> prismatic;                    ///< 1 prismatic, 0 revolute
   std::vector<int> axis_z;                       ///< 1: a_j = +z exactly (rotation written column-wise)
   std::vector<double> mass;                      ///< [kg]
-  std::vector<Eigen::Vector3d> com;              ///< [m], joint frame
-  std::vector<Eigen::Matrix3d> inertia;          ///< about the COM, joint-frame axes [kg·m²]
+  std::vector<Eigen::Vector3d> com;              ///< [m], joint frame (as read from Pinocchio; not used by the pass)
+  std::vector<Eigen::Matrix3d> inertia;          ///< about the COM, joint-frame axes [kg·m²] (idem)
+  // What the pass uses: the ten dynamic parameters of each link, linear in the dynamics (so that any vector of
+  // identified parameters, even a regrouped one with a zero mass and a nonzero first moment, can be simulated):
+  std::vector<Eigen::Vector3d> first_moment;     ///< m c [kg·m], joint frame
+  std::vector<Eigen::Matrix3d> inertia_origin;   ///< about the joint-frame origin, joint-frame axes [kg·m²]
 
   TreeDynamicsModel() = default;
   explicit TreeDynamicsModel(const pinocchio::Model& pin) { build(pin); }
@@ -73,6 +78,7 @@ struct TreeDynamicsModel {
     translation.assign(n, Eigen::Vector3d::Zero()); axis.assign(n, Eigen::Vector3d::UnitZ());
     prismatic.assign(n, 0); axis_z.assign(n, 0); mass.assign(n, 0.0);
     com.assign(n, Eigen::Vector3d::Zero()); inertia.assign(n, Eigen::Matrix3d::Zero());
+    first_moment.assign(n, Eigen::Vector3d::Zero()); inertia_origin.assign(n, Eigen::Matrix3d::Zero());
     pinocchio::Data data(pin);
     const Eigen::VectorXd q0 = pinocchio::neutral(pin);
     for (int j = 0; j < n; ++j) {
@@ -86,6 +92,9 @@ struct TreeDynamicsModel {
       mass[j] = pin.inertias[jj].mass();
       com[j] = pin.inertias[jj].lever();
       inertia[j] = pin.inertias[jj].inertia().matrix();
+      first_moment[j] = mass[j] * com[j];
+      inertia_origin[j] = inertia[j] + mass[j] * (com[j].squaredNorm() * Eigen::Matrix3d::Identity() -
+                                                  com[j] * com[j].transpose());
       Eigen::VectorXd v = Eigen::VectorXd::Zero(n);
       v(j) = 1.0;
       pinocchio::forwardKinematics(pin, data, q0, v);
@@ -100,6 +109,18 @@ struct TreeDynamicsModel {
       axis_z[j] = axis[j] == Eigen::Vector3d::UnitZ();
     }
     valid = true;
+  }
+
+  /// Set link j's dynamic parameters from ten values in Pinocchio's order (the regressor's columns 10 j …
+  /// 10 j + 9): m [kg], m c_x, m c_y, m c_z [kg·m], I_xx, I_xy, I_yy, I_xz, I_yz, I_zz [kg·m²] about the
+  /// joint-frame origin. Any real values (a base-parameter vector need not be physical). `com` and `inertia`
+  /// are left as they were.
+  void set_parameters(int j, const double* pi) {
+    mass[j] = pi[0];
+    first_moment[j] = Eigen::Vector3d(pi[1], pi[2], pi[3]);
+    Eigen::Matrix3d I;
+    I << pi[4], pi[5], pi[7], pi[5], pi[6], pi[8], pi[7], pi[8], pi[9];
+    inertia_origin[j] = I;
   }
 };
 
@@ -169,16 +190,19 @@ inline void tree_mass_and_bias(const TreeDynamicsModel& m, TreeDynamicsData& d, 
       J.sv = J.o.cross(J.z);
       J.sw = J.z;
     }
-    // body inertia about the origin (starts the composite)
+    // body inertia about the origin (starts the composite), linear in the link's parameters: with g = R h
+    // (h = m c in the joint frame) and I_j about the joint origin, I_O = R I_j Rᵀ + m (|o|² 1 − o oᵀ)
+    // + 2 (o·g) 1 − g oᵀ − o gᵀ (parallel axes with the first moment)
     const double mj = m.mass[j];
-    const Eigen::Vector3d c = J.o + J.R * m.com[j];
+    const Eigen::Vector3d g = J.R * m.first_moment[j];
     J.mc = mj;
-    J.hc = mj * c;
+    J.hc = mj * J.o + g;
     Eigen::Matrix3d RI;
-    RI.noalias() = J.R * m.inertia[j];
+    RI.noalias() = J.R * m.inertia_origin[j];
     J.Ic.noalias() = RI * J.R.transpose();
-    J.Ic.diagonal().array() += mj * c.squaredNorm();
-    J.Ic.noalias() -= (mj * c) * c.transpose();
+    J.Ic.diagonal().array() += mj * J.o.squaredNorm() + 2.0 * J.o.dot(g);
+    J.Ic.noalias() -= (mj * J.o + g) * J.o.transpose();
+    J.Ic.noalias() -= J.o * g.transpose();
     // velocity and bias acceleration (q̈ = 0)
     const double w = qd(j);
     if (p < 0) {

@@ -93,6 +93,9 @@ def build_parser() -> argparse.ArgumentParser:
                       help="N+1 devices: the joint torque box |τ_j| ≤ TAU_j [N·m] (one value, or one per joint) "
                            "whose minimum pretension is reported (default: the largest uniform box the motors' "
                            "peak tensions serve)")
+    show.add_argument("--report", type=_report_dir, default=None, metavar="DIR",
+                      help="write report.html (the routing drawn: joints, pulleys to scale, each cable's path and "
+                           "winding), routing.svg, routing.json and routing.txt into DIR")
     show.set_defaults(func=cmd_routing_show)
     imp = rsub.add_parser("import", help="write an [[actuators]] device file from a coupling matrix file (dVRK, "
                                          "libbarrett, iCub or plain)")
@@ -175,15 +178,42 @@ def cmd_routing_show(args) -> int:
         head = _drive_lines(dev, doc)
     else:
         head = _actuator_lines(dev, doc)
+    text = "\n".join(head) + "\n" + c.table()
+    if args.report is not None:
+        doc["report"] = str(_routing_report(args, dev, doc, text))
     if args.json:
         doc["n"] = c.n_motors
         _print_json(doc)
         return 0
     from tendyn.text import printable
 
-    print(printable("\n".join(head)))     # names and paths come from files: no control character reaches the tty
-    print(printable(c.table()))
+    print(printable(text))     # names and paths come from files: no control character reaches the tty
+    if args.report is not None:
+        print(f"report: {printable(doc['report'])}")
     return 0
+
+
+def _report_dir(text: str):
+    from tendyn.commands.args import report_dir
+
+    return report_dir(text)
+
+
+def _routing_report(args, dev, doc: dict, text: str) -> Path:
+    """``routing show --report DIR``: the page (the drawing in its index), routing.svg, routing.json, routing.txt."""
+    from tendyn.drawing import routing_svg
+    from tendyn.report import Section, write_report
+
+    svg = routing_svg(dev)
+    texts = {"routing.txt": text}
+    if svg is not None:
+        texts["routing.svg"] = svg
+    why = ("The drawing above (in the index) shows the routing: one column per joint, one row per transmission, "
+           "pulley radii to scale." if svg is not None else
+           "This device has no cables to draw: its motors drive the joints through [[drives]] or [[actuators]].")
+    sections = [Section("Routing table and coupling", text=why, tables=[text])]
+    return write_report(args.report, "routing show", args, doc, "routing.json", sections, texts=texts, device=dev,
+                        title=f"tendyn routing show: {dev.name}")
 
 
 def cmd_routing_import(args) -> int:

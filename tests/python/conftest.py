@@ -175,7 +175,8 @@ def no_process_left_behind(request):
 
 
 HEAVY_FIRST = ("test_package.py", "test_reports.py", "test_readme.py", "test_any_device.py", "test_examples.py",
-               "test_cli_property_fuzz.py", "test_file_fuzz.py", "test_ident_friction.py", "test_nplus1_sim.py")
+               "test_cli_property_fuzz.py", "test_file_fuzz.py", "test_report_hostile.py", "test_ident_friction.py",
+               "test_realdata_mtm.py", "test_design.py", "test_nplus1_sim.py", "test_cli_domain_fuzz.py")
 """Modules of a minute or more of work, handed to the workers first: a long module started last would leave the
 other workers idle at the end of a parallel run (longest-first scheduling). Names only: a module missing here
 is still run, in its place."""

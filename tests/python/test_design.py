@@ -118,9 +118,11 @@ def test_C16_front_is_stiff_proximal_soft_distal():
     """C16 on the McGill twin: maximising the bandwidth while minimising |S_k1| puts every front design at the
     stiffest proximal section with a softer distal one, and the front widens the bandwidth of the shipped bench."""
     sp = DesignSpace("mcgill_bench", {"k1": (1e3, 4.56e6), "k2": (1e3, 1e6)})
-    res = run_design(sp, ["bandwidth_hz", "sensitivity_k1"], population=32, generations=30, islands=1)
+    # 60 generations: at 30 the front was not converged and its stiffest-k1 edge moved with pymoo's version
+    # (0.6.1 vs 0.6.2: a design at k1 = 0.71 of the bound); at 60 six seeds on both versions give k1 ≥ 0.91.
+    res = run_design(sp, ["bandwidth_hz", "sensitivity_k1"], population=32, generations=60, islands=1)
     k1, k2 = res.X[:, 0], res.X[:, 1]
-    assert np.all(k1 > 0.8 * 4.56e6) and np.all(k1 > 4 * k2)
+    assert np.all(k1 > 4 * k2) and np.median(k1) > 0.9 * 4.56e6 and np.all(k1 > 0.8 * 4.56e6)
     better = (res.F["bandwidth_hz"] > res.shipped["bandwidth_hz"]) & (res.F["sensitivity_k1"] < res.shipped["sensitivity_k1"])
     assert better.any() and not res.shipped_dominates_front()
 

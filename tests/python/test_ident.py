@@ -321,24 +321,26 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
                  "--map", str(TX40_MAP), "--out", str(log)]) == 0
     capsys.readouterr()
     out = tmp_path / "params.json"
-    assert main(["identify", "tx40", str(log), "--out", str(out), "--json"]) == 0
+    assert main(["identify", "tx40", str(log), "--out", str(out), "--json"]) == 0   # default: consistent when not physical
     doc = json.loads(capsys.readouterr().out)
     for key in ("device", "method", "cond", "n_rows", "residual_rel", "per_joint_residual_rel", "params", "crossval"):
         assert key in doc, key
-    assert doc["device"] == "tx40" and doc["method"] == "ols" and len(doc["per_joint_residual_rel"]) == 6
+    assert doc["device"] == "tx40" and len(doc["per_joint_residual_rel"]) == 6
+    # the real TX40 log's plain fit is not physical: identify reports the consistent one and says so (issue 40)
+    assert doc["method"] == "ols" or (doc["method"] == "ols+consistent" and "not physical" in doc["warnings"][0])
     assert set(doc["params"][0]) == {"name", "value", "stderr", "rel_stderr_pct", "unit", "expression"}
     assert "residual_rel" in doc["crossval"]
     assert json.loads(out.read_text())["params"] == doc["params"]
     report = tmp_path / "report"
-    assert main(["identify", "tx40", str(log), "--method", "wls", "--report", str(report), "--quiet"]) == 0
+    assert main(["identify", "--plain", "tx40", str(log), "--method", "wls", "--report", str(report), "--quiet"]) == 0
     assert (report / "table.txt").read_text().startswith("tx40: base parameters (WLS)")
     assert (report / "torques.png").stat().st_size > 1000
     capsys.readouterr()
-    assert main(["identify", "tx40", str(log), "--stream", "--json"]) == 0
+    assert main(["identify", "--plain", "tx40", str(log), "--stream", "--json"]) == 0
     streamed = json.loads(capsys.readouterr().out)
     assert streamed["method"] == "ols+stream" and len(streamed["params"]) == len(doc["params"])
     db = tmp_path / "history.sqlite"                  # --record: the base parameters and σ in the history
-    assert main(["identify", "tx40", str(log), "--out", str(out), "--record", "--db", str(db), "--quiet"]) == 0
+    assert main(["identify", "--plain", "tx40", str(log), "--out", str(out), "--record", "--db", str(db), "--quiet"]) == 0
     from tendyn.ident.history import history
 
     recorded = {r["name"]: (r["value"], r["sigma"]) for r in history(load_device(bundled("tx40")), db=db).rows}
@@ -348,9 +350,9 @@ def test_cli_log_import_and_identify_json(tmp_path, capsys):
 
     write_log(make_log({"time": [0.0, 0.1], **{f"q_motor_{i}": [0.0, 0.0] for i in range(1, 7)}}, device="tx40",
                        rate_hz=10.0, seed=None, experiment="exciting"), bad)
-    assert main(["identify", "tx40", str(bad)]) == 2
+    assert main(["identify", "--plain", "tx40", str(bad)]) == 2
     assert "no_torque.csv: column torque_motor_: identification needs the motor torques" in capsys.readouterr().err
-    assert main(["identify", "tx40", str(log), "--cutoff-hz", "3000"]) == 2
+    assert main(["identify", "--plain", "tx40", str(log), "--cutoff-hz", "3000"]) == 2
     assert "--cutoff-hz: must be below half the log rate" in capsys.readouterr().err
 
 

@@ -551,3 +551,25 @@ def test_docs_list_every_column_and_meta_key():
     for key in META_KEYS:
         assert f"`{key}`" in text, key
     assert ".truth.json" in text
+
+
+def test_to_pandas_keeps_values_order_and_units_in_attrs():
+    """Log.to_pandas (issue 31, item 3): the same float64 values in log order; units in df.attrs (a registry unit,
+    a linear axis' m and a generic column's declared unit), meta kept, and a copy (changing the frame leaves the
+    log)."""
+    pd = pytest.importorskip("pandas")
+    t = np.arange(5) / 100.0
+    log = make_log({"time": t, "q_motor_1": t * 2, "torque_motor_1": t * 3, "input_1": t + 1}, device="x",
+                   rate_hz=100.0, seed=None, experiment="e", units={"q_motor_1": "m", "torque_motor_1": "N"},
+                   signals={"input_1": {"name": "voltage", "unit": "V"}})
+    df = log.to_pandas()
+    assert list(df.columns) == ["time", "q_motor_1", "torque_motor_1", "input_1"]
+    assert all(df[c].dtype == np.float64 for c in df.columns)
+    np.testing.assert_array_equal(df["q_motor_1"].to_numpy(), t * 2)
+    assert df.attrs["units"] == {"time": "s", "q_motor_1": "m", "torque_motor_1": "N", "input_1": "V"}
+    assert df.attrs["signals"]["input_1"] == "voltage" and df.attrs["meta"]["device"] == "x"
+    df.iloc[0, 1] = 99.0
+    assert log["q_motor_1"][0] == 0.0
+    dfi = log.to_pandas(time_index=True)
+    assert dfi.index.name == "time" and list(dfi.columns) == ["q_motor_1", "torque_motor_1", "input_1"]
+    assert isinstance(dfi.index, pd.Index) and dfi.attrs["units"]["time"] == "s"

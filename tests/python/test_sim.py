@@ -21,7 +21,7 @@ def lexos():
 def test_forward_dynamics_matches_pinocchio(lexos, rng):
     """One frictionless step from random states: (v⁺ − v)/h equals the acceleration from Python
     Pinocchio's ABA with the rotor inertias reflected through the lossless routing (S0 eq. 5)."""
-    m = sim_model(lexos, friction=False, sensors=False)
+    m = sim_model(lexos, friction=False, sensors=False, stops=False)
     d = _core.SimData(m)
     py = pinocchio_model(lexos)
     pdata = py.createData()
@@ -56,7 +56,7 @@ def _run(m, d, steps, ff=None, ext=None, log_every=None):
 
 def test_energy_conserved_without_friction(lexos):
     """Friction off, motors off: total energy stays constant to the integrator's order over 10 s."""
-    m = sim_model(lexos, friction=False, sensors=False, rate_hz=10_000)
+    m = sim_model(lexos, friction=False, sensors=False, rate_hz=10_000, stops=False)   # the rigid body alone: no end stops
     d = _core.SimData(m)
     d.reset(np.array([0.4, 0.3, -0.5, 1.0]), 0)
     e0 = _core.mechanical_energy(m, d)
@@ -69,7 +69,7 @@ def test_energy_conserved_without_friction(lexos):
 
 def test_energy_lost_equals_friction_work(lexos):
     """Friction on, motors driving: E(T) − E(0) = W_motor − W_friction (to the integrator's order)."""
-    m = sim_model(lexos, friction=True, sensors=False, rate_hz=10_000)
+    m = sim_model(lexos, friction=True, sensors=False, rate_hz=10_000, stops=False)   # no end stops (their energy: test_parallelogram_twin)
     d = _core.SimData(m)
     d.reset(np.array([0.4, 0.3, -0.5, 1.0]), 0)
     e0 = _core.mechanical_energy(m, d)

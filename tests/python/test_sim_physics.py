@@ -209,8 +209,9 @@ def test_velocity_estimator_bandwidth_in_hz(tmp_path):
     f_c = 20 Hz, T_c = 1 ms: α = 1 − e^{−0.04π} = 0.11809 (Hz taken as rad/s would give 0.0198).
     v̂ is read through a pure-D joint controller (kd = 1, tiny torque limit so that it does not brake):
     the commanded motor torque is −(r_m/R) kd v̂."""
-    dev = one_joint(tmp_path, peak_torque=1e-12)
+    dev = one_joint(tmp_path)          # a real motor in the file (the loader refuses a 1e-12 N·m one: g·cm²?)
     m = sim_model(dev, sensors=False, rate_hz=10_000, control_hz=1_000)
+    m.peak_torque = np.array([1e-12])   # the tiny limit on the twin only
     m.mode = _core.ControlMode.JointPID
     m.kd = np.array([1.0])
     m.velocity_cutoff_hz = 20.0

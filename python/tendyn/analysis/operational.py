@@ -516,10 +516,31 @@ class OperationalMaps(Result):
     def _r(self, a):
         return a[self.reachable]
 
+    @property
+    def warnings(self) -> list[str]:
+        """What the maps cannot be trusted for: a natural-pose apparent mass or dry friction whose σ (from the
+        parameters' σ) is more than half its value, grid points where the identified mass matrix is not positive
+        definite (the inertia is not physical), a negative largest apparent mass or dry friction."""
+        out = []
+        nat = self.natural
+        for key, sig, what, unit, scale in (("apparent_mass_kg", "apparent_mass_stderr_kg", "apparent mass", "g", 1e3),
+                                            ("dry_friction_N", "dry_friction_stderr_N", "dry friction", "N", 1.0)):
+            v, s = float(nat[key][0]), float(nat[sig])
+            if not np.isfinite(s) or s > 0.5 * abs(v):
+                out.append(f"{what} at the natural pose {scale * v:.4g} ± {scale * s:.2g} {unit}: its σ is "
+                           f"{100 * s / max(abs(v), 1e-300):.0f} % of the value, the identified parameters do not "
+                           "determine it (identify on a more exciting log; see the identification's warnings)")
+        bad = int(np.sum(~self.mass_pd & self.reachable))
+        if bad:
+            out.append(f"the identified mass matrix is not positive definite at {bad} of {int(self.reachable.sum())} "
+                       "reachable grid points: no real device has this inertia (identify --consistent)")
+        return out
+
     def to_dict(self) -> dict:
         k = self._r(self.stiffness_diag)
         return {
             "device": self.device,
+            "warnings": self.warnings,
             "params": self.params_source,
             "max_apparent_mass_kg": float(np.max(self._r(self.mass_sv)[:, 0])),
             "stiffness_range_N_per_m": [float(np.min(k)), float(np.max(k))],

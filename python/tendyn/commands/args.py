@@ -79,6 +79,32 @@ def existing_file(text: str) -> Path:
     return p
 
 
+def existing_input(text: str) -> Path:
+    """A RAW input of ``log import``: an existing regular file (CSV, .mat, .h5, .bag, .mcap, .db3) or a ROS 2 bag
+    folder (a folder holding ``metadata.yaml``)."""
+    p = Path(text)
+    if not p.exists():
+        raise argparse.ArgumentTypeError(f"{text}: file not found")
+    if p.is_dir():
+        if not (p / "metadata.yaml").is_file():
+            raise argparse.ArgumentTypeError(f"{text}: a folder, but not a ROS 2 bag (no metadata.yaml in it)")
+        return p
+    if not p.is_file():
+        raise argparse.ArgumentTypeError(f"{text}: not a regular file")
+    return p
+
+
+def report_dir(text: str) -> Path:
+    """``--report DIR``: a folder that exists or can be created (nothing is created here)."""
+    from tendyn.commands.shared import check_out_folder
+    from tendyn.errors import UsageError
+
+    try:
+        return Path(check_out_folder(text, "report"))
+    except UsageError as exc:
+        raise argparse.ArgumentTypeError(exc.problem) from None
+
+
 def out_path(suffixes):
     """An output path with one of ``suffixes`` whose folder exists (nothing is written before the work)."""
     def convert(text: str) -> Path:
@@ -118,6 +144,28 @@ def refuse_other_device(source, named, dev, force: bool = False) -> None:
     if not force and not dev.is_named(named):
         raise UsageError(f"{source}: is about the device {named!r}, not {dev.name!r}; give the file of this device "
                          "(or --force to use it anyway)")
+
+
+def choice(domain, what: str = "value"):
+    """A converter for one name of ``domain`` (a mapping name → meaning, or a sequence of names)."""
+    names = tuple(domain)
+
+    def convert(text: str) -> str:
+        if text not in names:
+            raise argparse.ArgumentTypeError(f"must be one of {', '.join(names)} (got {text!r})")
+        return text
+    convert.__name__ = what
+    return convert
+
+
+def treatment_option(parser) -> None:
+    """``--treatment NAME``: the data treatment of an identification, tendyn's or a peer's published script
+    reproduced; the domain is :data:`tendyn.ident.treatment.PRESETS` (one table, the help lists it)."""
+    from tendyn.ident.treatment import PRESETS
+
+    parser.add_argument("--treatment", type=choice(PRESETS, "treatment"), default="tendyn", metavar="NAME",
+                        help="data treatment: " + "; ".join(f"{k}: {v.source}" for k, v in PRESETS.items())
+                             + " (default tendyn; given --cutoff-hz, --decimate, --velocity-threshold win)")
 
 
 # ---- kinds an option applies to, and relations between options and the data ---------------------------------

@@ -6,7 +6,7 @@
     tendyn frf LOG... --input NAME --output NAME [--estimator h1|h2] [--window hann] [--segment N]
                [--overlap 0.5] [--confidence 0.95] [--band LO,HI] [--out FRF.json] [--figure FRF.png]
                [--report DIR] [--json]
-    tendyn identify-bench LOG... --structure wiener|hammerstein|lure --nonlinearity NAME [--order N]
+    tendyn identify-bench LOG... --structure wiener|hammerstein|lure|push-pull|auto [--nonlinearity NAME] [--order N]
                --validate LOG... [--input NAME --output NAME] [--out MODEL.json] [--figure FIT.png]
                [--report DIR] [--json]
 """
@@ -164,10 +164,15 @@ def add_identify_bench_arguments(sub) -> None:
     p = sub.add_parser("identify-bench", help="Wiener/Hammerstein/Lur'e model (linear block + static nonlinearity) "
                                               "by output error, validated by simulation on other logs")
     p.add_argument("logs", nargs="+", type=conv.existing_file, metavar="LOG", help="estimation logs")
-    p.add_argument("--structure", choices=STRUCTURES, required=True,
+    p.add_argument("--structure", choices=STRUCTURES + ("auto",), required=True,
                    help="wiener: G then f; hammerstein: f then G; lure: G with f in its feedback (Coulomb "
-                        "friction of the output's motion at G's input; --nonlinearity coulomb)")
-    p.add_argument("--nonlinearity", choices=NONLINEARITY_NAMES, required=True, help="the static nonlinearity f")
+                        "friction of the output's motion at G's input; --nonlinearity coulomb); push-pull: two "
+                        "lure loops of one G and one friction fed the half-waves max(u,0), min(u,0) (a class-B "
+                        "2N drive: each motor its half-wave, each node its friction); auto: the structure "
+                        "(wiener dead-zone, lure, push-pull) with the lowest NRMS on the --validate logs (record "
+                        "them at another amplitude than the estimation logs)")
+    p.add_argument("--nonlinearity", choices=NONLINEARITY_NAMES, default=None,
+                   help="the static nonlinearity f (required unless --structure auto; lure, push-pull: coulomb)")
     p.add_argument("--order", type=conv.number(1, 12, integer=True), default=None,
                    help="order of G(z) (default: chosen in 1…--max-order by the validation NRMS)")
     p.add_argument("--max-order", type=conv.number(1, 12, integer=True), default=4, help="default 4")
@@ -188,8 +193,11 @@ def add_identify_bench_arguments(sub) -> None:
 
 
 def run_identify_bench(args) -> int:
-    from tendyn.ident.blockmodel import BlockModel, records_from_logs
+    from tendyn.ident.blockmodel import NONLINEARITY_NAMES, BlockModel, records_from_logs
 
+    if args.structure != "auto" and args.nonlinearity is None:
+        raise UsageError(f"required with --structure {args.structure} (one of {', '.join(NONLINEARITY_NAMES)}; "
+                         "--structure auto chooses it)", "nonlinearity")
     fit_logs, val_logs = _read(args.logs), _read(args.validate)
     i, o = _signals(fit_logs + val_logs, args.input, args.output)
     conv.check_signals("identify-bench", args, fit_logs + val_logs, (i, o), list(args.logs) + list(args.validate))
@@ -198,7 +206,7 @@ def run_identify_bench(args) -> int:
         val, vunits = records_from_logs(val_logs, i, o, args.shift)
         if vunits != units:
             raise ValueError(f"the validation logs' units {vunits} differ from the estimation logs' {units}")
-        model = BlockModel(args.structure, args.nonlinearity, order=args.order, max_order=args.max_order,
+        model = BlockModel(args.structure, args.nonlinearity or "coulomb", order=args.order, max_order=args.max_order,
                            degree=args.degree).fit(recs, validation=val)
     except ValueError as exc:
         raise UsageError(str(exc)) from None

@@ -87,7 +87,7 @@ def run_export(args) -> int:
     from tendyn.control import Compensator
     from tendyn.ident.loss_model import LossModelError, identified_losses
 
-    dev = cable_device(args.device, "to export")
+    dev = cable_device(args.device, "to export", drives=True)
     if args.kind == "compensator":        # before any file is read: the name must fit the .comp's device line
         from tendyn.control.compensator import device_line_problem
 
@@ -114,9 +114,9 @@ def run_export(args) -> int:
         Compensator.load(args.out, expected_device=dev.name)     # read back: what a C controller will load
         transmission = losses.transmission(dev)
     else:
-        from tendyn.device import compile_device
+        from tendyn.control.compensator import device_transmission
 
-        transmission = losses.transmission(dev) if losses is not None else compile_device(dev).transmission
+        transmission = losses.transmission(dev) if losses is not None else device_transmission(dev)
         transmission.export(args.out)
     rows = _summary_rows(dev, losses, transmission)
     summary = {"out": str(args.out), "kind": args.kind, "device": dev.name,
@@ -129,7 +129,8 @@ def run_export(args) -> int:
     if args.json:
         _print_json(summary)
     else:
-        print(f"{args.out}: {args.kind} model of {dev.name} ({dev.n_transmissions} transmissions)"
+        print(f"{args.out}: {args.kind} model of {dev.name} ({len(rows)} "
+              f"{'transmissions' if dev.transmissions else 'capstan drives, one-branch transmissions'})"
               + (f", losses identified from {args.friction} (sources: "
                  + ", ".join(f"{k} {v}" for k, v in losses.sources.items()) + ")" if losses else ", device losses"))
         for r in rows:
@@ -141,14 +142,16 @@ def run_export(args) -> int:
 def _summary_rows(dev, losses, transmission) -> list[dict]:
     """Friction [N·m] the exported transmission puts at each motor moving alone at CHECK_SPEEDS, zero load."""
     from tendyn.ident.friction import isolated_move_joint_speeds
+    from tendyn.ident.loss_model import routing_of
 
-    arr = dev.routing_arrays()
+    arr = routing_of(dev)
+    n = transmission.n
     rows = []
-    for j in range(dev.n_transmissions):
+    for j in range(n):
         f = []
         for v in CHECK_SPEEDS:
             qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], j, "S2", v)
-            f.append(float(transmission.feedforward(np.zeros(dev.n_transmissions), qd).torque_motor[j]))
+            f.append(float(transmission.feedforward(np.zeros(n), qd).torque_motor[j]))
         rows.append({"transmission": j + 1, "speeds": list(CHECK_SPEEDS), "friction": f})
     return rows
 

@@ -6,7 +6,7 @@ import json
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number, out_path, refuse_other_device
+from tendyn.commands.args import existing_file, number, out_path, refuse_other_device, treatment_option
 from tendyn.commands.history import add_record_arguments, check_record, record_result
 from tendyn.errors import UsageError
 
@@ -37,7 +37,11 @@ def register(subparsers) -> None:
                    help="iv/didim: at most this many iterations (simulations)")
     p.add_argument("--tol", type=number(0.0, 1.0, lo_open=True), default=1e-3,
                    help="iv/didim: stop when |dX|/|X| falls below this [-]")
-    p.add_argument("--consistent", action="store_true", help="physically consistent (pseudo-inertia LMIs)")
+    p.add_argument("--consistent", action="store_true",
+                   help="physically consistent (pseudo-inertia LMIs) always [default: only when the plain least "
+                        "squares is not physical, with a warning saying so]")
+    p.add_argument("--plain", action="store_true",
+                   help="the plain least squares even when it is not physical (its warnings say so)")
     p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
                    help="-3 dB cut-off of the zero-phase Butterworth on positions [Hz] (default 5 x bandwidth)")
     p.add_argument("--decimate", type=number(1, 100000, integer=True), default=None,
@@ -49,9 +53,7 @@ def register(subparsers) -> None:
     p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
                    help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
                         "differentiated positions (default: the logged ones when the log has them)")
-    p.add_argument("--treatment", default=None, metavar="PRESET",
-                   help="a peer's published treatment instead of tendyn's defaults (tendyn.ident.treatment.PRESETS: "
-                        "wpi); its filters, decimation, threshold, weighting and fitting space win over the options")
+    treatment_option(p)
     p.add_argument("--essential", action="store_true", help="keep only the essential parameters")
     p.add_argument("--parameters", default=None, metavar="NAMES",
                    help="identify only these base parameters, comma-separated (e.g. S2 Table 4's 16); the others "
@@ -111,16 +113,24 @@ def cmd_identify(args) -> int:
 
         _check_out_folder(args.report, "report")
     if args.stream:
+        if args.treatment != "tendyn":
+            raise UsageError(f"--treatment {args.treatment} is not available with --stream (tendyn's only)",
+                             "treatment")
         if args.method in ("iv", "didim"):
             raise UsageError(f"--method {args.method} simulates the loop over the whole log: not with --stream",
                              "stream")
         return _identify_stream(dev, args)
+    if args.method in ("iv", "didim") and args.treatment != "tendyn":
+        raise UsageError(f"--treatment {args.treatment} is not available with --method {args.method} (tendyn's "
+                         "treatment only)", "treatment")
     if args.method not in ("iv", "didim"):
         for opt, default in (("controller", None), ("output", "torque"), ("jacobian", "idm")):
             if getattr(args, opt) != default:
                 raise UsageError(f"is for --method iv or didim (got --method {args.method})", opt)
     if args.method == "didim" and args.output == "position" and args.jacobian != "fd":
         raise UsageError("position needs --jacobian fd (the regressor Jacobian is that of the torques)", "output")
+    if args.consistent and args.plain:
+        raise UsageError("--consistent and --plain exclude each other", "plain")
     controller = None
     if args.controller is not None:
         try:
@@ -146,18 +156,14 @@ def cmd_identify(args) -> int:
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
-    if args.treatment is not None:
-        from tendyn.ident.treatment import PRESETS
-
-        if args.treatment not in PRESETS:
-            raise UsageError(f"must be one of {', '.join(sorted(PRESETS))} (got {args.treatment!r})", "treatment")
-    est = IDIM(compile_device(dev), treatment=args.treatment, method=args.method, cutoff_hz=args.cutoff_hz,
+    est = IDIM(compile_device(dev), method=args.method, cutoff_hz=args.cutoff_hz,
                decimate=args.decimate,
-               velocity_threshold=args.velocity_threshold, essential=args.essential, consistent=args.consistent,
+               velocity_threshold=args.velocity_threshold, essential=args.essential,
+               consistent=True if args.consistent else (False if args.plain else "auto"),
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
                parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto",
-               controller=controller, output=args.output, jacobian=args.jacobian, max_iter=args.max_iter,
-               tol=args.tol)
+               treatment=args.treatment, controller=controller, output=args.output, jacobian=args.jacobian,
+               max_iter=args.max_iter, tol=args.tol)
     from tendyn.ident.closed_loop import ClosedLoopError
 
     try:

@@ -12,8 +12,9 @@ def run_pipeline_s0(args) -> int:
     from tendyn.pipelines.s0 import run_s0
 
     dev = _load(args.device)
-    if dev.kind != "serial" or not dev.transmissions:
-        raise UsageError(f"{dev.name} has no cable transmissions (pipeline s0 needs a cable-driven chain)", "device")
+    if dev.kind != "serial" or not (dev.transmissions or dev.drives):
+        raise UsageError(f"{dev.name} has no cable transmissions or capstan drives (pipeline s0 needs a cable- or "
+                         "capstan-driven chain)", "device")
     doc = run_s0(dev, quick=args.quick)
     table, figures = doc.pop("_table"), doc.pop("_figures")
     comp = doc["compensation"]

@@ -14,7 +14,7 @@ def register(subparsers) -> None:
     from tendyn.pipelines.zwidth import DEFAULT_DAMPING, DEFAULT_STIFFNESS, MODES
 
     p = subparsers.add_parser("zwidth", help="stable wall stiffness/damping region (Z-width) on the twin, on Dask")
-    p.add_argument("device", help="device file or bundled twin (a serial device with cable transmissions)")
+    p.add_argument("device", help="device file or bundled twin (a serial device with cable transmissions or capstan drives)")
     p.add_argument("--compensator", default=None, metavar="X.comp",
                    help="compensator model file [default: the device's own, k = 0.9]")
     k, b = DEFAULT_STIFFNESS, DEFAULT_DAMPING
@@ -24,8 +24,9 @@ def register(subparsers) -> None:
                    help=f"wall damping grid B [N·s/m] [default: {b[0]:g}:{b[1]:g}:{b[2]}]")
     p.add_argument("--modes", default=",".join(MODES), metavar="M,…",
                    help=f"compensation modes, among {', '.join(MODES)} [default: all]")
-    p.add_argument("--push", type=number(0.0, 1000.0, lo_open=True, unit="N"), default=10.0,
-                   help="constant hand force pressing the handle into the wall [N] [default: 10]")
+    p.add_argument("--push", type=number(0.0, 1000.0, lo_open=True, unit="N"), default=None,
+                   help="constant hand force pressing the handle into the wall [N] [default: 10, or half of what "
+                        "the motors hold along the wall normal when that is less than 20]")
     p.add_argument("--horizon", type=number(0.05, 60.0, unit="s"), default=0.6,
                    help="length of each run [s] [default: 0.6]")
     p.add_argument("--tolerance", type=number(0.0, 0.1, lo_open=True, unit="m"), default=1e-4,
@@ -61,8 +62,8 @@ def run(args) -> int:
     from tendyn.pipelines.zwidth import MODES, run_zwidth
 
     dev = _load(args.device)
-    if dev.kind != "serial" or not getattr(dev, "transmissions", None):
-        raise UsageError(f"{dev.name} is not a serial device with cable transmissions", "device")
+    if dev.kind != "serial" or not (getattr(dev, "transmissions", None) or getattr(dev, "drives", None)):
+        raise UsageError(f"{dev.name} is not a serial device with cable transmissions or capstan drives", "device")
     stiffness = _grid(args.stiffness, "stiffness", 0.0)
     damping = _grid(args.damping, "damping", 0.0)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
@@ -87,9 +88,24 @@ def run(args) -> int:
         raise UsageError(f"{designs} wall designs (stiffness x damping x modes): at most {MAX_DESIGNS} (MAX_DESIGNS)",
                          "stiffness")
     scheduler = None if args.scheduler is None else args.scheduler
+    import sys
+
+    from tendyn.pipelines.zwidth import default_push, max_push
+
+    push = args.push
+    if push is None:
+        push, note = default_push(dev)
+        if note:
+            print(f"tendyn: note: {note}", file=sys.stderr)
+    else:
+        fmax = max_push(dev)
+        if push > fmax:
+            print(f"tendyn: warning: --push {push:g} N is more than the motors hold along the wall normal ({fmax:.3g} N "
+                  "at their peak torques): the wall cannot hold it and every point may come out unstable",
+                  file=sys.stderr)
     try:
         res = run_zwidth(dev, stiffness=stiffness, damping=damping, modes=modes, compensator_text=text,
-                         scheduler=scheduler, n_workers=args.workers, progress=not args.quiet, push=args.push,
+                         scheduler=scheduler, n_workers=args.workers, progress=not args.quiet, push=push,
                          horizon=args.horizon, tolerance=args.tolerance)
     except ConnectionError as exc:
         raise UsageError(str(exc), "scheduler") from None

@@ -24,10 +24,11 @@ import numpy as np
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.closed_loop import end_effector_point
-from tendyn.control.transmission_losses import transmission_with_friction
+from tendyn.control.transmission_losses import device_transmission, transmission_with_friction
 from tendyn.transmission import as_vector
 
-__all__ = ["Compensator", "chain_model", "device_line_problem", "end_effector_point", "transmission_with_friction",
+__all__ = ["Compensator", "chain_model", "device_line_problem", "device_transmission", "end_effector_point",
+           "transmission_with_friction",
            "DEFAULT_UNDERESTIMATION", "DEFAULT_VELOCITY_BAND", "DEFAULT_VELOCITY_CUTOFF_HZ",
            "IDENTIFIED_UNDERESTIMATION"]
 
@@ -62,7 +63,9 @@ def device_line_problem(name: str) -> str | None:
 
 def chain_model(device: Device | CompiledDevice) -> Any:
     """The core :class:`tendyn._core.ChainModel` (kinematics + gravity, no Pinocchio) of a serial device,
-    from the same joint frames as its Pinocchio model."""
+    from the same joint frames as its Pinocchio model. A closed-loop tree (σ = 2 cut frames, passive joints)
+    keeps every tree joint and gets its active map q = L q_a + c (``active_map``, ``active_offset``): the
+    compensator then sees the gravity Lᵀ g(q) and the Jacobian J L at the actuated joints (virtual work)."""
     compiled = compile_device(device)
     frames = compiled.joint_frames
     c = _core.ChainModel(len(frames))
@@ -75,6 +78,10 @@ def chain_model(device: Device | CompiledDevice) -> Any:
     c.mass = np.array([f.mass for f in frames], float)
     c.com = [np.asarray(f.com, float) for f in frames]
     c.ee_joint, c.ee_point = end_effector_point(compiled)
+    L, offset = compiled.active_map
+    if L.shape[0] != L.shape[1] or not np.array_equal(L, np.eye(L.shape[0])) or np.any(offset != 0):
+        c.active_map = np.asarray(L, float)
+        c.active_offset = np.asarray(offset, float)
     problem = c.first_issue()
     if problem:
         raise ValueError(f"{compiled.name}: chain model: {problem}")
@@ -136,7 +143,8 @@ class Compensator:
                     velocity_band: float = DEFAULT_VELOCITY_BAND,
                     velocity_cutoff_hz: float = DEFAULT_VELOCITY_CUTOFF_HZ,
                     rate_hz: float = 1000.0, passivity=None, tracking=None) -> "Compensator":
-        """Compensator of a serial cable-driven device.
+        """Compensator of a serial (or closed-loop tree) device driven by cables or capstan ``[[drives]]``
+        (one-branch transmissions: :func:`device_transmission`).
 
         Parameters
         ----------
@@ -159,11 +167,9 @@ class Compensator:
             ``covariance_max``) or a ``_core.FrictionTrackingModel``: online friction tracking (RLS)
         """
         compiled = compile_device(device)
-        if compiled.transmission is None:
-            raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
         m = _core.CompensatorModel()
         if friction is None:
-            m.transmission = compiled.transmission.model
+            m.transmission = device_transmission(compiled).model
         else:
             from tendyn.ident.loss_model import identified_losses
 

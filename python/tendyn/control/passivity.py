@@ -82,7 +82,7 @@ def passivity_model(device: Device | CompiledDevice, friction=None, *, margin: f
     compiled = compile_device(device)
     coulomb, viscous = dissipation_bound(compiled, friction, margin)
     if damping_max is None:
-        inertia = min(t.motor.rotor_inertia for t in compiled.device.transmissions)
+        inertia = min(t.motor.rotor_inertia for t in (compiled.device.transmissions or compiled.device.drives))
         damping_max = inertia * rate_hz
     p = _core.PassivityModel()
     p.enabled = True

@@ -6,7 +6,7 @@ from __future__ import annotations
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.transmission import Transmission
 
-__all__ = ["transmission_with_friction"]
+__all__ = ["device_transmission", "transmission_with_friction"]
 
 
 def transmission_with_friction(device: Device | CompiledDevice, friction=None, shares=None) -> Transmission:
@@ -24,10 +24,31 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None, s
         a negative or non-finite value, naming the source and field.
     """
     compiled = compile_device(device)
-    if compiled.transmission is None:
-        raise ValueError(f"{compiled.name}: no cable transmissions to compensate")
     if friction is None:
-        return compiled.transmission
+        return device_transmission(compiled)
     from tendyn.ident.loss_model import identified_losses
 
     return identified_losses(compiled, friction, shares).transmission(compiled.device)
+
+
+def device_transmission(device: Device | CompiledDevice) -> Transmission:
+    """The transmission a compensator of ``device`` drives with the device file's losses: its cable
+    transmissions, or its capstan ``[[drives]]`` as one-branch transmissions (S0 eq. 17 with one branch:
+    C_m = τ/N + C_m0 sgn(q̇_m) + ν_m q̇_m; :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`).
+
+    Raises
+    ------
+    ValueError
+        A device with neither (a tendon bench, geared ``[[actuators]]``).
+    """
+    compiled = compile_device(device)
+    if compiled.transmission is not None:
+        return compiled.transmission
+    dev = compiled.device
+    if compiled.kind == "serial" and getattr(dev, "drives", ()):
+        from tendyn.transmission import LOSS_FIELDS
+
+        a = dev.drive_routing_arrays()
+        return Transmission.from_arrays(a["motor_radius"], a["K"], a["reducer_ratio"], a["reducer_efficiency"],
+                                        a["pretension"], **{k: a[k] for k in LOSS_FIELDS})
+    raise ValueError(f"{compiled.name}: no cable transmissions or capstan drives to compensate")

@@ -930,6 +930,40 @@ class SerialDevice(Device):
         return out
 
 
+    def drive_routing_arrays(self) -> dict[str, np.ndarray]:
+        """The capstan ``[[drives]]`` as one-branch cable transmissions (S0 eq. 17 with one branch per drive), for
+        the statics with losses and the compensator (issue 40).
+
+        Drive k (in file order: the simulator's and the active map's order) is transmission k with the motor
+        radius r_m = :data:`DRIVE_MOTOR_RADIUS` and K[k, k] = N_k r_m, so q_k = q_m,k / N_k and the lossless motor
+        torque is τ_k / N_k; the branch slides at Ṡ = r_m q̇_m, so the branch law Δτ = τ0 sgn(Ṡ) + ν Ṡ
+        (losses.hpp) times r_m is the drive's motor friction C_m0 sgn(q̇_m) + ν_m q̇_m with τ0 = C_m0 / r_m [N],
+        ν = ν_m / r_m² [N·s/m]. Not modelled here (the twin has
+        them): the cable's elasticity and damping (the compensator reads the motor encoders, q = q_m / N) and
+        ``offset_joint``. Returns the keys of :meth:`routing_arrays` with rows = columns = drives.
+        """
+        m = len(self.drives)
+        out: dict[str, np.ndarray] = {}
+        for f in TRANSMISSION_MODEL_FIELDS:
+            out[f.name] = np.full((m, m) if f.dims == 2 else (m,), f.default, dtype=float)
+        r = DRIVE_MOTOR_RADIUS
+        out["motor_radius"][:] = r
+        out["K"][:] = np.diag([d.ratio * r for d in self.drives])
+        out["driven_radius"][:] = [d.ratio * r for d in self.drives]
+        out["reducer_ratio"][:] = 1.0
+        out["reducer_efficiency"][:] = 1.0
+        out["pretension"][:] = 0.0
+        out["tau0"][:] = np.diag([d.coulomb_motor / r for d in self.drives])
+        out["nu"][:] = np.diag([d.viscous_motor / r ** 2 for d in self.drives])
+        return out
+
+
+DRIVE_MOTOR_RADIUS = 0.01
+"""Motor radius [m] of the one-branch transmission a capstan drive is compensated as
+(:meth:`SerialDevice.drive_routing_arrays`): any value gives the same motor torques; 1 cm keeps the driven radius
+N r_m inside the schema's 1 m bound for ratios up to 100."""
+
+
 def require_one_per_joint(device, what: str) -> None:
     """Refuse ``what`` (a simulator, an export, the compiled device …) on an N+1 device, with a DeviceError (the
     command line's exit 2) naming the limit: the square statics with losses of the core (routing.hpp, losses.hpp)

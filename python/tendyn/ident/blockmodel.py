@@ -55,7 +55,11 @@ def _lfilter(b, a, x):
 __all__ = ["LURE_NONLINEARITIES", "NONLINEARITIES", "STRUCTURES", "BlockModel", "BlockModelFit", "Nonlinearity",
            "Record", "nrms", "records_from_logs", "simulate"]
 
-STRUCTURES = ("wiener", "hammerstein", "lure")
+STRUCTURES = ("wiener", "hammerstein", "lure", "push-pull")
+LURE_STRUCTURES = ("lure", "push-pull")
+"""Structures whose nonlinearity sits in G's feedback (:data:`LURE_NONLINEARITIES`, simulated by a recursion)."""
+AUTO_CANDIDATES = (("wiener", "dead-zone"), ("lure", "coulomb"), ("push-pull", "coulomb"))
+"""(structure, nonlinearity) pairs tried by ``BlockModel("auto")`` (chosen by the validation NRMS)."""
 
 
 # ---- static nonlinearities --------------------------------------------------------------------------------
@@ -133,7 +137,7 @@ def polynomial(degree: int) -> Nonlinearity:
 def nonlinearity(name: str, degree: int = 3, structure: str = "wiener") -> Nonlinearity:
     """The nonlinearity called ``name`` (:data:`NONLINEARITY_NAMES`; ``degree`` for the polynomial); for the
     ``lure`` structure, one of :data:`LURE_NONLINEARITIES`."""
-    if structure == "lure":
+    if structure in LURE_STRUCTURES:
         if name not in LURE_NONLINEARITIES:
             raise ValueError(f"the lure structure takes the nonlinearity {', '.join(LURE_NONLINEARITIES)} "
                              f"(got {name!r})")
@@ -266,10 +270,24 @@ def _lure_simulate(b, a, level, u) -> np.ndarray:
     return np.array(out)
 
 
+def _push_pull_simulate(b, a, level, u) -> np.ndarray:
+    """ŷ of the push-pull (class-B) Lur'e model: two Lur'e loops of the same G and friction level F, one fed
+    the positive half-wave max(u, 0), the other the negative one min(u, 0), outputs added (S1's 2N drive: the
+    amplifier's clamping diodes give each motor its half-wave, each motor/tendon node its own Coulomb friction;
+    with the load clamped the two halves do not interact). ``b`` = b_1…b_n, ``a`` = a_1…a_n, F [u unit] the
+    level of one branch."""
+    u = np.asarray(u, float)
+    return _lure_simulate(b, a, level, np.maximum(u, 0.0)) + _lure_simulate(b, a, level, np.minimum(u, 0.0))
+
+
+def _lure_family_simulate(structure, b, a, level, u):
+    return (_push_pull_simulate if structure == "push-pull" else _lure_simulate)(b, a, level, u)
+
+
 def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
     """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1; Lur'e: b_0 = 0)."""
-    if structure == "lure":
-        return _lure_simulate(b[1:], a, p[0], u)
+    if structure in LURE_STRUCTURES:
+        return _lure_family_simulate(structure, b[1:], a, p[0], u)
     A = np.concatenate([[1.0], a])
     if structure == "wiener":
         return nl.f(_lfilter(b, A, u), p)
@@ -289,14 +307,14 @@ LURE_TOL = 1e-7
 sample's stick/slip change: finer tolerances buy evaluations, not accuracy)."""
 
 
-def _lure_residual_and_jac(n, theta, records, want_jac, skip):
+def _lure_residual_and_jac(n, theta, records, want_jac, skip, structure="lure"):
     """Residual of the Lur'e model and its Jacobian by forward differences (b_0 ≡ 0: its column is zero, so
     the step leaves it at 0). The recursion's stick/slip choice is redone at each perturbed θ; ŷ jumps (by
     about the velocity of one threshold |b_1| F a sample) where a sample changes between stick and slip, a
     set of measure zero that a step of 1e-7 relative seldom meets."""
     def res(th):
-        r = np.concatenate([(_lure_simulate(th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1], rec.u) - rec.y)[skip:]
-                            for rec in records])
+        r = np.concatenate([(_lure_family_simulate(structure, th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1],
+                                                   rec.u) - rec.y)[skip:] for rec in records])
         bad = ~np.isfinite(r)
         return np.where(bad, 1e6, np.clip(r, -1e6, 1e6)) if bad.any() else r
 
@@ -315,8 +333,8 @@ def _lure_residual_and_jac(n, theta, records, want_jac, skip):
 
 
 def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
-    if structure == "lure":
-        return _lure_residual_and_jac(n, theta, records, want_jac, skip)
+    if structure in LURE_STRUCTURES:
+        return _lure_residual_and_jac(n, theta, records, want_jac, skip, structure)
     b, a, p = theta[:n + 1], theta[n + 1:2 * n + 1], theta[2 * n + 1:]
     A = np.concatenate([[1.0], a])
     res, jacs = [], []
@@ -406,14 +424,14 @@ def _lm(structure, nl, n, theta0, records, skip, max_nfev, lower_nl, tol):
             except np.linalg.LinAlgError:
                 step = np.zeros_like(theta)
             trial = np.maximum(theta + step, lb)
-            if structure == "lure":     # a Jacobian costs 2n simulations: only at accepted points
+            if structure in LURE_STRUCTURES:     # a Jacobian costs 2n simulations: only at accepted points
                 r2 = _residual_and_jac(structure, nl, n, trial, records, False, skip)
             else:                       # the Jacobian shares the simulation: with every trial
                 r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
             nfev += 1
             c2 = float(r2 @ r2)
             if c2 < cost:
-                if structure == "lure":
+                if structure in LURE_STRUCTURES:
                     r2, J2 = _residual_and_jac(structure, nl, n, trial, records, True, skip)
                 break
             lam *= 4.0
@@ -558,6 +576,7 @@ class BlockModelFit(Result):
     units: dict = field(default_factory=lambda: {"input": "-", "output": "-"})
     nfev: int = 0
     seconds: float = 0.0
+    structure_nrms: dict = field(default_factory=dict)     # "structure nonlinearity" → validation NRMS (auto)
     example: tuple | None = field(default=None, repr=False)     # (title, time, y, ŷ) of one record, ≤ 2 s
 
     def linear_tf(self):
@@ -622,7 +641,8 @@ class BlockModelFit(Result):
              "fit_rms": self.fit_rms, "fit_nrms": self.fit_nrms, "validation_rms": list(self.validation_rms),
              "validation_nrms": list(self.validation_nrms),
              "order_nrms": {str(k): v for k, v in self.order_nrms.items()}, "units": dict(self.units),
-             "nfev": self.nfev, "seconds": self.seconds}
+             "nfev": self.nfev, "seconds": self.seconds,
+             "structure_nrms": dict(self.structure_nrms)}
         try:
             G = self.linear_continuous()
             d["continuous"] = {"num": [float(v) for v in np.ravel(G.num[0][0])],
@@ -636,6 +656,7 @@ class BlockModelFit(Result):
         rows += [("fit RMS [" + self.units["output"] + "]", self.fit_rms), ("fit NRMS", self.fit_nrms)]
         rows += [(f"validation {i + 1} NRMS", v) for i, v in enumerate(self.validation_nrms)]
         rows += [(f"order {k}: NRMS", v) for k, v in self.order_nrms.items()]
+        rows += [(f"{k}: validation NRMS", v) for k, v in self.structure_nrms.items()]
         return format_table(("quantity", "value"), rows,
                             f"{self.structure} model, {self.nonlinearity}, order {self.order} "
                             f"({self.nfev} evaluations, {self.seconds:.2f} s)")
@@ -646,7 +667,10 @@ class BlockModel:
 
     Parameters (hyper-parameters, stored as given)
     ----------
-    structure : {"wiener", "hammerstein", "lure"}
+    structure : {"wiener", "hammerstein", "lure", "push-pull", "auto"}
+        ``push-pull``: two Lur'e loops of one G and one friction level fed max(u, 0) and min(u, 0), outputs added
+        (a class-B 2N drive, :func:`_push_pull_simulate`); ``auto``: each of :data:`AUTO_CANDIDATES` fitted, the
+        lowest mean NRMS on the validation records kept (``nonlinearity`` is then not used).
     nonlinearity : str
         One of ``dead-zone`` (alias ``dead-band``), ``coulomb``, ``saturation``, ``abs``, ``polynomial``;
         ``lure``: ``coulomb`` (friction of level ``params_["level"]`` [input unit] in G's feedback).
@@ -667,7 +691,8 @@ class BlockModel:
     ------------------
     order_ : int;  b_, a_ : the coefficients of G(z) (``a_`` without its leading 1);  params_ : dict of the
     nonlinearity's parameters [its input's unit];  dt_ : [s];  linear_ : G(z) (python-control);
-    fit_rms_, fit_nrms_ ;  validation_nrms_ : list;  order_nrms_ : {order: NRMS};  nfev_ ;  result_ :
+    structure_, nonlinearity_ : the fitted structure (``auto``: the chosen one);  structure_nrms_ : {"structure
+    nonlinearity": validation NRMS} (``auto``);  fit_rms_, fit_nrms_ ;  validation_nrms_ : list;  order_nrms_ : {order: NRMS};  nfev_ ;  result_ :
     :class:`BlockModelFit`.
     """
 
@@ -689,14 +714,24 @@ class BlockModel:
 
     # ---- fitting ----
     def _nl(self) -> Nonlinearity:
+        if self.structure == "auto":
+            return nonlinearity(self.nonlinearity_, self.degree, self.structure_)
         return nonlinearity(self.nonlinearity, self.degree, self.structure)
 
     def _fit_order(self, records, n, warm=None):
         """θ and evaluations of the order-n model; ``warm``, the order n − 1 solution, is also tried padded
         with a pole and a zero at the origin (the same model), so a higher order never fits worse."""
         nl = self._nl()
-        if self.structure == "lure":
+        starts = []
+        if self.structure in LURE_STRUCTURES:
             b, a, p = _initial_lure(n, records)
+            if self.structure == "push-pull":
+                # the one-loop Lur'e model by output error first: its G is the push-pull's, its level the
+                # dead-band of both branches (≈ 2 F at rest) or of one; both starts are tried
+                one = _solve("lure", nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
+                             np.array(nl.lower, float), LURE_TOL)
+                b, a, p = one.x[:n + 1], one.x[n + 1:2 * n + 1], one.x[2 * n + 1:]
+                starts.append(np.concatenate([b, a, p / 2]))
         elif self.structure == "wiener" and nl.name == "abs":
             b, a = _abs_sign_recovery(records, n, self.skip, self.max_nfev)
         else:   # linear output error (identity in place of f) from ARX
@@ -704,14 +739,15 @@ class BlockModel:
             sol = _solve("wiener", IDENTITY, n, np.concatenate([b, a]), records, self.skip, self.max_nfev,
                          np.zeros(0))
             b, a = sol.x[:n + 1], _stabilise(sol.x[n + 1:2 * n + 1])
-        if self.structure != "lure":
+        if self.structure not in LURE_STRUCTURES:
             b, p = _initial_nonlinear(self.structure, nl, n, b, a, records, self.degree - 1)
-        tol = LURE_TOL if self.structure == "lure" else 1e-10
+        tol = LURE_TOL if self.structure in LURE_STRUCTURES else 1e-10
         sol = _solve(self.structure, nl, n, np.concatenate([b, a, p]), records, self.skip, self.max_nfev,
                      np.array(nl.lower, float), tol)
         if warm is not None:
-            padded = np.concatenate([warm[:n], [0.0], warm[n:2 * n - 1], [0.0], warm[2 * n - 1:]])
-            other = _solve(self.structure, nl, n, padded, records, self.skip, self.max_nfev, np.array(nl.lower, float),
+            starts.append(np.concatenate([warm[:n], [0.0], warm[n:2 * n - 1], [0.0], warm[2 * n - 1:]]))
+        for start in starts:
+            other = _solve(self.structure, nl, n, start, records, self.skip, self.max_nfev, np.array(nl.lower, float),
                            tol)
             if other.cost < sol.cost:
                 sol = _Solution(other.x, other.cost, other.nfev + sol.nfev)
@@ -725,9 +761,13 @@ class BlockModel:
         arrays); ``validation`` the same kinds. Returns self."""
         import time
 
+        if self.structure == "auto":
+            return self._fit_auto(records, validation)
         if self.structure not in STRUCTURES:
-            raise ValueError(f"structure must be one of {STRUCTURES} (got {self.structure!r})")
+            raise ValueError(f"structure must be one of {STRUCTURES} or 'auto' (got {self.structure!r})")
         nl = self._nl()
+        self.structure_, self.nonlinearity_ = self.structure, nl.name
+        self.structure_nrms_ = {}
         recs = _as_records(records, self.rate_hz)
         val = _as_records(validation, self.rate_hz) if validation is not None else []
         rates = {r.rate_hz for r in recs + val}
@@ -775,6 +815,30 @@ class BlockModel:
                                      seconds=time.perf_counter() - t0, example=example)
         return self
 
+    def _fit_auto(self, records, validation):
+        """Structure chosen by the validation NRMS (mean over the validation records) among
+        :data:`AUTO_CANDIDATES`, each with its order chosen as ``order`` says; the winner's learned values."""
+        import time
+
+        t0 = time.perf_counter()
+        best, table = None, {}
+        for st, nl in AUTO_CANDIDATES:
+            m = BlockModel(**(self.get_params() | {"structure": st, "nonlinearity": nl}))
+            m.fit(records, validation)
+            score = (float(np.mean(m.validation_nrms_)) if m.validation_nrms_
+                     else float(min(m.order_nrms_.values())) if m.order_nrms_ else m.fit_nrms_)
+            table[f"{st} {nl}"] = score
+            if best is None or score < best[0]:
+                best = (score, m)
+        m = best[1]
+        for k, v in vars(m).items():
+            if k.endswith("_"):
+                setattr(self, k, v)
+        self.structure_nrms_ = table
+        self.result_.structure_nrms = dict(table)
+        self.result_.seconds = time.perf_counter() - t0
+        return self
+
     def _set(self, theta, n, nl, rate_hz):
         self.order_ = n
         self.b_ = np.asarray(theta[:n + 1], float)
@@ -789,7 +853,7 @@ class BlockModel:
     # ---- using the model ----
     def predict(self, u) -> np.ndarray:
         """ŷ [output unit] simulated from rest for the input ``u``."""
-        return simulate(self.structure, self._nl(), self.b_, self.a_, np.array(list(self.params_.values()), float),
+        return simulate(self.structure_, self._nl(), self.b_, self.a_, np.array(list(self.params_.values()), float),
                         np.asarray(u, float))
 
     def rms(self, u, y) -> float:

@@ -18,10 +18,9 @@ import numpy as np
 
 
 from .lsq import least_squares, rel_stderr_pct
-from .model import IdentModel, cached_model  # noqa: F401 — cached_model: its home is model.py
-from .result import IdentificationResult, implausible  # noqa: F401 — their home is result.py
-from .treatment import (DEFAULT_VELOCITY_FRACTION, default_treatment, drop_stale, preset_treatment, stack_blocks,
-                        treat)
+from .model import IdentModel, cached_model, diagonal_coupling  # noqa: F401 — cached_model: its home is model.py
+from .result import IdentificationResult, implausible, not_physical  # noqa: F401 — their home is result.py
+from .treatment import DEFAULT_VELOCITY_FRACTION, PRESETS, drop_stale, preset_treatment, stack_blocks, treat
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
@@ -55,6 +54,36 @@ def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
     return [list(map(int, b)) for b in np.array_split(np.arange(n_logs), k) if len(b)]
 
 
+def motor_space_residual(G, Y, y_hat, rows, samples, n_active, fitted_space: str = "joint") -> list[float] | None:
+    """Per motor relative residual ‖y − ŷ‖ / ‖y‖ [-] in motor space, y = G⁻ᵀ τ at every treated sample all the
+    active joints keep (joint-major rows of joint torques Y, model ŷ, ``samples`` their sample numbers); None
+    for a non-square G or when no sample is kept by every joint. With ``fitted_space="motor"`` the rows are motor
+    torques and the result is the other way: per joint, τ = Gᵀ y.
+
+    The fit is in joint space (τ = Gᵀ y, S2 eq. 4 with the motor torques mapped by virtual work) unless a preset
+    says motor: the residuals of the fitted space are the ones least squares minimises; the other space's are
+    the same errors seen from the other side."""
+    G = np.asarray(G, float)
+    if G.shape[0] != G.shape[1] or n_active != G.shape[1]:
+        return None
+    to_other = np.linalg.inv(G.T) if fitted_space == "joint" else G.T
+    common = None
+    for j in range(n_active):
+        s = samples[rows == j]
+        common = s if common is None else np.intersect1d(common, s)
+    if common is None or common.size == 0:
+        return None
+    tau = np.empty((common.size, n_active))
+    tau_hat = np.empty_like(tau)
+    for j in range(n_active):
+        sel = rows == j
+        idx = np.searchsorted(samples[sel], common)
+        tau[:, j], tau_hat[:, j] = Y[sel][idx], y_hat[sel][idx]
+    y = tau @ to_other.T                           # motor torques y = G⁻ᵀ τ (or joint τ = Gᵀ y)
+    y_h = tau_hat @ to_other.T
+    return [float(v) for v in np.linalg.norm(y - y_h, axis=0) / np.maximum(np.linalg.norm(y, axis=0), 1e-300)]
+
+
 class IDIM:
     """Inverse-dynamic-model identification by least squares (scikit-learn shape).
 
@@ -80,8 +109,10 @@ class IDIM:
         Keep only the essential parameters.
     essential_tol : float
         Allowed relative growth of the relative residual when dropping a parameter.
-    consistent : bool
-        Physically consistent estimate (pseudo-inertia LMIs, cvxpy + Clarabel).
+    consistent : bool or "auto"
+        Physically consistent estimate (pseudo-inertia LMIs, cvxpy + Clarabel). "auto" (``tendyn identify``'s
+        default): the plain estimate, replaced by the consistent one when it is not physical
+        (:func:`not_physical`), with a warning that says so and the plain values in ``result_.plain``.
     scheduler : None, "local" or str
         Where the logs of a campaign are treated: None in this process, ``"local"`` on a local Dask cluster,
         otherwise the address of a Dask scheduler (``tcp://host:8786``).
@@ -90,15 +121,16 @@ class IDIM:
     parameters : sequence of str or None
         Identify only these base parameters (names of :attr:`IdentModel.base`), the others taken as zero: a
         reduced model such as S2 Table 4's 16 of the 29 (None: all base parameters).
-    treatment : str or None
-        A peer's treatment preset (:data:`tendyn.ident.treatment.PRESETS`, e.g. ``"wpi"``): its filters,
-        decimation, velocity threshold, velocities, trimming, weighting (with ``method="wls"``) and fitting space
-        replace tendyn's defaults and the options above.
+    treatment : str
+        The data treatment (:data:`tendyn.ident.treatment.PRESETS`): "tendyn" (default; None is the same) or a
+        peer's published one ("janot", "wpi", "figaroh"): its filters, decimation, velocity threshold, velocities,
+        trimming, weighting (with ``method="wls"``) and fitting space replace tendyn's defaults; ``cutoff_hz``,
+        ``decimate`` and ``velocity_threshold`` given win over the preset's.
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
-                 parameters=None, velocities="auto", treatment=None, controller=None, output="torque",
+                 parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
                  jacobian="idm", max_iter=20, tol=1e-3, substeps=1):
         self.device = device
         self.treatment = treatment
@@ -153,7 +185,8 @@ class IDIM:
         self.treatment_ = dataclasses.replace(out[-1][1], stale_dropped=sum(tr.stale_dropped for _, tr in out),
                                               retimed=any(tr.retimed for _, tr in out))
         na = model.n_active
-        Ys, Ws, Rs, Ts = [], [], [], []
+        Ys, Ws, Rs, Ts, Ss = [], [], [], [], []
+        offset = 0
         for blocks in allblocks:
             Y, W, rows = stack_blocks(blocks)
             t = np.concatenate([b.time for b in blocks])
@@ -162,8 +195,12 @@ class IDIM:
             keep = np.abs(vel) >= np.repeat(thr, [b.y.size for b in blocks])
             self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
+            n_out = blocks[0].y.size                # the sample of every row, numbered over all the logs
+            Ss.append((offset + np.tile(np.arange(n_out), len(blocks)))[keep])
+            offset += n_out
         Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
+        self.samples_ = np.concatenate(Ss)[order]
         Y, W, rows, t = Y[order], W[order], rows[order], t[order]
         if self.treatment_.space == "motor":
             Y, W = self._to_motor_space(model, Y, W, rows)
@@ -185,7 +222,8 @@ class IDIM:
     def _thresholds(self, blocks) -> np.ndarray:
         """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
         ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
-        vt = self.velocity_threshold if self.treatment is None else self.treatment_.velocity_threshold
+        tr = getattr(self, "treatment_", None)      # the option given, else the preset's (None: the default rule)
+        vt = self.velocity_threshold if tr is None else tr.velocity_threshold
         if vt is None:
             return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
         if isinstance(vt, tuple):
@@ -200,9 +238,11 @@ class IDIM:
             log = read_log(log)
         *settings, preset, velocities = settings
         rate = float(log.meta["rate_hz"])
-        if preset is not None:
-            ptr = preset_treatment(preset, rate, getattr(model.device, "bandwidth_hz", None))
-            velocities = ptr.velocities
+        preset = preset or "tendyn"
+        bw = getattr(model.device, "bandwidth_hz", None)
+        tr = preset_treatment(preset, rate, bw, *settings)       # the options given win over the preset's
+        if "velocities" in PRESETS[preset].fields(rate, bw):     # a preset that says which velocities it uses
+            velocities = tr.velocities
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
         if velocities == "logged" and qd is None:
@@ -212,15 +252,13 @@ class IDIM:
             sl = slice(int(parts[0] * n), int(parts[1] * n))
             time, q, tau = time[sl], q[sl], tau[sl]
             qd = None if qd is None else qd[sl]
-        if preset is not None and ptr.keep_stale:
+        if tr.keep_stale:
             n_stale, retimed = 0, False
         else:
             time, q, tau, qd, n_stale, retimed = drop_stale(time, rate, q, tau, qd)
         known = model.known_torque(q)         # [[terms]] of kind "known": subtracted, not identified
         if known is not None:
             tau = tau - known
-        tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), *settings) if preset is None \
-            else ptr
         tr = dataclasses.replace(tr, velocities="differentiate" if qd is None else "logged", stale_dropped=n_stale,
                                  retimed=retimed)
         return treat(model, time, q, tau, tr, qd=qd), tr
@@ -309,8 +347,14 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.consistent == "auto":
+            return self._fit_auto(logs, crossval)
         if self.method in CLOSED_LOOP:
             from .closed_loop import fit_closed_loop
+
+            if (self.treatment or "tendyn") != "tendyn":
+                raise ValueError(f"treatment {self.treatment!r} is not available with method {self.method!r} "
+                                 "(tendyn's treatment only)")
 
             return fit_closed_loop(self, logs)
         if self.method not in METHODS:
@@ -348,15 +392,40 @@ class IDIM:
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
+        space = self.treatment_.space
+        other = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na, space)
+        per, per_motor = (per, other) if space == "joint" else (other, per)
         cv = self._crossval(logs, cols) if crossval else None
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
                                             model.active_numbers, cv, units=[model.unit(n) for n in self.names_])
         self.result_.cond_scaled = self.cond_scaled_
+        self.result_.per_motor_residual_rel = per_motor
+        self.result_.residual_space = space
+        self.result_.coupled = not diagonal_coupling(model.G)
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self.result_.flag_pseudo_inertia(model)
         self._cols = cols
+        return self
+
+    def _fit_auto(self, logs, crossval):
+        """``consistent="auto"``: the plain fit, then the consistent one when the plain is not physical."""
+        self.consistent = False
+        try:
+            self._fit(logs, crossval)
+            plain = self.result_
+            if not not_physical(plain) or self.method in CLOSED_LOOP:
+                return self
+            self.consistent = True
+            self._fit(logs, crossval)
+        finally:
+            self.consistent = "auto"
+        res = self.result_
+        res.plain = plain
+        res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(plain.warnings)[:400]
+                            + "): the physically consistent estimate (pseudo-inertia LMIs) is reported instead "
+                              "(--plain: the plain one)")
         return self
 
     def _essential(self, Wb, Y, rows, na):
@@ -404,10 +473,10 @@ class IDIM:
         d = self.result_.to_dict()
         return IdentifiedModel(self._model().device, d["params"], d["method"], d["treatment"])
 
-    def predict(self, log):
+    def predict(self, log, filter_prediction: bool = True):
         """Joint and motor torques of a log predicted with the fitted parameters, one per sample at the log's
-        own time stamps (:class:`tendyn.ident.identified.TorquePrediction`)."""
-        return self.identified_model().predict(log)
+        own time stamps (:class:`tendyn.ident.identified.TorquePrediction`, :meth:`IdentifiedModel.predict`)."""
+        return self.identified_model().predict(log, filter_prediction)
 
     def score(self, log) -> np.ndarray:
         """Per joint relative error ‖τ − τ̂‖ / ‖τ‖ [-] of a log (:meth:`predict`)."""

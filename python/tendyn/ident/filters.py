@@ -106,3 +106,47 @@ def firwin_lowpass(numtaps: int, cutoff: float) -> np.ndarray:
     m = np.arange(numtaps) - (numtaps - 1) / 2.0
     h = cutoff * np.sinc(cutoff * m) * np.hamming(numtaps)
     return h / h.sum()
+
+
+# -- a peer's conventions (the `--treatment janot` preset): MATLAB's butter / filtfilt / decimate ----------------
+# These use scipy.signal (imported here only, when a preset asks for them): their designs are the transfer
+# functions MATLAB's scripts use, not the sections above.
+
+def matlab_filtfilt(b, a, x, axis: int = 0) -> np.ndarray:
+    """Forward-backward filtering as MATLAB's ``filtfilt(b, a, x)``: odd extension of 3 (n − 1) samples (n the
+    filter length; scipy's default is 3 n) and steady-state initial conditions."""
+    import scipy.signal as ss
+
+    n = max(len(a), len(b))
+    return ss.filtfilt(b, a, np.asarray(x, float), axis=axis, padtype="odd", padlen=3 * (n - 1))
+
+
+def matlab_butter_filtfilt(x, cutoff_hz: float, rate_hz: float, order: int = 4, axis: int = 0) -> np.ndarray:
+    """MATLAB's ``filtfilt(butter(order, cutoff / (rate / 2)), x)``: the single-pass design at ``cutoff_hz`` [Hz]
+    (the forward-backward response is −6 dB there, not −3 dB as :func:`tendyn.ident.treatment.butter_zero_phase`)."""
+    import scipy.signal as ss
+
+    b, a = ss.butter(order, cutoff_hz / (rate_hz / 2.0))
+    return matlab_filtfilt(b, a, x, axis=axis)
+
+
+def matlab_decimate(x, r: int, axis: int = 0) -> np.ndarray:
+    """MATLAB's ``decimate(x, r)``: Chebyshev type I low-pass (order 8, 0.05 dB ripple, cut-off 0.8 / r of the
+    Nyquist frequency) by :func:`matlab_filtfilt`, then every r-th sample ending on the last one."""
+    import scipy.signal as ss
+
+    x = np.moveaxis(np.asarray(x, float), axis, 0)
+    if r <= 1:
+        return np.moveaxis(x.copy(), 0, axis)
+    b, a = ss.cheby1(8, 0.05, 0.8 / r)
+    y = matlab_filtfilt(b, a, x)
+    nd = x.shape[0]
+    nbeg = r - (r * int(np.ceil(nd / r)) - nd)                     # 1-based, as MATLAB's decimate
+    return np.moveaxis(y[nbeg - 1::r], 0, axis)
+
+
+def matlab_decimate_index(n: int, r: int) -> np.ndarray:
+    """The input samples (0-based) that :func:`matlab_decimate` keeps out of n."""
+    if r <= 1:
+        return np.arange(n)
+    return np.arange(r - (r * int(np.ceil(n / r)) - n) - 1, n, r)

@@ -308,6 +308,11 @@ def frf_from_logs(logs, input: str, output: str, *, estimator: str = "h1", npers
     logs = [lg if isinstance(lg, Log) else read_log(lg) for lg in (logs if isinstance(logs, (list, tuple)) else [logs])]
     total, kinds, units = None, [], None
     for lg in logs:
+        stops = (lg.meta.get("options") or {}).get("end_stops")
+        if stops:          # a twin's log that sat on an end stop: the stop's response, coherent and wrong
+            raise ValueError(f"{lg.meta.get('experiment', 'log')}: the arm met its end stop(s) at joint(s) "
+                             f"{stops.get('joints')} for {stops.get('contact_s', 0):.3g} s (meta.options.end_stops): "
+                             "its response is the stop's, not the device's")
         ci, co = lg.resolve(input), lg.resolve(output)
         u_units = (lg.units[ci], lg.units[co])
         if units is not None and u_units != units:

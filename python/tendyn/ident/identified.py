@@ -51,34 +51,62 @@ def provenance(device) -> dict:
 class TorquePrediction(Result):
     """Predicted and measured torques of one log at its own sample times.
 
-    ``time`` (n,) [s]; ``joint`` (n, n_a) predicted joint torques [N·m, N at a prismatic joint]; ``motor``
-    (n, n_m) the motor torques y = G⁻ᵀ τ that produce them; ``measured`` (n, n_a) the log's joint torques
-    τ = Gᵀ y, low-passed by the zero-phase Butterworth of the positions (what the prediction can follow);
-    ``joint_numbers`` (file joint numbers); ``units`` of each joint's torque.
+    Two spaces: **joint** (``joint``, ``measured``, :attr:`relative_error`: τ = Gᵀ y, the space
+    ``tendyn identify`` fits and reports its residuals in) and **motor** (``motor``, ``measured_motor``,
+    :attr:`relative_error_motor`: y = G⁻ᵀ τ, what the motors' drives see). ``time`` (n,) [s]; ``joint``
+    (n, n_a) predicted joint torques [N·m, N at a prismatic joint]; ``motor`` (n, n_m) the motor torques
+    y = G⁻ᵀ τ̂ that produce them; ``measured`` (n, n_a) the log's joint torques τ = Gᵀ y, low-passed by the
+    zero-phase Butterworth of the positions (what the prediction can follow); ``measured_motor`` (n, n_m) the
+    same in motor space; ``edge`` samples at each end are left out of the errors (the filters' transients and
+    the one-sided differences, which the identification leaves out too: its parallel filter keeps full windows
+    only); ``joint_numbers`` (file joint numbers); ``units`` of each joint's torque.
     """
 
     _figsize = (8.0, 2.6)
 
-    def __init__(self, device, time, joint, motor, measured, joint_numbers, units):
+    def __init__(self, device, time, joint, motor, measured, joint_numbers, units, measured_motor=None, edge=0,
+                 coupled=False):
         self.device, self.time = device, np.asarray(time)
         self.joint, self.motor, self.measured = np.asarray(joint), np.asarray(motor), np.asarray(measured)
+        self.measured_motor = None if measured_motor is None else np.asarray(measured_motor)
         self.joint_numbers, self.units = list(joint_numbers), list(units)
+        self.edge = int(edge) if self.time.size > 2 * int(edge) else 0
+        self.coupled = bool(coupled)
         self._panels = len(self.joint_numbers)
+
+    @staticmethod
+    def _rel(measured, predicted, edge) -> np.ndarray:
+        sl = slice(edge, measured.shape[0] - edge)
+        return np.linalg.norm(measured[sl] - predicted[sl], axis=0) / np.maximum(
+            np.linalg.norm(measured[sl], axis=0), 1e-300)
 
     @property
     def relative_error(self) -> np.ndarray:
-        """Per joint ‖τ_measured − τ̂‖ / ‖τ_measured‖ over the log's samples."""
-        return np.linalg.norm(self.measured - self.joint, axis=0) / np.maximum(
-            np.linalg.norm(self.measured, axis=0), 1e-300)
+        """Per joint ‖τ_measured − τ̂‖ / ‖τ_measured‖ [-] in joint space, over the log's samples but ``edge``
+        at each end."""
+        return self._rel(self.measured, self.joint, self.edge)
+
+    @property
+    def relative_error_motor(self) -> np.ndarray | None:
+        """Per motor ‖y_measured − ŷ‖ / ‖y_measured‖ [-] in motor space (y = G⁻ᵀ τ), same samples."""
+        return None if self.measured_motor is None else self._rel(self.measured_motor, self.motor, self.edge)
 
     def to_dict(self) -> dict:
+        em = self.relative_error_motor
         return {"device": self.device, "joint_numbers": self.joint_numbers, "units": self.units,
-                "relative_error": [float(v) for v in self.relative_error], "n_samples": int(self.time.size)}
+                "relative_error": [float(v) for v in self.relative_error], "space": "joint",
+                "relative_error_motor": None if em is None else [float(v) for v in em],
+                "n_samples": int(self.time.size), "edge_samples": self.edge}
 
     def table(self) -> str:
-        rows = [(j, u, f"{100 * e:.3g}") for j, u, e in zip(self.joint_numbers, self.units, self.relative_error)]
-        return format_table(("Joint", "Unit", "Relative error %"), rows,
-                            title=f"{self.device}: predicted vs measured joint torques, {self.time.size} samples")
+        em = self.relative_error_motor
+        both = self.coupled and em is not None and len(em) == len(self.joint_numbers)
+        rows = [(j, u, f"{100 * e:.3g}") + ((f"{100 * em[k]:.3g}",) if both else ())
+                for k, (j, u, e) in enumerate(zip(self.joint_numbers, self.units, self.relative_error))]
+        head = ("Joint", "Unit", "Relative error % (joint space)") + (("Motor k: relative error % (motor space)",)
+                                                                       if both else ())
+        return format_table(head, rows, title=f"{self.device}: predicted vs measured torques, {self.time.size} "
+                                              f"samples ({self.edge} at each end left out)")
 
     reading = ("One panel per joint: the log's torque (colour, low-passed like the identification) and the torque "
                'the identified model predicts (black dashes) over the same time.')
@@ -176,10 +204,12 @@ class IdentifiedModel:
 
         return cached_model(self.device)
 
-    def predict(self, log) -> TorquePrediction:
+    def predict(self, log, filter_prediction: bool = True) -> TorquePrediction:
         """Joint and motor torques of a log (a Log or a path) predicted from its positions, one per sample at
         the log's time stamps. The positions are treated as in the identification (stale rows dropped and
-        re-timed, zero-phase Butterworth, central differences or logged velocities), without decimation."""
+        re-timed, zero-phase Butterworth, central differences or logged velocities), without decimation; the
+        predicted torques go through the same zero-phase Butterworth as the measured ones (parallel filtering;
+        ``filter_prediction=False``: not, as a peer's metric that compares the raw model output does)."""
         from tendyn.io import read_log
 
         from .treatment import butter_zero_phase, central_differences, default_treatment, drop_stale
@@ -217,12 +247,24 @@ class IdentifiedModel:
         if known is not None:
             joint = joint + known
         measured = butter_zero_phase(tau_t, tr.cutoff_hz, rate, tr.order)
+        # the model's torque through the same low-pass as the measured one (the identification's parallel filter
+        # does this to both Y and W): a Coulomb step is then compared with the measured, smoothed step
+        if filter_prediction:
+            joint = butter_zero_phase(joint, tr.cutoff_hz, rate, tr.order)
         if retimed:     # back onto the log's own time stamps
             joint, measured = ([np.column_stack([np.interp(time, t, x[:, j]) for j in range(na)])
                                 for x in (joint, measured)])
-        motor = np.linalg.solve(m.G.T, joint.T).T
+        motor = m.motor_torques(joint)                      # y = G⁻ᵀ τ (coupling.py: motor_from_joint_torque)
+        # the log's own motor torques (τ = Gᵀ y undone exactly), filtered like the joint ones: not through
+        # motor_torques, so a wrong map there shows as a motor-space error
+        measured_motor = np.linalg.solve(m.G.T, measured.T).T
         units = ["N" if j in m.prismatic_numbers else "N·m" for j in m.active_numbers]
-        return TorquePrediction(m.device.name, time, joint, motor, measured, m.active_numbers, units)
+        from .model import diagonal_coupling
+
+        K = int(self.treatment.get("decimate") or 1)
+        edge = max(5 * K if K > 1 else 0, int(np.ceil(2.0 * rate / tr.cutoff_hz))) + 1
+        return TorquePrediction(m.device.name, time, joint, motor, measured, m.active_numbers, units,
+                                measured_motor=measured_motor, edge=edge, coupled=not diagonal_coupling(m.G))
 
     def score(self, log) -> np.ndarray:
         """Per joint relative error ‖τ_measured − τ̂‖ / ‖τ_measured‖ [-] of a log (see :meth:`predict`)."""

@@ -92,7 +92,7 @@ class IdentifiedLosses(Result):
         a :class:`tendyn.transmission.Transmission` for the statics or a compensator."""
         from tendyn.transmission import Transmission
 
-        arr = device.routing_arrays()
+        arr = routing_of(device)
         return Transmission.from_arrays(arr["motor_radius"], arr["K"], arr["reducer_ratio"], self.reducer_efficiency,
                                         arr["pretension"], tau0=self.tau0, nu=self.nu, beta=self.beta)
 
@@ -121,6 +121,19 @@ class IdentifiedLosses(Result):
         ax.set_ylabel("Coulomb force summed over the branches [N]")
         ax.set_xticks(x)
         ax.legend()
+
+
+def routing_of(device) -> dict:
+    """The routing arrays the loss model applies to: the cable transmissions', or for a device of capstan
+    ``[[drives]]`` only, the drives as one-branch transmissions (:meth:`SerialDevice.drive_routing_arrays`)."""
+    if not device.transmissions and getattr(device, "drives", ()):
+        return device.drive_routing_arrays()
+    return device.routing_arrays()
+
+
+def _count(dev) -> int:
+    """Transmissions of the loss model: the cables, or the capstan drives of a device that has no cables."""
+    return dev.n_transmissions or len(getattr(dev, "drives", ()) or ())
 
 
 def _read(friction) -> tuple[Mapping, str]:
@@ -189,9 +202,9 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
     from tendyn.ident.friction_file import FORMAT
 
     dev = compile_device(device).device
-    n = dev.n_transmissions
+    n = _count(dev)
     if n == 0:
-        raise LossModelError(f"{dev.name} has no cable transmissions")
+        raise LossModelError(f"{dev.name} has no cable transmissions or capstan drives")
     if isinstance(friction, IdentifiedLosses):
         if friction.device != dev.name or np.shape(friction.tau0) != (n, n):
             raise LossModelError(f"the loss model is about {friction.device!r}, not {dev.name!r}", field="device")
@@ -204,6 +217,9 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
     inner = doc.get("branch_losses", doc)
     if fmt == FORMAT:
         parts = _from_friction_file(dev, doc, shares, origin)
+    elif fmt == DECOMPOSITION_FORMAT and not dev.transmissions:
+        raise LossModelError("capstan drives have one cable stretch each, nothing to decompose: give "
+                             "identify-friction's FRICTION.json", source=origin, field="format")
     elif fmt == DECOMPOSITION_FORMAT:
         parts = _from_decomposition(dev, doc, origin)
     elif fmt is None and ("tau0" in inner or "nu" in inner):
@@ -230,7 +246,7 @@ def _from_friction_file(dev, doc, shares, src):
     from tendyn.ident.decomposition import SharesError, decompose, read_shares
     from tendyn.ident.friction_file import FrictionFileError, validate_friction
 
-    n = dev.n_transmissions
+    n = _count(dev)
     try:
         validate_friction(doc, device=dev, source=None if src == "mapping" else src)
     except FrictionFileError as exc:
@@ -238,6 +254,12 @@ def _from_friction_file(dev, doc, shares, src):
     c0 = _array(doc, "coulomb_motor", (n,), src)
     nu = _array(doc, "viscous_motor", (n,), src)
     load = _array(doc, "load_coefficient", (n,), src) if doc.get("load_coefficient") is not None else None
+    if not dev.transmissions:   # capstan drives: one branch each at unit motor radius (drive_routing_arrays)
+        if shares is not None:
+            raise LossModelError("capstan drives have one cable stretch each: shares split nothing", field="shares")
+        from tendyn.device.schema import DRIVE_MOTOR_RADIUS as r
+
+        return np.diag(c0 / r), np.diag(nu / r ** 2), np.zeros((n, n)), None, load, {}
     p = pp = None
     if isinstance(shares, (str, Path)):
         try:
@@ -272,7 +294,7 @@ def _from_decomposition(dev, doc, src):
 def _from_branch_arrays(dev, inner, src):
     """Per-branch arrays (n, n): ``tau0``, ``nu``, optionally ``beta``, ``reducer_efficiency`` (n,),
     ``load_coefficient`` (n,) and ``sources``; a term not given is absent (none)."""
-    n = dev.n_transmissions
+    n = _count(dev)
     zeros = np.zeros((n, n))
     tau0_b = _array(inner, "tau0", (n, n), src) if "tau0" in inner else zeros
     nu_b = _array(inner, "nu", (n, n), src) if "nu" in inner else zeros
@@ -295,7 +317,7 @@ def _from_branch_arrays(dev, inner, src):
 
 
 def _finish(dev, tau0, nu, beta, eta, load, sources, origin) -> IdentifiedLosses:
-    n = dev.n_transmissions
+    n = _count(dev)
     low = np.tril(np.ones((n, n)))
     for key, a in (("tau0", tau0), ("nu", nu), ("beta", beta)):
         if np.any(a * (1 - low) != 0):

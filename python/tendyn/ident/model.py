@@ -374,6 +374,11 @@ class IdentModel:
         tau = y @ self.G
         return log.time, q, tau
 
+    def motor_torques(self, tau) -> np.ndarray:
+        """Motor torques y = G⁻ᵀ τ (n, n_m) [N·m, N at a linear motor] of joint torques τ (n, n_a), one row per
+        sample: the motor space of a coupled device (``tendyn.coupling``: motor_from_joint_torque)."""
+        return np.linalg.solve(self.G.T, np.asarray(tau, float).T).T
+
     def joint_velocities(self, log):
         """Logged active joint velocities [rad/s] (n, n_a), or None when the log has none.
 
@@ -411,6 +416,14 @@ class IdentModel:
 
 
 _MODELS: dict = {}
+
+
+def diagonal_coupling(G) -> bool:
+    """Whether each motor drives one joint and each joint one motor (G a scaled permutation): then joint and
+    motor space differ by a gain per axis and their relative residuals are the same."""
+    G = np.asarray(G, float)
+    nz = np.abs(G) > 1e-12
+    return G.shape[0] == G.shape[1] and bool(np.all(nz.sum(axis=0) == 1) and np.all(nz.sum(axis=1) == 1))
 
 
 def cached_model(device) -> IdentModel:

@@ -11,7 +11,7 @@ from tendyn.results import Result, format_table
 from .lsq import rel_stderr_pct
 from .model import unit_of
 
-__all__ = ["IdentificationResult", "implausible"]
+__all__ = ["IdentificationResult", "implausible", "not_physical"]
 
 
 _MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a viscous coefficient",
@@ -32,7 +32,19 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
             out.append(f"{n} = {v:.4g} {unit}{sig} is negative, which {_MUST_BE_POSITIVE[stem]} cannot be: either "
                        "the data do not determine it (excite that joint more) or the model misses a term; "
                        "--consistent constrains it to be physical")
+        elif stem in _MUST_BE_POSITIVE and stderr is not None and abs(stderr[i]) > abs(v):
+            unit = units[i] if units else unit_of(n)
+            out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: its σ exceeds its value, so the data do not "
+                       f"determine {_MUST_BE_POSITIVE[stem]} (excite that joint faster or longer)")
     return out
+
+
+def not_physical(result) -> bool:
+    """True when an identification result cannot be a real device's: a link whose pseudo-inertia no completion
+    makes positive (semi)definite, or a negative rotor inertia, viscous or Coulomb coefficient."""
+    links = any(not p["ok"] for p in (result.pseudo_inertia or []))
+    signs = any(n.rstrip("0123456789") in _MUST_BE_POSITIVE and v < 0 for n, v in zip(result.names, result.values))
+    return bool(links or signs)
 
 
 class IdentificationResult(Result):
@@ -47,7 +59,8 @@ class IdentificationResult(Result):
         self.device, self.method, self.names, self.expressions = device, method, list(names), list(expressions)
         self.values, self.stderr = np.asarray(values), np.asarray(stderr)
         self.cond, self.n_rows, self.residual_rel = float(cond), int(n_rows), float(residual_rel)
-        self.per_joint_residual_rel = [float(v) for v in per_joint_residual_rel]
+        per_joint = [] if per_joint_residual_rel is None else per_joint_residual_rel
+        self.per_joint_residual_rel = [float(v) for v in per_joint]
         self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
         self.joint_numbers = list(joint_numbers)
         self.crossval = crossval
@@ -56,6 +69,9 @@ class IdentificationResult(Result):
         self.warnings += list(getattr(treatment, "warnings", []))
         self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
         self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
+        self.per_motor_residual_rel: list[float] | None = None   # motor space y = G⁻ᵀ τ (motor_space_residual)
+        self.coupled = False          # G is not one motor per joint: the two spaces differ
+        self.residual_space = "joint"  # the space of the fitted rows (Treatment.space): residual_rel is in it
         self.closed_loop: dict | None = None   # IDIM-IV / DIDIM: iterations, convergence, the LS start
 
     def flag_pseudo_inertia(self, model) -> None:
@@ -91,6 +107,7 @@ class IdentificationResult(Result):
         return {"device": self.device, "method": self.method, "cond": self.cond,
                 "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
                 "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
+                "residual_space": self.residual_space, "per_motor_residual_rel": self.per_motor_residual_rel,
                 "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
                 "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
                 "closed_loop": self.closed_loop,
@@ -104,9 +121,18 @@ class IdentificationResult(Result):
                                   + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
                                   + ", "
                                   f"W {self.n_rows} x {len(self.names)}")
-        tail = ["", "relative residual per joint: " + ", ".join(
-            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)),
-            f"relative residual ||Y - W X|| / ||Y||: {100 * self.residual_rel:.2f} %"]
+        motor = self.residual_space == "motor"
+        tail = [""]
+        if self.per_joint_residual_rel:
+            tail.append("relative residual per joint (joint space, tau = G^T y" + ("" if motor else ", the space of the "
+                        "fit") + "): " + ", ".join(f"{j}: {100 * r:.2f} %"
+                                                  for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)))
+        if (self.coupled or motor) and self.per_motor_residual_rel:
+            tail.append("relative residual per motor (motor space, y = G^-T tau" + (", the space of the fit"
+                        if motor else "") + "): " + ", ".join(
+                f"{i}: {100 * r:.2f} %" for i, r in enumerate(self.per_motor_residual_rel, start=1)))
+        tail += [
+            f"relative residual ||Y - W X|| / ||Y|| ({self.residual_space} space): {100 * self.residual_rel:.2f} %"]
         cl = self.closed_loop
         if cl:
             tail.append(f"closed loop ({cl['controller']}): {cl['iterations']} iterations, "

@@ -32,13 +32,30 @@ from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
            "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION",
-           "PRESETS", "preset_treatment", "zero_phase_cutoff_of_design"]
+           "PRESETS", "Preset", "preset_treatment", "zero_phase_cutoff_of_design"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
 
-DEFAULT_VELOCITY_FRACTION = 0.02
+DEFAULT_VELOCITY_FRACTION = 0.0025
 """Default velocity threshold (the one place it is written): a joint's samples slower than this fraction of
-its peak |q̇| in the log are dropped from its rows."""
+its peak |q̇| in the log are dropped from its rows. 0.25 %, chosen on the real logs and the twins
+(docs/realdata.md, "The default velocity threshold"): EMPS every value within 1 % of Janot's only below 0.5 %,
+the MTM 7/7 at or below WPI from 0.25 % to 2 %, the TX40 halves 5 % worse than at 2 %, the twins' tests unchanged."""
+
+FIGAROH_DECIMATE = (10, 10)
+"""FIGAROH's TX40 script decimates the torques and every regressor column by scipy.signal.decimate(q=10,
+zero_phase=True) twice (100 in all)."""
+
+FIGAROH_LAST_ACCELERATION = False
+"""FIGAROH's calculate_first_second_order_differentiation loops over the first nq − 1 joints only: the last
+joint's acceleration stays zero (reproduced; True computes it, to measure what it changes)."""
+
+FIGAROH_BLOCK_SHIFT = True
+"""FIGAROH's TX40 script slices joint i's regressor block at i × (n − 40) of a matrix whose blocks have n − 42
+rows: joint i's rows are 2i samples ahead of its torques (reproduced; False aligns them, to measure it)."""
+
+JANOT_FIRST_ROW = 50
+"""Janot's script keeps the rows 50…N (1-based) of the full-rate observation matrix before decimating."""
 
 RETIME_TOLERANCE = 0.01
 """Time stamps further than this fraction of the sampling interval from the uniform grid are re-timed."""
@@ -109,12 +126,22 @@ class Treatment:
     sample of every joint: velocity threshold 0)."""
     keep_stale: bool = False
     """Keep the stale rows (repeats of the previous sample) as they are, not re-timed (a peer that used them)."""
-    preset: str | None = None
-    """The preset these settings came from (:data:`PRESETS`), None: tendyn's defaults and the options given."""
+    preset: str = "tendyn"
+    """The preset these settings came from (:data:`PRESETS`): "tendyn" (tendyn's defaults and the options given)
+    or a peer's published treatment reproduced."""
 
     @property
     def parallel_cutoff_hz(self) -> float:
         return 0.8 * self.rate_hz / (2 * self.decimate) if self.decimate > 1 else self.rate_hz / 2
+
+    def filter_positions(self, q) -> np.ndarray:
+        """The positions (or logged velocities) low-passed as this treatment does: tendyn's zero-phase
+        Butterworth −3 dB at :attr:`cutoff_hz`, or (janot) MATLAB's ``filtfilt(butter(order, Wn))``."""
+        if self.preset == "janot":
+            from tendyn.ident.filters import matlab_butter_filtfilt
+
+            return matlab_butter_filtfilt(q, self.cutoff_hz, self.rate_hz, self.order)
+        return butter_zero_phase(q, self.cutoff_hz, self.rate_hz, self.order)
 
     @property
     def warnings(self) -> list[str]:
@@ -146,7 +173,17 @@ class Treatment:
         return vel + stale + ("; re-timed onto the uniform grid" if self.retimed else "")
 
     def describe(self) -> str:
-        extra = "".join([f"; preset {self.preset}" if self.preset else "",
+        if self.preset == "figaroh":
+            return (f"treatment figaroh ({PRESETS['figaroh'].source}): Butterworth order {self.order} designed at "
+                    f"{self.cutoff_hz:g} Hz (scipy butter + filtfilt); {5 * self.order} samples cut at each end; "
+                    f"decimation {self.decimate} ({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); "
+                    f"velocity threshold {self._vt_text()}" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
+        if self.preset == "janot":
+            return (f"treatment janot ({PRESETS['janot'].source}): Butterworth order {self.order} at {self.cutoff_hz:g} "
+                    f"Hz (MATLAB butter + filtfilt); {self._samples_text()}; rows {JANOT_FIRST_ROW} on; MATLAB "
+                    f"decimate by {self.decimate} ({self.rate_hz:g} Hz -> {self.rate_hz / self.decimate:g} Hz); "
+                    f"velocity threshold {self._vt_text()}" + (f"; why: {'; '.join(self.why)}" if self.why else ""))
+        extra = "".join([f"; preset {self.preset}" if self.preset != "tendyn" else "",
                          "; torques through the same Butterworth" if self.filter_torques else "",
                          f"; {self.trim} samples cut at each end" if self.trim else "",
                          f"; weights 1/range of each {self.space} torque" if self.weighting == "range" else "",
@@ -172,7 +209,7 @@ class Treatment:
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
                       velocity_threshold: float | None = 0.0) -> Treatment:
     """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win); each
-    setting's origin goes into :attr:`Treatment.why`."""
+    setting's origin goes into :attr:`Treatment.why`. A peer's settings: :func:`preset_treatment`."""
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
     why = [] if bandwidth_hz else [f"the device file gives no bandwidth_hz, {bw:g} Hz assumed"]
     if cutoff_hz is None:
@@ -192,7 +229,8 @@ def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None
                    "(the sign of the Coulomb term is undefined near rest)")
     else:
         why.append("velocity threshold given")
-    vt = None if velocity_threshold is None else float(velocity_threshold)
+    vt = None if velocity_threshold is None else (tuple(float(v) for v in velocity_threshold)
+                                                  if np.ndim(velocity_threshold) else float(velocity_threshold))
     return Treatment(float(cutoff_hz), int(order), int(decimate), vt, float(rate_hz), bw, why=tuple(why))
 
 
@@ -219,21 +257,83 @@ def _wpi(rate_hz: float, bandwidth_hz) -> dict:
                 space="motor", keep_stale=True)
 
 
-PRESETS = {"wpi": _wpi}
-"""``--treatment NAME``: a peer's published treatment, name → function (rate [Hz], device bandwidth [Hz] or
-None) → the :class:`Treatment` fields it sets (docs/realdata.md). Other peers' presets go in the same dict."""
+def _tendyn(rate_hz: float, bandwidth_hz) -> dict:
+    """tendyn's own treatment: every setting from :func:`default_treatment` and the options given."""
+    return {}
 
 
-def preset_treatment(name: str, rate_hz: float, bandwidth_hz=None) -> Treatment:
-    """The :class:`Treatment` of preset ``name`` (:data:`PRESETS`) for a log at ``rate_hz``; ValueError naming
-    the presets for an unknown name."""
+def _janot(rate_hz: float, bandwidth_hz) -> dict:
+    """Janot, Gautier & Brunot's Script_IDIM_LS.m (EMPS): cut-off and decimation rate both 5 × the bandwidth,
+    no velocity threshold; the MATLAB filters and the first row are :func:`_treat_janot`'s."""
+    bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    return dict(cutoff_hz=5.0 * bw, decimate=max(1, int(round(rate_hz / (5.0 * bw)))), velocity_threshold=0.0)
+
+
+def _figaroh(rate_hz: float, bandwidth_hz) -> dict:
+    """FIGAROH's examples/staubli_TX40/identification.py: the config's Butterworth cut-off (100 Hz for the TX40,
+    i.e. 10 × its 10 Hz bandwidth) read as Wn = ts · f_c / 2, a single-pass design at f_c / 4 (the cut-off given
+    is that design frequency [Hz]), order 4, decimation by 10 twice. The per-joint velocity thresholds are the
+    robot's config (dq_lim_def): give them (velocity_threshold); the rest is :func:`_treat_figaroh`'s."""
+    bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
+    return dict(cutoff_hz=10.0 * bw / 4.0, order=4, decimate=int(np.prod(FIGAROH_DECIMATE)))
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A data treatment ``tendyn identify --treatment NAME`` applies: where it comes from (one phrase, printed in
+    the option's help and the treatment's description) and the :class:`Treatment` fields it sets for a log at
+    ``rate_hz`` [Hz] of a device of dynamic bandwidth ``bandwidth_hz`` [Hz] (None: not in the device file). A
+    field the preset does not set comes from :func:`default_treatment` and the options given; ``cutoff_hz``,
+    ``decimate`` and ``velocity_threshold`` given as options win over the preset's."""
+    source: str
+    fields: object
+
+
+PRESETS = {
+    "tendyn": Preset("tendyn's own (Gautier's rules): zero-phase Butterworth -3 dB at 5 x the bandwidth, central "
+                     "differences, parallel FIR filter + decimation to about 10 x the bandwidth, the default "
+                     "velocity threshold", _tendyn),
+    "janot": Preset("Janot, Gautier & Brunot's Script_IDIM_LS.m (EMPS, 2019): MATLAB butter(4, 5 x bandwidth) "
+                    "through filtfilt (single-pass design: -6 dB there), central differences, rows 50 on, every "
+                    "column and the torque through MATLAB's decimate (Chebyshev I order 8, filtfilt) by rate / "
+                    "(5 x bandwidth), no velocity threshold", _janot),
+    "wpi": Preset("WPI's dVRK notebook (main_mtm.ipynb): order-6 Butterworth (Wn = 2 pi 1.8 Hz / rate) on "
+                  "positions, logged velocities and torques, 200 samples cut at each end, no threshold, stale rows "
+                  "kept, fit in motor space weighted by 1 / range of each motor's torque", _wpi),
+    "figaroh": Preset("FIGAROH's Staubli TX40 script (identification.py): scipy butter(4) filtfilt at the "
+                      "config's cut-off read as Wn = ts fc / 2 (a design at 2.5 x the bandwidth), 20 samples cut "
+                      "at each end, forward differences then np.gradient (the last joint's acceleration left at "
+                      "zero), joint blocks sliced as the script does, scipy decimate(10) twice on torques and "
+                      "columns, the given per-joint velocity thresholds", _figaroh),
+}
+"""The one table of data treatments: ``--treatment NAME`` (its domain, tendyn.commands.args), ``IDIM(treatment=)``
+and :attr:`Treatment.preset` take their names from it; docs/realdata.md describes each with what it reproduces."""
+
+
+def preset_treatment(name: str, rate_hz: float, bandwidth_hz=None, cutoff_hz=None, decimate=None, order: int = 4,
+                     velocity_threshold=None) -> Treatment:
+    """The :class:`Treatment` of preset ``name`` (:data:`PRESETS`) for a log at ``rate_hz`` [Hz]; ``cutoff_hz``
+    [Hz], ``decimate`` and ``velocity_threshold`` [rad/s] given (not None) win over the preset's, ``order`` is the
+    preset's when it sets one. ValueError naming the presets for an unknown name."""
     if name not in PRESETS:
-        raise ValueError(f"unknown treatment preset {name!r} (presets: {', '.join(sorted(PRESETS))})")
-    fields = PRESETS[name](float(rate_hz), bandwidth_hz)
-    velocities = fields.pop("velocities", "differentiate")
-    tr = default_treatment(rate_hz, bandwidth_hz, fields.pop("cutoff_hz"), fields.pop("decimate"),
-                           fields.pop("order"), fields.pop("velocity_threshold"))
-    return dataclasses.replace(tr, velocities=velocities, preset=name, why=(f"preset {name}",), **fields)
+        raise ValueError(f"unknown treatment preset {name!r} (presets: {', '.join(PRESETS)})")
+    fields = dict(PRESETS[name].fields(float(rate_hz), bandwidth_hz))
+    given = {"cutoff_hz": cutoff_hz, "decimate": decimate, "velocity_threshold": velocity_threshold}
+    from_preset = [k for k, v in given.items() if v is None and k in fields]
+    for k, v in given.items():
+        if k not in from_preset:
+            fields[k] = v
+    order = fields.pop("order", order)
+    tr = default_treatment(rate_hz, bandwidth_hz, fields.pop("cutoff_hz"), fields.pop("decimate"), order,
+                           fields.pop("velocity_threshold"))
+    if name == "tendyn":
+        return tr
+    said = {"cutoff_hz": "cut-off given", "decimate": "decimation given",
+            "velocity_threshold": "velocity threshold given"}
+    why = (f"preset {name}" + (f" ({', '.join(k for k in from_preset)})" if from_preset else ""),) + tuple(
+        w for w in tr.why if w not in {said[k] for k in from_preset})
+    velocities = fields.pop("velocities", tr.velocities)
+    return dataclasses.replace(tr, velocities=velocities, preset=name, why=why, **fields)
 
 
 def drop_stale(time, rate_hz: float, q, tau, qd=None):
@@ -305,6 +405,10 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
     ``qd``: logged joint velocities [rad/s] (filtered like q, differentiated for q̈) instead of dq/dt."""
     from tendyn import _core
 
+    if treatment.preset == "janot":
+        return _treat_janot(model, time, q, tau, treatment, columns, qd)
+    if treatment.preset == "figaroh":
+        return _treat_figaroh(model, time, q, tau, treatment, columns)
     dt = 1.0 / treatment.rate_hz
     qf = butter_zero_phase(q, treatment.cutoff_hz, treatment.rate_hz, treatment.order)
     if treatment.filter_torques:
@@ -337,3 +441,74 @@ def treat(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
             raise ValueError(f"the log has {n_out} samples, the treatment cuts {m} at each end")
         blocks = [Block(time=b.time[m:-m], y=b.y[m:-m], W=b.W[m:-m], velocity=b.velocity[m:-m]) for b in blocks]
     return blocks
+
+
+def _treat_janot(model, time, q, tau, treatment: Treatment, columns=None, qd=None):
+    """Janot's Script_IDIM_LS.m (PROVENANCE of the EMPS data): positions through MATLAB's filtfilt(butter),
+    central differences, the full-rate observation matrix from row 50 on, every column and the torques through
+    MATLAB's decimate. Returns the joint blocks as :func:`treat` does."""
+    from tendyn.ident.filters import matlab_decimate, matlab_decimate_index
+
+    dt = 1.0 / treatment.rate_hz
+    qf = treatment.filter_positions(q)
+    qd = central_differences(qf, dt) if qd is None else treatment.filter_positions(qd)
+    qdd = central_differences(qd, dt)
+    W = model.regressor(qf, qd, qdd, (1.0,), 1, columns)          # (na * n, p), joint-major, full rate
+    n, na = q.shape
+    s0 = JANOT_FIRST_ROW - 1
+    K = treatment.decimate
+    keep = s0 + matlab_decimate_index(n - s0, K)
+    t_out = np.asarray(time, float)[keep]
+    blocks = []
+    for j in range(na):
+        Wj = matlab_decimate(W[j * n + s0:(j + 1) * n], K)
+        yj = matlab_decimate(np.asarray(tau, float)[s0:, j], K)
+        vj = matlab_decimate(qd[s0:, j], K)
+        blocks.append(Block(time=t_out, y=yj, W=Wj, velocity=vj))
+    return blocks
+
+
+def _treat_figaroh(model, time, q, tau, treatment: Treatment, columns=None):
+    """FIGAROH's examples/staubli_TX40/identification.py step by step (snapshot c3b5172): positions through
+    scipy's ``filtfilt(butter(order, Wn), padlen=3 (n − 1))`` with Wn = cutoff_hz / (rate / 2), 5 × order
+    samples cut at each end; q̇ by forward differences, q̈ = np.gradient(q̇) (the last joint's left at zero:
+    :data:`FIGAROH_LAST_ACCELERATION`), the last two rows dropped; the torques cut by the same 5 × order at each
+    end; joint i's regressor rows sliced at i × (its torque length) (:data:`FIGAROH_BLOCK_SHIFT`); torques and
+    every column through ``scipy.signal.decimate(q=10, zero_phase=True)`` twice. The velocity of each decimated
+    row is the joint's decimated FV column, as the script thresholds it. Returns the joint blocks."""
+    import scipy.signal as ss
+
+    dt = 1.0 / treatment.rate_hz
+    q, tau = np.asarray(q, float), np.asarray(tau, float)
+    n, na = q.shape
+    b, a = ss.butter(treatment.order, treatment.cutoff_hz / (treatment.rate_hz / 2.0))
+    nb = 5 * treatment.order
+    qf = ss.filtfilt(b, a, q, axis=0, padtype="odd", padlen=3 * (max(len(a), len(b)) - 1))[nb:n - nb]
+    qd = np.diff(qf, axis=0) / dt                                     # (n − 2 nb − 1)
+    qdd = np.gradient(qd, axis=0, edge_order=1) / dt
+    if not FIGAROH_LAST_ACCELERATION:
+        qdd[:, -1] = 0.0
+    qf, qd, qdd = qf[:-2], qd[:-1], qdd[:-1]                          # N = n − 2 nb − 2 rows
+    W = model.regressor(qf, qd, qdd, (1.0,), 1, columns)             # (na N, p), joint-major
+    N = qf.shape[0]
+    y = tau[nb:n - nb]                                                 # nj = n − 2 nb rows per joint
+    nj = y.shape[0]
+    names = model.standard_names if columns is None else [model.standard_names[c] for c in columns]
+    t = np.asarray(time, float)[nb:n - nb]
+
+    def dec(x):
+        for r in FIGAROH_DECIMATE:
+            x = ss.decimate(x, r, axis=0, zero_phase=True)
+        return x
+
+    blocks = []
+    for j, num in enumerate(model.active_numbers):
+        start = j * nj if FIGAROH_BLOCK_SHIFT else j * N
+        Wj = dec(W[start:start + (nj if FIGAROH_BLOCK_SHIFT else N)])
+        yj = dec(y[:, j])
+        m = min(len(yj), Wj.shape[0])
+        fv = names.index(f"FV{num}")
+        tj = t[::int(np.prod(FIGAROH_DECIMATE))][:m]
+        blocks.append(Block(time=tj, y=yj[:m], W=Wj[:m], velocity=Wj[:m, fv]))
+    m = min(bl.y.size for bl in blocks)
+    return [Block(time=bl.time[:m], y=bl.y[:m], W=bl.W[:m], velocity=bl.velocity[:m]) for bl in blocks]

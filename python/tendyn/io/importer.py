@@ -1,4 +1,9 @@
-"""Turn a lab's CSV files into a log: an import map says which column is which signal.
+"""Turn a lab's files into a log: an import map says which column, variable or topic field is which signal.
+
+RAW files are CSV (below), MATLAB ``.mat`` v4–v7.3 and HDF5 ``.h5``/``.hdf5`` (``column`` names the variable, the
+struct field ``data.q`` or the dataset path ``/run1/q``; ``index`` the 1-based column of a 2-D one;
+:mod:`tendyn.io.arrays`), and ROS bags (``topic``, ``field``, ``joint`` and ``log.time_source``;
+:mod:`tendyn.io.bags`).
 
 An import map is a small TOML file (``import.toml`` of ``tendyn data path tx40`` is the one for the Stäubli TX40 files)::
 
@@ -46,9 +51,11 @@ from tendyn.io.logs import (IMPORT_RATE_SLACK, LINEAR_UNITS, Log, LogError, colu
 
 __all__ = ["import_logs", "read_import_map"]
 
-_LOG_KEYS = {"device": str, "experiment": str, "rate_hz": float, "delimiter": str, "header": bool}
-_SIGNAL_KEYS = {"file": str, "column": (str, int), "signal": str, "scale": float, "offset": float, "name": str,
-                "unit": str}
+_LOG_KEYS = {"device": str, "experiment": str, "rate_hz": float, "delimiter": str, "header": bool,
+             "time_source": str}
+_SIGNAL_KEYS = {"file": str, "column": (str, int), "index": int, "topic": str, "field": str, "joint": str,
+                "signal": str, "scale": float, "offset": float, "name": str, "unit": str}
+TIME_SOURCES = ("header", "receive")
 
 
 def _err(mapfile, where, problem):
@@ -91,6 +98,10 @@ def read_import_map(path) -> dict:
         raise _err(p, "log.delimiter", f"must be one character other than a quote or a line break "
                                        f"(got {log['delimiter']!r})")
     log.setdefault("header", True)
+    log.setdefault("time_source", "header")
+    if log["time_source"] not in TIME_SOURCES:
+        raise _err(p, "log.time_source", f"must be one of {', '.join(TIME_SOURCES)} (a bag's header stamps or the "
+                                         f"recorder's receive times; got {log['time_source']!r})")
     sigs = raw.get("signals")
     if not isinstance(sigs, list) or not sigs:
         raise _err(p, "signals", "missing: one [[signals]] entry per log column")
@@ -102,21 +113,45 @@ def read_import_map(path) -> dict:
         for key in s:
             if key not in _SIGNAL_KEYS:
                 raise _err(p, f"{where}.{key}", f"unknown key (known: {', '.join(_SIGNAL_KEYS)})")
-        for key in ("column", "signal"):
-            if key not in s:
-                raise _err(p, f"{where}.{key}", "missing required key")
+        if "signal" not in s:
+            raise _err(p, f"{where}.signal", "missing required key")
+        if ("column" in s) == ("topic" in s):
+            raise _err(p, f"{where}.column", "give either column (a CSV column, a .mat variable, an HDF5 dataset) "
+                                             "or topic and field (a ROS bag)" + (", not both" if "topic" in s else ""))
         sig = s["signal"]
         if not isinstance(sig, str) or column_spec(sig) is None:
             raise _err(p, f"{where}.signal", f"{sig!r} is not a log column name (see docs/logs.md)")
         if sig in seen:
             raise _err(p, f"{where}.signal", f"{sig} is mapped twice (also signals[{seen[sig]}])")
         seen[sig] = i
-        col = s["column"]
-        if isinstance(col, bool) or not isinstance(col, (str, int)):
-            raise _err(p, f"{where}.column", f"must be a header name or a 1-based column number (got {col!r})")
-        if isinstance(col, int) and col < 1:
-            raise _err(p, f"{where}.column", f"column numbers start at 1 (got {col})")
-        entry = {"file": s.get("file"), "column": col, "signal": sig, "scale": 1.0, "offset": 0.0, "where": where}
+        for key in ("file", "topic", "field", "joint"):
+            if key in s and (not isinstance(s[key], str) or not s[key].strip()):
+                raise _err(p, f"{where}.{key}", f"must be a non-empty string (got {s[key]!r})")
+        col = s.get("column")
+        if "topic" in s:
+            if "field" not in s:
+                raise _err(p, f"{where}.field", f"missing required key: the message field of {s['topic']} "
+                                                "(position, velocity or effort with joint; else a path like "
+                                                "wrench.force.x or data[2])")
+            if "index" in s:
+                raise _err(p, f"{where}.index", "only for a column of a .mat/.h5 matrix; a bag field takes [k] "
+                                                "in its path (data[2])")
+            if sig == "time":
+                raise _err(p, f"{where}.signal", "time of a bag comes from log.time_source (header stamps or "
+                                                 "receive times), not from a field")
+        else:
+            for key in ("field", "joint"):
+                if key in s:
+                    raise _err(p, f"{where}.{key}", "only for a bag topic (give topic)")
+            if isinstance(col, bool) or not isinstance(col, (str, int)):
+                raise _err(p, f"{where}.column", f"must be a header name or a 1-based column number (got {col!r})")
+            if isinstance(col, int) and col < 1:
+                raise _err(p, f"{where}.column", f"column numbers start at 1 (got {col})")
+        if "index" in s and (isinstance(s["index"], bool) or not isinstance(s["index"], int) or s["index"] < 1):
+            raise _err(p, f"{where}.index", f"must be a 1-based column number of a .mat/.h5 matrix, an integer "
+                                            f"≥ 1 (got {s['index']!r})")
+        entry = {"file": s.get("file"), "column": col, "signal": sig, "scale": 1.0, "offset": 0.0, "where": where,
+                 "index": s.get("index"), "topic": s.get("topic"), "field": s.get("field"), "joint": s.get("joint")}
         for key in ("scale", "offset"):
             if key in s:
                 v = s[key]
@@ -148,7 +183,7 @@ def read_import_map(path) -> dict:
             if s.get("unit", reg) != reg:
                 entry["unit"] = s["unit"]
         out.append(entry)
-    if "time" not in seen and "rate_hz" not in log:
+    if "time" not in seen and "rate_hz" not in log and not any(e["topic"] for e in out):
         raise _err(p, "log.rate_hz", "required: no signal is mapped to `time`, so the rate sets the time grid")
     return {"log": log, "signals": out}
 
@@ -182,8 +217,81 @@ def _read_csv(path: Path, delimiter: str, header: bool):
     return names, rows[1:] if header else rows
 
 
+def file_kind(path: Path) -> str:
+    """How a RAW file is read: ``"bag"`` (a ROS 2 bag folder, ``.mcap``, ``.db3``, a ROS 1 ``.bag``), ``"array"``
+    (``.mat``, ``.h5``, ``.hdf5``) or ``"csv"`` (anything else)."""
+    from tendyn.io.arrays import ARRAY_SUFFIXES
+    from tendyn.io.bags import is_bag
+
+    if is_bag(path):
+        return "bag"
+    return "array" if path.suffix.lower() in ARRAY_SUFFIXES else "csv"
+
+
+def _entry_file(mp, s, files) -> str:
+    fname = s["file"]
+    if fname is None:
+        if len(files) != 1:
+            raise _err(mp, f"{s['where']}.file", f"needed: {len(files)} RAW files are imported ({', '.join(files)})")
+        fname = next(iter(files))
+    if fname not in files:
+        raise _err(mp, f"{s['where']}.file", f"{fname!r} is not among the RAW files ({', '.join(files)})")
+    return fname
+
+
+def _table_column(mp, spec, s, fname, path, kind, cache) -> np.ndarray:
+    """One signal of a CSV, .mat or HDF5 file, as the raw values (before scale and offset)."""
+    where, col = s["where"], s["column"]
+    if kind == "array":
+        from tendyn.io.arrays import ArrayFile
+
+        if isinstance(col, int):
+            raise _err(mp, f"{where}.column", f"{fname} is a .mat/HDF5 file: name the variable or dataset "
+                                              f"(got the column number {col})")
+        if fname not in cache:
+            try:
+                cache[fname] = ArrayFile(path)
+            except ValueError as exc:
+                raise LogError(str(exc), file=fname) from None
+        try:
+            return cache[fname].get(col, s["index"])
+        except ValueError as exc:
+            raise _err(mp, f"{where}.column", str(exc)) from None
+    if s["index"] is not None:
+        raise _err(mp, f"{where}.index", f"only for a matrix of a .mat/.h5 file; {fname} is read as CSV")
+    if fname not in cache:
+        cache[fname] = _read_csv(path, spec["log"]["delimiter"], spec["log"]["header"])
+    names, rows = cache[fname]
+    if isinstance(col, str):
+        if not spec["log"]["header"]:
+            raise _err(mp, f"{where}.column", f"{col!r} is a name but log.header = false: give a column number")
+        if col not in names:
+            raise _err(mp, f"{where}.column", f"no column {col!r} in {fname} (columns: {', '.join(names)})")
+        k = names.index(col)
+    else:
+        k = col - 1
+        width = len(rows[0]) if rows else 0
+        if k >= width:
+            raise _err(mp, f"{where}.column", f"column {col} does not exist in {fname} ({width} columns)")
+    vals = np.empty(len(rows))
+    for r, row in enumerate(rows):
+        try:
+            vals[r] = parse_number(row[k])
+        except (ValueError, IndexError):
+            cell = row[k] if k < len(row) else "<missing>"
+            raise LogError(f"value {cell!r} is not a number (mapped to {s['signal']} by {mp.name} {where})",
+                           file=fname, column=str(col), row=r,
+                           line=r + 2 if spec["log"]["header"] else r + 1) from None
+    return vals
+
+
 def import_logs(raw_files, map_path) -> Log:
-    """One log from the RAW CSV files and the import map (see the module docstring)."""
+    """One log from the RAW files and the import map (see the module docstring).
+
+    RAW files are CSV, MATLAB ``.mat`` (v4–v7.3), HDF5 (``.h5``, ``.hdf5``) or ROS bags (a ROS 2 bag folder,
+    ``.mcap``, ``.db3``, a ROS 1 ``.bag``; :mod:`tendyn.io.bags`). What the import did to a bag's samples
+    (dropped stamps, missing joints, resampling) is said in ``meta.options["import_notes"]``.
+    """
     spec = read_import_map(map_path)
     mp = Path(map_path)
     files = {}
@@ -194,62 +302,55 @@ def import_logs(raw_files, map_path) -> Log:
         files[f.name] = f
     if not files:
         raise LogError("no RAW file given", file=mp.name)
-    cache: dict[str, tuple] = {}
-    columns: dict[str, np.ndarray] = {}
-    n_rows = None
+    kinds = {name: file_kind(f) for name, f in files.items()}
+    targets = {s["signal"]: _entry_file(mp, s, files) for s in spec["signals"]}
     for s in spec["signals"]:
-        where = s["where"]
-        fname = s["file"]
-        if fname is None:
-            if len(files) != 1:
-                raise _err(mp, f"{where}.file", f"needed: {len(files)} RAW files are imported ({', '.join(files)})")
-            fname = next(iter(files))
-        if fname not in files:
-            raise _err(mp, f"{where}.file", f"{fname!r} is not among the RAW files ({', '.join(files)})")
-        if fname not in cache:
-            cache[fname] = _read_csv(files[fname], spec["log"]["delimiter"], spec["log"]["header"])
-        names, rows = cache[fname]
-        col = s["column"]
-        if isinstance(col, str):
-            if not spec["log"]["header"]:
-                raise _err(mp, f"{where}.column", f"{col!r} is a name but log.header = false: give a column number")
-            if col not in names:
-                raise _err(mp, f"{where}.column", f"no column {col!r} in {fname} (columns: {', '.join(names)})")
-            k = names.index(col)
-        else:
-            k = col - 1
-            width = len(rows[0]) if rows else 0
-            if k >= width:
-                raise _err(mp, f"{where}.column", f"column {col} does not exist in {fname} ({width} columns)")
-        vals = np.empty(len(rows))
-        for r, row in enumerate(rows):
-            try:
-                vals[r] = parse_number(row[k])
-            except (ValueError, IndexError):
-                cell = row[k] if k < len(row) else "<missing>"
-                raise LogError(f"value {cell!r} is not a number (mapped to {s['signal']} by {mp.name} {where})",
-                               file=fname, column=str(col), row=r, line=r + 2 if spec["log"]["header"] else r + 1) from None
-        if n_rows is None:
-            n_rows = vals.size
-        elif vals.size != n_rows:
-            raise _err(mp, f"{where}", f"{fname} has {vals.size} rows, the files before have {n_rows}: the signals "
-                                       "must be sampled on one grid")
-        columns[s["signal"]] = s["scale"] * vals + s["offset"]
+        kind = kinds[targets[s["signal"]]]
+        if (kind == "bag") != (s["topic"] is not None):
+            raise _err(mp, s["where"], f"{targets[s['signal']]} is " + (
+                "a ROS bag: give topic and field, not column" if kind == "bag" else
+                f"a {'.mat/HDF5' if kind == 'array' else 'CSV'} file: give column, not topic"))
+    notes: list[str] = []
     rate = spec["log"].get("rate_hz")
-    if not n_rows:
-        raise _err(mp, "", f"no data rows in {', '.join(files)}")
-    if "time" not in columns:
-        columns["time"] = np.arange(n_rows) / rate
-    elif n_rows < 2:
-        raise _err(mp, "", "one data row: a log needs at least two samples (time and a rate)")
+    if any(s["topic"] for s in spec["signals"]):
+        from tendyn.io.bags import read_bag_signals
+
+        columns, rate, notes = read_bag_signals(files, targets, spec, mp.name)
+        n_rows = columns["time"].size
     else:
-        from_time = time_column_rate(columns["time"])
-        if rate is None:
-            rate = from_time
-        elif rate_contradicts_time(rate, columns["time"], IMPORT_RATE_SLACK):
-            raise _err(mp, "log.rate_hz", f"{rate:g} Hz, but the signal mapped to time is sampled at "
-                                          f"{from_time:g} Hz: remove log.rate_hz or fix the time column's scale")
+        cache: dict = {}
+        columns = {}
+        n_rows = None
+        try:
+            for s in spec["signals"]:
+                fname = targets[s["signal"]]
+                vals = _table_column(mp, spec, s, fname, files[fname], kinds[fname], cache)
+                if n_rows is None:
+                    n_rows = vals.size
+                elif vals.size != n_rows:
+                    raise _err(mp, s["where"], f"{fname} gives {vals.size} samples, the signals before have "
+                                               f"{n_rows}: the signals must be sampled on one grid")
+                columns[s["signal"]] = s["scale"] * vals + s["offset"]
+        finally:
+            for c in cache.values():
+                if hasattr(c, "close"):
+                    c.close()
+        if not n_rows:
+            raise _err(mp, "", f"no data rows in {', '.join(files)}")
+        if "time" not in columns:
+            columns["time"] = np.arange(n_rows) / rate
+        elif n_rows < 2:
+            raise _err(mp, "", "one data row: a log needs at least two samples (time and a rate)")
+        else:
+            from_time = time_column_rate(columns["time"])
+            if rate is None:
+                rate = from_time
+            elif rate_contradicts_time(rate, columns["time"], IMPORT_RATE_SLACK):
+                raise _err(mp, "log.rate_hz", f"{rate:g} Hz, but the signal mapped to time is sampled at "
+                                              f"{from_time:g} Hz: remove log.rate_hz or fix the time column's scale")
     options = {"import_map": mp.name, "raw_files": sorted(files)}
+    if notes:
+        options["import_notes"] = notes
     signals = {s["signal"]: s["meta"] for s in spec["signals"] if "meta" in s}
     units = {s["signal"]: s["unit"] for s in spec["signals"] if "unit" in s}
     return make_log(columns, device=spec["log"]["device"], rate_hz=rate, seed=None,

@@ -635,6 +635,29 @@ class Log:
         return {"meta": copy.deepcopy(self.meta),
                 "columns": {name: arr.tolist() for name, arr in self.columns.items()}}
 
+    def to_pandas(self, time_index: bool = False):
+        """The log as a :class:`pandas.DataFrame` (a copy): one float64 column per log column, in log order.
+
+        Units go in the frame's metadata, ``df.attrs["units"]`` (column → unit, as :attr:`units`: ``"rad"``,
+        ``"N·m"``, a generic column's declared unit), with the generic columns' names in ``df.attrs["signals"]``
+        and the meta record in ``df.attrs["meta"]`` (a deep copy). pandas keeps ``attrs`` through copies and most
+        operations; Parquet files written by ``df.to_parquet`` carry them too.
+
+        Parameters
+        ----------
+        time_index : bool, optional
+            Make ``time`` [s] the index instead of the first column (default False).
+        """
+        import pandas as pd
+
+        df = pd.DataFrame({name: arr.copy() for name, arr in self.columns.items()})
+        if time_index:
+            df = df.set_index("time")
+        df.attrs["units"] = self.units
+        df.attrs["signals"] = self.signal_names
+        df.attrs["meta"] = copy.deepcopy(self.meta)
+        return df
+
     def validate(self, source="<memory>") -> "Log":
         """Check names, units, shapes, values, time and meta; raise :class:`LogError` naming ``source``,
         the column and the row of the first problem. Returns self."""

@@ -14,7 +14,46 @@ from tendyn.device import compile_device
 
 from .s0_compensation import DEFAULT_UNDERESTIMATION, compensation_summary, fig7_experiment
 
-__all__ = ["identification_parts", "run_s0"]
+__all__ = ["drive_identification_parts", "identification_parts", "run_s0"]
+
+
+def drive_identification_parts(device, seed: int = 0) -> dict:
+    """The identification parts of the S0 document for capstan ``[[drives]]``: each drive's planned
+    constant-velocity test (:func:`tendyn.protocols.plan_test`, every tree joint inside its limits) on the twin,
+    fitted at the motor (S0 eq. 13, :class:`tendyn.ident.friction.TransmissionFriction`). A drive is one cable
+    stretch: S1 and S2 are the same move and there is nothing to decompose, so ``transmissions`` has one fit per
+    drive (``s2_*`` keys, as for cables) and ``decomposition`` lists the drive itself (τ0 = C_m0 / r_m, ν = ν_m / r_m² at the
+    motor radius of :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`)."""
+    from tendyn.ident.friction import TransmissionFriction
+    from tendyn.ident.friction_file import friction_document
+    from tendyn.protocols import plan_test
+    from tendyn.sim.experiments import constant_velocity
+
+    device = compile_device(device).device
+    rows, fits = [], []
+    for t, d in enumerate(device.drives, start=1):
+        test = plan_test(device, t)
+        log = constant_velocity(device, test=test, seed=seed + t).log
+        fit = TransmissionFriction(t).fit([log]).result_
+        fits.append(fit)
+        v = np.asarray(test.speeds, float)
+        c0, nu = d.coulomb_motor, d.viscous_motor
+        rms_true = float(np.sqrt(np.mean((c0 + nu * v) ** 2)))
+        rms_err = float(np.sqrt(np.mean(((fit.coulomb_motor - c0) + (fit.viscous_motor - nu) * v) ** 2)))
+        rows.append({"transmission": t, "drive": d.name, "joint": d.joint, "coulomb_motor_true": c0,
+                     "viscous_motor_true": nu, "s2_coulomb_motor": fit.coulomb_motor,
+                     "s2_viscous_motor": fit.viscous_motor, "s2_error_pct": 100.0 * rms_err / rms_true,
+                     "s2_coulomb_error_pct": 100.0 * (fit.coulomb_motor / c0 - 1.0),
+                     "s2_viscous_error_pct": 100.0 * (fit.viscous_motor / nu - 1.0)})
+    friction = friction_document(device.name, fits)
+    from tendyn.device.schema import DRIVE_MOTOR_RADIUS as rm
+
+    branches = [{"transmission": r["transmission"], "branch": 0, "tau0_N": r["s2_coulomb_motor"] / rm,
+                 "nu_Ns_m": r["s2_viscous_motor"] / rm ** 2, "p": 1.0, "p_prime": 1.0} for r in rows]
+    return {"transmissions": rows, "decomposition": branches, "friction": friction,
+            "identification": {"strategy_for_compensation": "S2 (a capstan drive: one cable stretch, S1 = S2)",
+                               "error_pct": "RMS over the test speeds of the fitted minus true motor friction "
+                                            "torque, relative to the true RMS"}}
 
 def identification_parts(device) -> dict:
     """The identification parts of the S0 document: ``transmissions``, ``decomposition`` and ``friction``.
@@ -79,7 +118,8 @@ def run_s0(device, *, quick: bool = False) -> dict:
 
     step = Ticker("pipeline s0", expected=3)          # a bar on a terminal, step lines otherwise
     step(f"identification on the {compiled.name} twin")
-    ident = identification_parts(compiled)
+    drives = not compiled.device.transmissions
+    ident = drive_identification_parts(compiled) if drives else identification_parts(compiled)
     step("Fig. 7: free motion with gravity only / with friction compensation")
     # k as with the twin's own losses: the identification carries the load term (c_L), so τ̂0 no longer absorbs
     # the test's load; k = 0.9 gives 72 % and stays passive on L-EXOS (seed 7), where the load-free law needed 0.7.
@@ -91,7 +131,7 @@ def run_s0(device, *, quick: bool = False) -> dict:
            "decomposition": ident["decomposition"],
            "compensation": compensation_summary(fig7)}
     hyp = None
-    if not quick:       # C12 on the twin's own losses, so that only the hypotheses differ
+    if not quick and not drives:   # C12 on the twin's own losses (S0's cable hypotheses: none for a capstan)
         from .s0_hypotheses import hypotheses_experiment
 
         step("S0's hypotheses switched one at a time (C12)")

@@ -79,8 +79,7 @@ def hand_task(device) -> HandTask:
 def _hand_task(compiled) -> HandTask:
     dev = compiled.device
     handle = _Handle(compiled)
-    lo = np.array([j.lower for j in dev.kinematics.joints], float)
-    hi = np.array([j.upper for j in dev.kinematics.joints], float)
+    lo, hi, tree_lo, tree_hi, L, c = _active_limits(compiled)
     if dev.home_pose is not None:
         q0 = np.array(dev.home_pose, float)
     else:
@@ -92,6 +91,10 @@ def _hand_task(compiled) -> HandTask:
         else:
             rng = np.random.default_rng(0)
             grid = np.column_stack([rng.choice(lv, 729) for lv in levels])
+        qt = grid @ L.T + c        # a closed-loop tree: keep the poses whose passive joints are inside too
+        tm = 0.05 * (tree_hi - tree_lo)
+        inside = np.all((qt >= tree_lo + tm) & (qt <= tree_hi - tm), axis=1)
+        grid = grid[inside] if inside.any() else grid
         k = min(2, n)
         score = [np.linalg.svd(handle(q)[1], compute_uv=False)[k - 1] for q in grid]
         q0 = grid[int(np.argmax(score))]
@@ -114,6 +117,21 @@ def _hand_task(compiled) -> HandTask:
     return HandTask(q0, u, v, radius, normal)
 
 
+def _active_limits(compiled):
+    """(lower, upper) of the actuated joints [rad], then (lower, upper, L, c) of every tree joint with
+    q_tree = L q_a + c (:func:`tendyn.sim.experiments.tree_limits`): a serial chain has L = I."""
+    from tendyn.sim.experiments import tree_limits
+
+    tlo, thi, L, c = tree_limits(compiled)
+    lo, hi = np.full(L.shape[1], -np.inf), np.full(L.shape[1], np.inf)
+    for k in range(L.shape[0]):      # the rows of L that are one actuated joint alone give its limits
+        nz = np.flatnonzero(np.abs(L[k]) > 1e-12)
+        if nz.size == 1 and abs(L[k, nz[0]] - 1.0) < 1e-12:
+            lo[nz[0]] = max(lo[nz[0]], tlo[k] - c[k])
+            hi[nz[0]] = min(hi[nz[0]], thi[k] - c[k])
+    return lo, hi, tlo, thi, L, c
+
+
 def _device(device):
     if isinstance(device, str):
         return compile_device(load_device(bundled(device) if "/" not in device and not device.endswith(".toml")
@@ -122,7 +140,9 @@ def _device(device):
 
 
 class _Handle:
-    """Position and linear Jacobian of the end effector from Pinocchio (a frame added to a copy of the model)."""
+    """Position and linear Jacobian of the end effector from Pinocchio (a frame added to a copy of the model), at
+    the actuated joints: q_tree = L q + c and J L on a closed-loop tree (an independent route from the core
+    chain's active map)."""
 
     def __init__(self, compiled):
         import pinocchio as pin
@@ -135,14 +155,17 @@ class _Handle:
         self.frame = self.model.addFrame(pin.Frame("handle", joint + 1, 0, pin.SE3(np.eye(3), point),
                                                    pin.FrameType.OP_FRAME))
         self.data = self.model.createData()
+        L, c = compiled.active_map
+        self.L, self.c = np.asarray(L, float), np.asarray(c, float)
 
     def __call__(self, q):
         pin = self.pin
-        pin.computeJointJacobians(self.model, self.data, q)
+        q_tree = self.L @ np.asarray(q, float) + self.c
+        pin.computeJointJacobians(self.model, self.data, q_tree)
         pin.updateFramePlacements(self.model, self.data)
         x = np.array(self.data.oMf[self.frame].translation)
         J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
-        return x, np.asarray(J).reshape(6, -1)[:3]   # a 1-joint Jacobian comes back as a vector
+        return x, np.asarray(J).reshape(6, -1)[:3] @ self.L   # a 1-joint Jacobian comes back as a vector
 
 
 @dataclass(eq=False)
@@ -212,7 +235,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     compiled = _device(device)
     task = hand_task(compiled)
     radius = task.radius if radius is None else radius
-    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0 = task.q0 if q0 is None else np.asarray(q0, float)
     if twin_friction_scale != 1.0:
@@ -310,7 +333,7 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     ``passivity``: the compensator's passivity controller (:meth:`tendyn.control.Compensator.from_device`)."""
     compiled = _device(device)
     task = hand_task(compiled)
-    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0 = task.q0 if q0 is None else np.asarray(q0, float)
     _reset(sim, data, q0, seed)

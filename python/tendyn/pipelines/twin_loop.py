@@ -15,7 +15,7 @@ def reset_at(sim, data, q0, seed) -> None:
     """Reset the twin at rest at q0 with the (slaved) motor positions set, so the first encoder reading is
     already the pose's (``SimData.reset`` leaves them at zero until the first step)."""
     data.reset(q0, seed)
-    data.set_motor_position(np.asarray(sim.tendon.motor_from_joint_position) @ q0)
+    data.set_motor_position(np.asarray(sim.Gm) @ q0)   # cables: R_m⁻¹ K q; capstan drives: N q (springs relaxed)
 
 
 def encoders(sim, data) -> np.ndarray:

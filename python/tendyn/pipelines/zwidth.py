@@ -32,7 +32,7 @@ import numpy as np
 from tendyn.results import Result, format_table
 
 __all__ = ["MODES", "ZWidthResult", "zwidth_point", "is_stable", "run_zwidth", "colgate_damping",
-           "reflected_damping", "DEFAULT_STIFFNESS", "DEFAULT_DAMPING"]
+           "reflected_damping", "max_push", "default_push", "DEFAULT_STIFFNESS", "DEFAULT_DAMPING", "DEFAULT_PUSH"]
 
 MODES = ("gravity", "compensated", "passivity")
 """gravity: k = 0 (gravity compensation only); compensated: the compensator as given, controller off;
@@ -79,7 +79,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     from tendyn import _core
     from tendyn.control import Compensator, Renderer, passivity_model
     from tendyn.device import compile_device
-    from tendyn.pipelines.s0_compensation import _Block, _encoders, _reset
+    from tendyn.pipelines.twin_loop import ControlBlock, encoders, reset_at
     from tendyn.sim.model import sim_model
 
     if mode not in MODES:
@@ -96,23 +96,23 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
         comp = comp.with_settings(passivity=None)
     elif not comp.model.passivity.enabled:
         comp = comp.with_settings(passivity=passivity_model(compiled, rate_hz=control_hz))
-    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz)
+    sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0, normal = _task(compiled, q0, normal)
-    _reset(sim, data, q0, seed)
+    reset_at(sim, data, q0, seed)
     chain = comp.model.chain
     cdata = _core.ChainData(chain)
-    _core.chain_forward_kinematics(chain, cdata, q0)
+    _core.chain_active(chain, cdata, q0)
     floor = float(normal @ cdata.ee_position) - gap
     rend = Renderer(comp, stiffness=stiffness, damping=damping).add_plane(normal, floor)
     force = -float(push) * normal
     periods = int(round(horizon * control_hz))
     height, to_hand = np.empty(periods), np.empty(periods)
-    block = _Block(sim)
+    block = ControlBlock(sim)
     for s in range(periods):
-        torque_motor = rend.cycle(_encoders(sim, data))
-        _core.chain_forward_kinematics(chain, cdata, np.array(data.q))
-        block.run(data, torque_motor, np.asarray(cdata.ee_jacobian).T @ force)
+        torque_motor = rend.cycle(encoders(sim, data))
+        _core.chain_active(chain, cdata, np.array(data.q))
+        block.run(data, torque_motor, np.asarray(cdata.ee_jacobian_active).T @ force)
         height[s] = float(normal @ cdata.ee_position) - floor
         to_hand[s] = -data.work_external
         if not np.isfinite(height[s]) or abs(height[s]) > 1.0:   # thrown off: unstable, stop early
@@ -126,6 +126,48 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
             "energy_to_hand_last": float(to_hand[-1] - to_hand[2 * periods // 3])}
 
 
+DEFAULT_PUSH = 10.0
+"""Hand force [N] pressing the handle into the wall, when the device can hold twice that (:func:`default_push`)."""
+PUSH_SHARE = 0.5
+"""Share of :func:`max_push` the default push takes on a device too weak for :data:`DEFAULT_PUSH`."""
+
+
+def max_push(device: Any, *, q0=None, normal=None) -> float:
+    """The largest hand force [N] along −normal the motors can hold at the wall pose: the wall pushes back with
+    F n, so the motors give C = M (J_aᵀ n F + g_a) (M the lossless motor-from-joint torque map, g_a the gravity at
+    the actuated joints, chain.hpp); the push saturates the first motor i where |C_i| reaches its peak torque:
+    F_max = min_i (peak_i − |M g_a|_i) / |M J_aᵀ n|_i (0 when gravity alone saturates a motor)."""
+    from tendyn import _core
+    from tendyn.control import chain_model
+    from tendyn.control.compensator import device_transmission
+    from tendyn.device import compile_device
+
+    compiled = compile_device(device)
+    dev = compiled.device
+    peak = np.array([a.motor.peak_torque for a in (dev.transmissions or dev.drives)], float)
+    Mt = np.array(device_transmission(compiled).model.motor_from_joint_torque)
+    chain = chain_model(compiled)
+    cdata = _core.ChainData(chain)
+    q0, normal = _task(compiled, q0, normal)
+    _core.chain_active(chain, cdata, q0)
+    per_newton = np.abs(Mt @ (np.asarray(cdata.ee_jacobian_active).T @ normal))
+    left = np.maximum(peak - np.abs(Mt @ np.asarray(cdata.gravity_active)), 0.0)
+    with np.errstate(divide="ignore"):
+        f = np.where(per_newton > 1e-15, left / np.maximum(per_newton, 1e-300), np.inf)
+    return float(np.min(f))
+
+
+def default_push(device: Any, *, q0=None, normal=None) -> tuple[float, str | None]:
+    """(push [N], note): :data:`DEFAULT_PUSH` when the motors hold twice that (:func:`max_push`), else
+    :data:`PUSH_SHARE` of what they hold, with a one-line note saying why."""
+    fmax = max_push(device, q0=q0, normal=normal)
+    if fmax >= DEFAULT_PUSH / PUSH_SHARE:
+        return DEFAULT_PUSH, None
+    push = PUSH_SHARE * fmax
+    return push, (f"the default push {DEFAULT_PUSH:g} N is more than the motors hold along the wall normal "
+                  f"({fmax:.3g} N at their peak torques): pushing with {push:.3g} N")
+
+
 def reflected_damping(device: Any, viscous, *, q0=None, normal=None) -> float:
     """Motor viscous damping ``viscous`` (n) [N·m·s/rad] seen at the handle along the wall normal n [N·s/m]: the
     least-damped joint motion that moves the handle at 1 m/s along n, min q̇ᵀ B_q q̇ subject to J_n q̇ = 1
@@ -133,16 +175,17 @@ def reflected_damping(device: Any, viscous, *, q0=None, normal=None) -> float:
     map). ``q0`` and ``normal`` default to the hand task's."""
     from tendyn import _core
     from tendyn.control import chain_model
+    from tendyn.control.compensator import device_transmission
     from tendyn.device import compile_device
 
     compiled = compile_device(device)
-    motor_from_joint = np.linalg.inv(np.array(compiled.transmission.model.joint_from_motor_position))
+    motor_from_joint = np.linalg.inv(np.array(device_transmission(compiled).model.joint_from_motor_position))
     Bq = motor_from_joint.T @ np.diag(np.asarray(viscous, float)) @ motor_from_joint
     chain = chain_model(compiled)
     cdata = _core.ChainData(chain)
     q0, normal = _task(compiled, q0, normal)
-    _core.chain_forward_kinematics(chain, cdata, q0)
-    jz = normal @ np.asarray(cdata.ee_jacobian)
+    _core.chain_active(chain, cdata, q0)
+    jz = normal @ np.asarray(cdata.ee_jacobian_active)
     x = np.linalg.lstsq(Bq + 1e-12 * np.eye(len(jz)), jz, rcond=None)[0]
     return float(1.0 / (jz @ x))
 
@@ -278,8 +321,8 @@ def run_zwidth(device: Any, *, stiffness: Sequence[float] | None = None, damping
     from tendyn.device import compile_device
 
     compiled = compile_device(device)
-    if compiled.transmission is None or compiled.kind != "serial":
-        raise ValueError(f"{compiled.name}: Z-width needs a serial device with cable transmissions")
+    if compiled.kind != "serial" or not (compiled.device.transmissions or compiled.device.drives):
+        raise ValueError(f"{compiled.name}: Z-width needs a serial device with cable transmissions or capstan drives")
     for m in modes:
         if m not in MODES:
             raise ValueError(f"mode must be one of {', '.join(MODES)} (got {m!r})")

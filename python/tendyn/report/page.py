@@ -110,7 +110,8 @@ def _version() -> str:
 
 
 def run_info(command: str, *, device=None, logs: Iterable = (), options: Any = None) -> dict:
-    """What ran: ``command`` (e.g. ``"identify"``), the device (name, file, SHA-256 of its file and URDF), the
+    """What ran: ``command`` (e.g. ``"identify"``), the device (name, file, SHA-256 of its file and URDF, and its
+    routing drawn as SVG, ``routing_svg``, when it has cables), the
     logs (path, size [bytes], SHA-256), the options (an argparse Namespace or a dict; callables dropped), the
     tendyn version, a fresh run id and the date (UTC, ISO 8601)."""
     dev = None
@@ -125,6 +126,7 @@ def run_info(command: str, *, device=None, logs: Iterable = (), options: Any = N
             digest = h.hexdigest()
         dev = {"name": getattr(device, "name", str(device)), "kind": getattr(device, "kind", None),
                "file": None if path is None else str(path), "sha256": digest}
+    svg = _routing_drawing(device)
     opts = vars(options) if options is not None and hasattr(options, "__dict__") else dict(options or {})
     opts = {k: (str(v) if isinstance(v, os.PathLike) else v) for k, v in opts.items()
             if not callable(v) and k not in ("logs",)}
@@ -133,7 +135,20 @@ def run_info(command: str, *, device=None, logs: Iterable = (), options: Any = N
     now = _dt.datetime.now(_dt.timezone.utc)
     return {"command": command, "tendyn_version": _version(), "python": platform.python_version(),
             "run_id": f"{now:%Y%m%dT%H%M%SZ}-{uuid.uuid4().hex[:8]}", "date": now.isoformat(timespec="seconds"),
-            "device": dev, "logs": log_rows, "options": _jsonable(opts)}
+            "device": dev, "logs": log_rows, "options": _jsonable(opts), "routing_svg": svg}
+
+
+def _routing_drawing(device):
+    """The device's routing drawn (:func:`tendyn.drawing.routing_svg`; its text escaped, no script), as markup the
+    page embeds inline in its index; None without a device or without cables."""
+    if device is None:
+        return None
+    from markupsafe import Markup
+
+    from tendyn.drawing import routing_svg
+
+    svg = routing_svg(device)
+    return None if svg is None else Markup(svg)
 
 
 def _svg_data_uri(fig) -> tuple[str, tuple[float, float]]:

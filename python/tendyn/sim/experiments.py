@@ -114,6 +114,9 @@ def run_on_twin(device: Device | CompiledDevice, m: _core.SimModel, q0, ref_q, r
         d.set_motor_position(np.array(m.ratio) * np.asarray(q0, float))
     ext = np.zeros_like(ref_q) if ext is None else ext
     raw = _run_chunked(m, d, ref_q, ref_qd, ff, ext, log_every, progress)
+    if d.stop_contact_time > 0.0:    # the twin met an end stop (sim.hpp): the log says which and for how long
+        options = {**options, "end_stops": {"joints": stops_touched(device, raw["q_joint"]),
+                                            "contact_s": float(d.stop_contact_time)}}
     cols = {"time": raw["time"]}
     na, nm = m.na, m.nm
     for i in range(nm):
@@ -202,7 +205,7 @@ def constant_velocity(device, transmission: int | None = None, speeds=None, stra
     if strategy not in ("S1", "S2"):
         raise ValueError(f"strategy must be 'S1' or 'S2' (got {strategy!r})")
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     na = m.na
     _check_index(transmission, na, "transmission")
     given_q0 = q0
@@ -353,6 +356,55 @@ class ExcitingDesign:
                                                           "band_hz", "ramp_s", "sharpness")})
 
 
+def stops_touched(device, q_active) -> list[int]:
+    """1-based numbers (device file ``j``) of the tree joints that ``q_active`` (samples, na) [rad] takes past
+    their limits (the twin's end stops)."""
+    from tendyn.device.rigid_body import tree_joint_numbers
+
+    lo, hi, L, c = tree_limits(device)
+    qt = np.atleast_2d(np.asarray(q_active, float)) @ L.T + c
+    out = np.any((qt < lo - 1e-9) | (qt > hi + 1e-9), axis=0)
+    numbers = tree_joint_numbers(compile_device(device).device)
+    return [int(numbers[k]) for k in np.flatnonzero(out)]
+
+
+def torque_mode_start(device, m: _core.SimModel, q0=None) -> np.ndarray:
+    """Start pose [rad] of a torque-mode test (stepped or swept sine) and its gravity compensation: ``q0``, else
+    the device file's ``home_pose`` when it has one inside the limits, else q = 0 when every tree joint is inside its limits there, else the pose nearest (least squares) the middle of
+    every tree joint's range; an arm under gravity gets the controller's gravity compensation
+    (``SimModel.gravity_compensation``: the lossless motor torques of g at the encoder estimate), so the test
+    excites the arm about that pose instead of letting it fall into its stops. Raises ValueError when the pose
+    is outside the limits."""
+    lo, hi, L, c = tree_limits(device)
+    home = getattr(compile_device(device).device, "home_pose", None)
+    if q0 is None and home is not None and len(home) == m.na and not stops_touched(device, np.asarray(home, float)):
+        q0 = home                       # the device's own rest pose (its file's home_pose) when it has one
+    if q0 is None:
+        q = np.zeros(m.na)
+        if stops_touched(device, q):
+            mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), 0.0)
+            q = np.linalg.lstsq(L, mid - c, rcond=None)[0]
+    else:
+        q = np.asarray(q0, float)
+    bad = stops_touched(device, q)
+    if bad:
+        raise ValueError(f"{compile_device(device).name}: the start pose puts joint(s) {bad} outside their limits")
+    dev = compile_device(device).device
+    m.gravity_compensation = bool(np.linalg.norm(np.asarray(dev.kinematics.gravity, float)) > 0.0)
+    return q
+
+
+def require_free(runs, what: str) -> None:
+    """Refuse a frequency response measured while the twin sat on an end stop (``meta.options.end_stops``): it
+    would be the stop's response, coherent and wrong. Raises ValueError naming the joints."""
+    for r in runs:
+        stops = (r.log.meta.get("options") or {}).get("end_stops")
+        if stops:
+            raise ValueError(f"{what}: the arm met its end stop(s) at joint(s) {stops['joints']} for "
+                             f"{stops['contact_s']:.3g} s: the response would be the stop's, not the arm's "
+                             "(smaller torque, or another q0)")
+
+
 def tree_limits(device) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Joint limits of every tree joint (active and passive) and the map q_tree = L q_active + c:
     (lower, upper, L, c) [rad]."""
@@ -483,7 +535,7 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
     friction : False runs the twin without its friction sources (a rigid-body-plus-terms truth).
     """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction, stops=True)
     na = m.na
     dev_bw = getattr(device.device, "bandwidth_hz", None)
     if design is None:
@@ -523,7 +575,7 @@ def blocked_link(device, joint: int, torque_amplitude: float, period: float = 2.
     """Blocked-link test (S2 §V-C): every link blocked, triangular motor torque [N·m] on one motor;
     the motor rotates against the cable/capstan stiffness (and its friction: hysteresis)."""
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     na = m.na
     _check_index(joint, na, "joint")
     m.lock_joint = np.ones(na)
@@ -549,10 +601,10 @@ def stepped_sine(device: Device | CompiledDevice, transmission: int, *, omega, a
     runs = []
     for w in np.asarray(omega, float).ravel():
         f = w / (2 * math.pi)
-        m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+        m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
         na = m.na
         _check_index(transmission, na, "transmission")
-        q = np.zeros(na) if q0 is None else np.asarray(q0, float)
+        q = torque_mode_start(device, m, q0)
         n = int(round(cycles / f / m.dt))
         t = np.arange(n) * m.dt
         ff = np.zeros((n, na))
@@ -588,6 +640,7 @@ def stepped_sine_response(device: Device | CompiledDevice, transmission: int, *,
     second half of each run of :func:`stepped_sine` (``kw`` go there). Returns a FrequencyResponse whose
     ``runs`` are the SimRuns."""
     runs = stepped_sine(device, transmission, omega=omega, amplitude=amplitude, cycles=cycles, **kw)
+    require_free(runs, "stepped sine")
     out, inp = f"{output}_{transmission}", f"torque_motor_cmd_{transmission}"
     omega = np.asarray(omega, float).ravel()
     ratio = [first_harmonic_ratio(r.log, out, inp, w) for r, w in zip(runs, omega)]
@@ -615,7 +668,7 @@ def joint_friction_trajectory(device, weights, speeds, travel: float = 0.6, acce
         together; joints not listed are held still. speeds [rad/s], travel [rad] per stroke.
     This is how S2 §V-C builds t1 (q̇5 = q̇2), t2 (q̇5 = 0) and t3 (q̇2 = 0) on the CEA branch."""
     device = compile_device(device)   # built once: sim model, PID gains and log share it
-    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     na = m.na
     lo, hi = _active_limits(device)
     q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
@@ -655,10 +708,10 @@ def swept_sine(device: Device | CompiledDevice, transmission: int, amplitude: fl
     free (see :func:`swept_sine_response`)."""
     device = compile_device(device)
     f0, f1 = f0_hz, f1_hz
-    m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz)
+    m = sim_model(device, rate_hz=rate_hz, control_hz=rate_hz, stops=True)
     na = m.na
     _check_index(transmission, na, "transmission")
-    q = np.zeros(na) if q0 is None else np.asarray(q0, float)
+    q = torque_mode_start(device, m, q0)
     n = int(round(duration * rate_hz))
     t = np.arange(n) / rate_hz
     ff = np.zeros((n, na))
@@ -675,6 +728,7 @@ def swept_sine_response(device: Device | CompiledDevice, transmission: int, ampl
     of the commanded motor torque, on the bins strictly inside (f0_hz, f1_hz) (``kw`` go to
     :func:`swept_sine`). Returns a FrequencyResponse whose ``runs[0]`` is the SimRun."""
     run = swept_sine(device, transmission, amplitude, f0_hz=f0_hz, f1_hz=f1_hz, **kw)
+    require_free([run], "swept sine")
     out, inp = f"{output}_{transmission}", f"torque_motor_cmd_{transmission}"
     y, u = np.asarray(run.log[out], float), np.asarray(run.log[inp], float)
     rate = run.log.meta["rate_hz"]

@@ -21,8 +21,46 @@ def default_control_hz(device: Device | CompiledDevice) -> float:
     return 5_000.0 if compile_device(device).device.drives else 1_000.0
 
 
+STOP_PENETRATION = 0.02
+"""End stops (sim.hpp, ``stop_stiffness``): depth [rad or m] to which the largest joint torque the motors can give
+(peak torques through the transmission) pushes a joint past its limit; K_s = that torque / STOP_PENETRATION."""
+STOP_DAMPING_RATIO = 0.7
+"""End stops: damping ratio ζ of the stop on the largest actuated-joint inertia, B_s = 2 ζ √(K_s m)."""
+
+
+def end_stops(compiled: CompiledDevice, m: _core.SimModel) -> None:
+    """Set the twin's end stops (sim.hpp: a spring–damper past each tree joint's limit, active and passive) on a
+    finalized model ``m``: the limits of the device file, K_s from :data:`STOP_PENETRATION` and the motors' peak
+    torques, B_s from :data:`STOP_DAMPING_RATIO` and the largest diagonal entry of the actuated joints' inertia
+    (links at the middle of the ranges, plus the rotors reflected through G_m)."""
+    import pinocchio as pin
+
+    from tendyn.device.rigid_body import tree_joint_numbers
+
+    joints = compiled.device.kinematics.joints
+    numbers = tree_joint_numbers(compiled.device)
+    lo = np.array([-np.inf if joints[n - 1].lower is None else joints[n - 1].lower for n in numbers], float)
+    hi = np.array([np.inf if joints[n - 1].upper is None else joints[n - 1].upper for n in numbers], float)
+    L, c = (np.asarray(a, float) for a in compiled.active_map)
+    Gm = np.asarray(m.Gm, float)
+    joint_peak = np.abs(Gm).T @ np.asarray(m.peak_torque, float)[:Gm.shape[0]]
+    torque = float(np.max(joint_peak)) if joint_peak.size and np.all(np.isfinite(joint_peak)) else 0.0
+    if torque <= 0.0 or not np.any(np.isfinite(lo) | np.isfinite(hi)):
+        return
+    mid = np.where(np.isfinite(lo) & np.isfinite(hi), 0.5 * (lo + hi), np.where(np.isfinite(lo), lo, hi))
+    mid = np.where(np.isfinite(mid), mid, 0.0)
+    qa = np.linalg.lstsq(L, mid - c, rcond=None)[0]
+    pm = compiled.pinocchio_model
+    Mt = pin.crba(pm, pm.createData(), L @ qa + c)
+    Mt = np.triu(Mt) + np.triu(Mt, 1).T
+    Ma = L.T @ Mt @ L + Gm.T @ np.diag(np.asarray(m.rotor_inertia, float)[:Gm.shape[0]]) @ Gm   # rotors reflected
+    m.stop_lower, m.stop_upper = lo, hi
+    m.stop_stiffness = torque / STOP_PENETRATION
+    m.stop_damping = 2.0 * STOP_DAMPING_RATIO * float(np.sqrt(m.stop_stiffness * np.max(np.diag(Ma))))
+
+
 def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, control_hz: float | None = None,
-              friction: bool = True, sensors: bool = True) -> _core.SimModel:
+              friction: bool = True, sensors: bool = True, stops: bool = False) -> _core.SimModel:
     """A new simulator model of ``device`` (a Device or its CompiledDevice; nothing is rebuilt).
 
     Parameters
@@ -32,6 +70,10 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
         a multiple of it
     friction : False switches every friction source off (energy checks, FRFs)
     sensors : False gives ideal sensors (no quantisation, no current noise)
+    stops : True puts end stops at the device's joint limits (:func:`end_stops`, issue 40); the experiments
+        (:mod:`tendyn.sim.experiments`: constant velocity, exciting, stepped and swept sines, friction
+        trajectories) and the hand and wall runs of Fig. 7 / Z-width turn them on; the bare model (physics
+        checks from arbitrary states) leaves them off
     """
     if not CHAIN_RATE_HZ[0] <= rate_hz <= CHAIN_RATE_HZ[1]:
         raise ValueError(f"rate_hz must be within 1–20 kHz (got {rate_hz})")
@@ -83,6 +125,9 @@ def sim_model(device: Device | CompiledDevice, rate_hz: float = 10_000.0, contro
         m.encoder_counts = np.array([s.encoder_counts for s in sens], float)
         m.current_noise = np.array([s.current_noise for s in sens], float)
     m.finalize()
+    if stops:
+        end_stops(compiled, m)
+        m.finalize()          # checks the stops (sizes, lower <= upper, K_s, B_s >= 0)
     return m
 
 

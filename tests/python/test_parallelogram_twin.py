@@ -1,0 +1,190 @@
+"""Issue 40: the twin of a desktop haptic arm keeps to its limits, its torque-mode tests are held by gravity
+compensation, identification on its exciting logs says when it is wrong, Z-width pushes within what it can give
+(generated parallelogram capstan arms, tendyn.devices.generate).
+
+Independent routes: the end stops' energy — the twin's mechanical energy (Pinocchio's kinetic and potential energy
+plus the stop springs) against the work of the motors and the hand less what friction, dampers and stops dissipate;
+the stop force against Hooke's law at rest; the held pose against the file's limits; the identified Coulomb
+friction against the file's; the largest push against the motors' peak torques through Pinocchio's Jacobian."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tendyn import _core
+from tendyn.device import compile_device
+from tendyn.devices import load
+from tendyn.devices.generate import write_parallelogram_arm
+
+
+def _arm(tmp_path, **kw):
+    return load(str(write_parallelogram_arm(tmp_path, **kw)))
+
+
+def _falling(dev, seconds, friction=False, stops=True, q0=(0.0, 0.3, 1.0)):  # noqa: D103
+    """The arm released in torque mode (no motor torque) at q0: it falls into its stops."""
+    from tendyn.sim.model import run_log, sim_model
+
+    m = sim_model(dev, friction=friction, sensors=False, stops=stops)
+    m.mode = _core.ControlMode.Torque
+    m.finalize()
+    d = _core.SimData(m)
+    q0 = np.asarray(q0, float)
+    d.reset(q0, 0)
+    d.set_motor_position(np.array(m.ratio) * q0)
+    e0 = _core.mechanical_energy(m, d)
+    n = int(round(seconds / m.dt)) // m.control_decimation * m.control_decimation
+    z = np.zeros((n, m.na))
+    raw = run_log(m, d, z, z, z, z, m.control_decimation)
+    return m, d, e0, raw["q_joint"]
+
+
+@pytest.mark.parametrize("seed", (0, 1, 2))
+def test_falling_arm_stops_at_its_limits_and_the_energy_balance_holds(tmp_path, seed):
+    """Released with no torque, the arm falls into its end stops and stays within STOP_PENETRATION of its
+    limits (without stops it leaves them by radians); the energy balance closes with the stops' dissipation to
+    10 % of the energy exchanged (measured 4–8 %: the implicit step's impact loss is not booked — open; without
+    the stops' bookkeeping in `dissipated` it is off by ~100 %)."""
+    from tendyn.sim.experiments import tree_limits
+    from tendyn.sim.model import STOP_PENETRATION
+
+    dev = _arm(tmp_path, seed=seed)
+    lo, hi, L, c = tree_limits(dev)
+    m, d, e0, q = _falling(dev, 1.5, friction=True)
+    qt = q @ L.T + c
+    assert d.stop_contact_time > 0.1
+    assert np.all(qt >= lo - 1.5 * STOP_PENETRATION) and np.all(qt <= hi + 1.5 * STOP_PENETRATION), \
+        (qt.min(0) - lo, qt.max(0) - hi)
+    e1 = _core.mechanical_energy(m, d)
+    balance = (e1 - e0) - (d.work_motor + d.work_external - d.dissipated)
+    assert abs(balance) < 0.10 * max(d.dissipated, abs(e1 - e0)), (balance, e1 - e0, d.dissipated)
+    _, _, _, q_free = _falling(dev, 1.5, friction=True, stops=False)
+    assert np.any(q_free @ L.T + c < lo - 0.3) or np.any(q_free @ L.T + c > hi + 0.3)   # the stops did it
+
+
+def test_stepped_sine_on_an_arm_under_gravity_is_held_and_a_fall_is_refused(tmp_path):
+    """A stepped sine on the shoulder: the twin's controller holds gravity, the arm stays inside its limits and
+    the FRF is computed; the same test without the hold falls into a stop and is refused (never a coherent,
+    wrong response)."""
+    from tendyn.sim import experiments as ex
+
+    dev = _arm(tmp_path, seed=1)
+    fr = ex.stepped_sine_response(dev, 2, omega=[2 * np.pi * 5.0], amplitude=0.005, cycles=4,
+                                  rate_hz=5_000.0, control_hz=5_000.0)
+    assert "end_stops" not in fr.runs[0].log.meta["options"] and np.isfinite(fr.ratio).all()
+    lo, hi, L, c = ex.tree_limits(dev)
+    qt = np.asarray(fr.runs[0].states["q_joint"]) @ L.T + c
+    assert np.all(qt >= lo) and np.all(qt <= hi)
+    real = ex.torque_mode_start
+
+    def no_hold(device, m, q0=None):
+        q = real(device, m, q0)
+        m.gravity_compensation = False
+        return q
+
+    ex.torque_mode_start = no_hold
+    try:
+        with pytest.raises(ValueError, match="end stop"):
+            ex.stepped_sine_response(dev, 2, omega=[2 * np.pi * 5.0], amplitude=0.005, cycles=4,
+                                     rate_hz=5_000.0, control_hz=5_000.0)
+    finally:
+        ex.torque_mode_start = real
+
+
+def test_frf_refuses_a_log_that_sat_on_a_stop():
+    from tendyn.ident.frf import frf_from_logs
+    from tendyn.io import make_log
+
+    t = np.arange(2000) / 1000.0
+    log = make_log({"time": t, "torque_motor_cmd_1": np.sin(2 * np.pi * 5 * t), "q_motor_1": np.sin(2 * np.pi * 5 * t)},
+                   device="x", rate_hz=1000.0, seed=0, experiment="stepped_sine",
+                   options={"end_stops": {"joints": [3], "contact_s": 1.2}})
+    with pytest.raises(ValueError, match="end stop"):
+        frf_from_logs([log], "torque_motor_cmd_1", "q_motor_1")
+
+
+def test_max_push_is_what_the_peak_torques_hold(tmp_path):
+    """max_push against its definition evaluated with Pinocchio (frame Jacobian, generalized gravity): at F_max
+    one motor is at its peak torque, at 0.99 F_max none is; the default push is within it."""
+    import pinocchio as pin
+
+    from tendyn.pipelines.s0_compensation import _Handle, hand_task
+    from tendyn.pipelines.zwidth import default_push, max_push
+
+    dev = _arm(tmp_path, seed=2)
+    comp = compile_device(dev)
+    task = hand_task(comp)
+    fmax = max_push(dev)
+    L, c = comp.active_map
+    pm = comp.pinocchio_model
+    _, J = _Handle(comp)(task.q0)
+    g = L.T @ pin.computeGeneralizedGravity(pm, pm.createData(), L @ task.q0 + c)
+    N = np.array([d.ratio for d in dev.drives])
+    peak = np.array([d.motor.peak_torque for d in dev.drives])
+    need = lambda f: np.abs(J.T @ task.wall_normal * f / N) + np.abs(g / N)  # noqa: E731  worst-case motor torque
+    assert abs(np.max(need(fmax) - peak)) < 1e-9 * peak.max()      # one motor at its peak
+    assert np.all(need(0.99 * fmax) < peak)
+    push, note = default_push(dev)
+    assert push <= 0.5 * fmax + 1e-12 and (note is None) == (push == 10.0)
+
+
+@pytest.mark.slow
+def test_zwidth_default_push_note_on_a_weak_arm(tmp_path):
+    """`tendyn zwidth` on an arm whose motors cannot hold 20 N says why it pushes less."""
+    import subprocess
+    import sys
+
+    arm = write_parallelogram_arm(tmp_path, seed=0)
+    r = subprocess.run([sys.executable, "-m", "tendyn.cli", "zwidth", str(arm), "--stiffness", "500:1000:2",
+                        "--damping", "0:0:1", "--modes", "gravity", "--scheduler", "none", "--horizon", "0.2",
+                        "--quiet", "--json"], capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert "note: the default push" in r.stderr
+
+
+def _exciting_fit(dev, seed=1, consistent="auto"):
+    from tendyn.ident import IDIM
+    from tendyn.sim.experiments import exciting_trajectory
+
+    run = exciting_trajectory(dev, duration=20.0, seed=seed)
+    return IDIM(compile_device(dev), consistent=consistent).fit(run.log).result_
+
+
+@pytest.mark.parametrize("seed", (0, 2))
+def test_identify_on_the_twins_exciting_log_recovers_coulomb_and_a_physical_inertia(tmp_path, seed):
+    """IDIM on the twin's own 20 s exciting log (S2): every drive's Coulomb friction at the joint (N C_m0) within
+    10 % of the file's, every link's pseudo-inertia physical, and a viscous term whose σ exceeds its value is
+    named in the warnings (never a silent number). ~4 s."""
+    dev = _arm(tmp_path, seed=seed)
+    res = _exciting_fit(dev)
+    val = dict(zip(res.names, res.values))
+    sig = dict(zip(res.names, res.stderr))
+    for d in dev.drives:
+        fs = val[f"FS{d.joint}"]
+        assert abs(fs / (d.ratio * d.coulomb_motor) - 1) < 0.10, (d.name, fs, d.ratio * d.coulomb_motor)
+        fv = f"FV{d.joint}"
+        if sig[fv] > abs(val[fv]):
+            assert any(w.startswith(fv + " ") for w in res.warnings), res.warnings
+    assert all(p["ok"] for p in res.pseudo_inertia), res.pseudo_inertia
+
+
+def test_a_non_physical_plain_fit_is_replaced_by_the_consistent_one(tmp_path, monkeypatch):
+    """consistent="auto": when the plain fit is not physical the consistent estimate is reported, with a warning
+    that says so and the plain result kept (here the plain fit is declared non-physical to reach the branch)."""
+    from tendyn.ident import estimate
+
+    dev = _arm(tmp_path, seed=0)
+    calls = []
+    real = estimate.not_physical
+    monkeypatch.setattr(estimate, "not_physical", lambda r: calls.append(r) or True)
+    res = _exciting_fit(dev)
+    monkeypatch.setattr(estimate, "not_physical", real)
+    assert "consistent" in res.method and res.plain is calls[0] and "not physical" in res.warnings[0]
+
+
+def test_sigma_dwarfing_a_friction_value_is_a_warning():
+    from tendyn.ident.estimate import implausible
+
+    w = implausible(["FV1", "FS1", "ZZ1R"], [2e-4, 0.02, 1e-3], [5e-4, 1e-4, 5e-3])
+    assert len(w) == 1 and w[0].startswith("FV1 = 0.0002 ± 0.0005") and "does not" not in w[0][:10]
