@@ -255,6 +255,14 @@ class Transmission:
         _core.joint_from_motor(self._model, self._data, as_vector(q_motor, "q_motor", self.n))
         return np.array(self._data.q)
 
+    def motor_alone_joint_speeds(self, i: int, speed: float) -> np.ndarray:
+        """Joint speeds [rad/s] while motor ``i`` (0-based) alone turns at ``speed`` [rad/s], the others held:
+        q̇ = K⁻¹ R_m e_i v (S0 eqs. 1–2 and 14, corrected: ERRATA; the core's joint_from_motor_position). The one
+        definition of "motor i alone" the passivity bound and the export summary read."""
+        if not 0 <= i < self.n:
+            raise ValueError(f"motor index {i} out of range 0..{self.n - 1}")
+        return np.asarray(self._model.joint_from_motor_position, float)[:, i] * float(speed)
+
     def motor_from_joint(self, q) -> np.ndarray:
         """Motor positions [rad] from joint positions [rad]."""
         _core.motor_from_joint(self._model, self._data, as_vector(q, "q", self.n))

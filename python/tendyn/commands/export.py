@@ -118,7 +118,7 @@ def run_export(args) -> int:
 
         transmission = losses.transmission(dev) if losses is not None else device_transmission(dev)
         transmission.export(args.out)
-    rows = _summary_rows(dev, losses, transmission)
+    rows = _summary_rows(transmission)
     summary = {"out": str(args.out), "kind": args.kind, "device": dev.name,
                "friction": None if args.friction is None else str(args.friction),
                "sources": losses.sources if losses is not None else "device", "underestimation": args.k,
@@ -139,18 +139,14 @@ def run_export(args) -> int:
     return 0
 
 
-def _summary_rows(dev, losses, transmission) -> list[dict]:
+def _summary_rows(transmission) -> list[dict]:
     """Friction [N·m] the exported transmission puts at each motor moving alone at CHECK_SPEEDS, zero load."""
-    from tendyn.ident.friction import isolated_move_joint_speeds
-    from tendyn.ident.loss_model import routing_of
-
-    arr = routing_of(dev)
     n = transmission.n
     rows = []
     for j in range(n):
         f = []
         for v in CHECK_SPEEDS:
-            qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], j, "S2", v)
+            qd = transmission.motor_alone_joint_speeds(j, v)
             f.append(float(transmission.feedforward(np.zeros(n), qd).torque_motor[j]))
         rows.append({"transmission": j + 1, "speeds": list(CHECK_SPEEDS), "friction": f})
     return rows

@@ -53,13 +53,12 @@ def dissipation_bound(device: Device | CompiledDevice, friction=None, margin: fl
         raise ValueError(f"margin must be in (0, 1] (got {margin})")
     tr = transmission_with_friction(compile_device(device), friction)
     n = tr.n
-    joint_from_motor = np.array(tr.model.joint_from_motor_position)
     A = np.column_stack([np.ones_like(BOUND_SPEEDS), BOUND_SPEEDS])
     coulomb, viscous = np.zeros(n), np.zeros(n)
     for i in range(n):
         torque = np.empty(len(BOUND_SPEEDS))
         for k, v in enumerate(BOUND_SPEEDS):
-            qd = joint_from_motor @ (v * np.eye(n)[i])
+            qd = tr.motor_alone_joint_speeds(i, v)
             torque[k] = tr.feedforward(np.zeros(n), qd).torque_motor[i]
         c, b = np.linalg.lstsq(A, torque, rcond=None)[0]
         coulomb[i], viscous[i] = max(c, 0.0) * margin, max(b, 0.0) * margin

@@ -1,0 +1,27 @@
+"""Issue 33: one owner per physical concept, each checked against an independent route."""
+
+import numpy as np
+import pytest
+
+from tendyn.devices import bundled, generate
+from tendyn.device import load_device
+from tendyn.transmission import Transmission
+
+
+@pytest.mark.parametrize("name", ["lexos", "generated"])
+def test_motor_alone_speeds_hold_the_other_motors(name, tmp_path):
+    """``Transmission.motor_alone_joint_speeds`` (the passivity bound's and the export summary's one definition):
+    the motor velocities R_m⁻¹ K q̇ are v on motor i and 0 on every other (S0 eqs. 1–2), checked from the
+    device's routing arrays, not the core's inverse."""
+    if name == "generated":
+        dev = load_device(generate.write_cable_device(tmp_path, 4, seed=3, differential=True))
+    else:
+        dev = load_device(bundled(name))
+    arr = dev.routing_arrays()
+    tr = Transmission.from_device(dev)
+    for i in range(tr.n):
+        qd = tr.motor_alone_joint_speeds(i, 2.5)
+        qm = np.linalg.solve(np.diag(arr["motor_radius"]), arr["K"] @ qd)
+        np.testing.assert_allclose(qm, 2.5 * np.eye(tr.n)[i], atol=1e-12)
+    with pytest.raises(ValueError, match="motor index"):
+        tr.motor_alone_joint_speeds(tr.n, 1.0)
