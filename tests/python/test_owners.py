@@ -25,3 +25,16 @@ def test_motor_alone_speeds_hold_the_other_motors(name, tmp_path):
         np.testing.assert_allclose(qm, 2.5 * np.eye(tr.n)[i], atol=1e-12)
     with pytest.raises(ValueError, match="motor index"):
         tr.motor_alone_joint_speeds(tr.n, 1.0)
+
+
+def test_the_velocity_threshold_rule_is_the_treatments():
+    """One rule (``tendyn.ident.treatment``) for IDIM in memory, ``--stream`` and the S2 design's cond(W): the
+    default is DEFAULT_VELOCITY_FRACTION of each joint's peak, a number the same for all, a tuple per joint;
+    a sample at exactly the threshold is kept."""
+    from tendyn.ident.treatment import DEFAULT_VELOCITY_FRACTION, above_threshold, velocity_thresholds
+
+    peaks = np.array([2.0, 8.0, 0.5])
+    np.testing.assert_array_equal(velocity_thresholds(None, peaks), DEFAULT_VELOCITY_FRACTION * peaks)
+    np.testing.assert_array_equal(velocity_thresholds(0.15, peaks), [0.15] * 3)
+    np.testing.assert_array_equal(velocity_thresholds((0.1, 0.2, 0.3), peaks), [0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(above_threshold([-0.2, 0.1, 0.15, -0.15], 0.15), [True, False, True, True])

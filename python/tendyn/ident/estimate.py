@@ -20,7 +20,8 @@ import numpy as np
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel, cached_model, diagonal_coupling  # noqa: F401 — cached_model: its home is model.py
 from .result import IdentificationResult, implausible, not_physical  # noqa: F401 — their home is result.py
-from .treatment import DEFAULT_VELOCITY_FRACTION, PRESETS, drop_stale, preset_treatment, stack_blocks, treat
+from .treatment import (PRESETS, above_threshold, drop_stale, preset_treatment, stack_blocks, treat,
+                        velocity_thresholds)
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
 
@@ -192,7 +193,7 @@ class IDIM:
             t = np.concatenate([b.time for b in blocks])
             vel = np.concatenate([b.velocity for b in blocks])
             thr = self._thresholds(blocks)
-            keep = np.abs(vel) >= np.repeat(thr, [b.y.size for b in blocks])
+            keep = above_threshold(vel, np.repeat(thr, [b.y.size for b in blocks]))
             self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
             n_out = blocks[0].y.size                # the sample of every row, numbered over all the logs
@@ -224,11 +225,7 @@ class IDIM:
         ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
         tr = getattr(self, "treatment_", None)      # the option given, else the preset's (None: the default rule)
         vt = self.velocity_threshold if tr is None else tr.velocity_threshold
-        if vt is None:
-            return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
-        if isinstance(vt, tuple):
-            return np.asarray(vt, float)
-        return np.full(len(blocks), float(vt))
+        return velocity_thresholds(vt, [np.max(np.abs(b.velocity)) for b in blocks])
 
     @staticmethod
     def _treat_here(model, log, parts, settings):
