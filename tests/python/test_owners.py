@@ -38,3 +38,29 @@ def test_the_velocity_threshold_rule_is_the_treatments():
     np.testing.assert_array_equal(velocity_thresholds(0.15, peaks), [0.15] * 3)
     np.testing.assert_array_equal(velocity_thresholds((0.1, 0.2, 0.3), peaks), [0.1, 0.2, 0.3])
     np.testing.assert_array_equal(above_threshold([-0.2, 0.1, 0.15, -0.15], 0.15), [True, False, True, True])
+
+
+def test_friction_json_is_read_once_by_a_compensator_with_its_passivity_controller(tmp_path, monkeypatch):
+    """The compensator and its passivity bound take one loss model, built once from FRICTION.json (with the
+    shares given): the file is read once and the bound is the one of those losses."""
+    import json
+
+    from tendyn.control import Compensator
+    from tendyn.control.passivity import dissipation_bound
+    from tendyn.ident import loss_model
+
+    dev = load_device(bundled("lexos"))
+    n = dev.n_transmissions
+    c0, nu = [0.02 + 0.01 * i for i in range(n)], [1e-3 * (i + 1) for i in range(n)]
+    doc = {"format": "tendyn.friction/1", "device": dev.name, "n_transmissions": n, "coulomb_motor": c0,
+           "viscous_motor": nu, "fits": [{"transmission": i + 1, "coulomb_motor": c0[i], "viscous_motor": nu[i],
+                                          "coulomb_motor_std": 1e-4, "viscous_motor_std": 1e-5} for i in range(n)]}
+    path = tmp_path / "friction.json"
+    path.write_text(json.dumps(doc))
+    reads = []
+    real = loss_model._read
+    monkeypatch.setattr(loss_model, "_read", lambda f: reads.append(f) or real(f))
+    comp = Compensator.from_device(dev, friction=str(path), passivity=True)
+    assert len(reads) == 1
+    c, b = dissipation_bound(dev, loss_model.identified_losses(dev, doc))
+    np.testing.assert_allclose(np.array(comp.model.passivity.dissipation_coulomb), c, rtol=1e-12)

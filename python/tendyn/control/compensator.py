@@ -173,7 +173,7 @@ class Compensator:
         else:
             from tendyn.ident.loss_model import identified_losses
 
-            losses = identified_losses(compiled, friction, shares)
+            losses = friction = identified_losses(compiled, friction, shares)   # read once: the passivity bound too
             m.transmission = losses.transmission(compiled.device).model
             m.loss_source = losses.source_list()
             m.friction_source = losses.origin
