@@ -64,3 +64,42 @@ def test_friction_json_is_read_once_by_a_compensator_with_its_passivity_controll
     assert len(reads) == 1
     c, b = dissipation_bound(dev, loss_model.identified_losses(dev, doc))
     np.testing.assert_allclose(np.array(comp.model.passivity.dissipation_coulomb), c, rtol=1e-12)
+
+
+def test_a_calibrated_device_records_the_source_of_every_term(tmp_path):
+    """``calibrate``: identified friction replaces every loss term of the file (one loss model) with its document
+    named, an identified capstan stiffness replaces the file's per drive, and the compensator built from the
+    calibrated device is the one built from the same friction directly."""
+    import json
+
+    from tendyn.control import Compensator
+    from tendyn.devices.generate import write_parallelogram_arm
+    from tendyn.ident.calibrated import CalibrationError, calibrate
+
+    dev = load_device(bundled("lexos"))
+    n = dev.n_transmissions
+    c0, nu = [0.02 + 0.01 * i for i in range(n)], [1e-3 * (i + 1) for i in range(n)]
+    doc = {"format": "tendyn.friction/1", "device": dev.name, "n_transmissions": n, "coulomb_motor": c0,
+           "viscous_motor": nu, "fits": [{"transmission": i + 1, "coulomb_motor": c0[i], "viscous_motor": nu[i],
+                                          "coulomb_motor_std": 1e-4, "viscous_motor_std": 1e-5} for i in range(n)]}
+    path = tmp_path / "FRICTION.json"
+    path.write_text(json.dumps(doc))
+    plain = calibrate(dev)
+    assert set(plain.sources.values()) == {"file"} and plain.losses is None
+    cal = calibrate(dev, str(path))
+    assert cal.sources["tau0"] == cal.sources["nu"] == "identified: FRICTION.json"
+    assert cal.sources["bearings"] == "none"          # replaced, not stacked on the file's
+    a = Compensator.from_device(cal).model.transmission
+    b = Compensator.from_device(dev, friction=str(path)).model.transmission
+    np.testing.assert_array_equal(np.array(a.tau0), np.array(b.tau0))
+    with pytest.raises(CalibrationError, match="about 'other'"):
+        calibrate(dev, {**doc, "device": "other"})
+
+    arm = load_device(write_parallelogram_arm(tmp_path, seed=1))
+    k = [d.stiffness_motor * 2 for d in arm.drives]
+    stiff = calibrate(arm, stiffness=k)
+    assert [d.stiffness_motor for d in stiff.device.drives] == k
+    assert stiff.sources["stiffness_motor[1]"] == "identified: stiffness"
+    assert [d.stiffness_motor for d in arm.drives] == [v / 2 for v in k]        # the file's device untouched
+    with pytest.raises(CalibrationError, match="stiffness_motor"):
+        calibrate(arm, stiffness=k[:-1])

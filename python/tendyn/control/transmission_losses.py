@@ -4,6 +4,7 @@ and the passivity controller's dissipation bound both read, in one place (neithe
 from __future__ import annotations
 
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.device.compiled import device_transmission  # noqa: F401 — its home is the compiled device
 from tendyn.transmission import Transmission
 
 __all__ = ["device_transmission", "transmission_with_friction"]
@@ -30,25 +31,3 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None, s
 
     return identified_losses(compiled, friction, shares).transmission(compiled.device)
 
-
-def device_transmission(device: Device | CompiledDevice) -> Transmission:
-    """The transmission a compensator of ``device`` drives with the device file's losses: its cable
-    transmissions, or its capstan ``[[drives]]`` as one-branch transmissions (S0 eq. 17 with one branch:
-    C_m = τ/N + C_m0 sgn(q̇_m) + ν_m q̇_m; :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`).
-
-    Raises
-    ------
-    ValueError
-        A device with neither (a tendon bench, geared ``[[actuators]]``).
-    """
-    compiled = compile_device(device)
-    if compiled.transmission is not None:
-        return compiled.transmission
-    dev = compiled.device
-    if compiled.kind == "serial" and getattr(dev, "drives", ()):
-        from tendyn.transmission import LOSS_FIELDS
-
-        a = dev.drive_routing_arrays()
-        return Transmission.from_arrays(a["motor_radius"], a["K"], a["reducer_ratio"], a["reducer_efficiency"],
-                                        a["pretension"], **{k: a[k] for k in LOSS_FIELDS})
-    raise ValueError(f"{compiled.name}: no cable transmissions or capstan drives to compensate")
