@@ -103,3 +103,20 @@ def test_a_calibrated_device_records_the_source_of_every_term(tmp_path):
     assert [d.stiffness_motor for d in arm.drives] == [v / 2 for v in k]        # the file's device untouched
     with pytest.raises(CalibrationError, match="stiffness_motor"):
         calibrate(arm, stiffness=k[:-1])
+
+
+def test_the_passivity_bound_of_a_calibrated_device_is_the_one_of_its_friction():
+    """``passivity_model`` / ``dissipation_bound`` take the calibrated device and its one loss model."""
+    from tendyn.control.passivity import dissipation_bound
+    from tendyn.ident.calibrated import calibrate
+
+    dev = load_device(bundled("lexos"))
+    n = dev.n_transmissions
+    doc = {"device": dev.name, "tau0": (np.eye(n) * 0.5).tolist(), "nu": (np.eye(n) * 2.0).tolist()}
+    c_cal, b_cal = dissipation_bound(calibrate(dev, doc))
+    c_doc, b_doc = dissipation_bound(dev, doc)
+    c_file, _ = dissipation_bound(calibrate(dev))
+    np.testing.assert_allclose(c_cal, c_doc, rtol=1e-12)
+    np.testing.assert_allclose(b_cal, b_doc, rtol=1e-12)
+    np.testing.assert_allclose(c_file, dissipation_bound(dev)[0], rtol=1e-12)
+    assert not np.allclose(c_cal, c_file)

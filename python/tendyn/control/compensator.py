@@ -166,11 +166,9 @@ class Compensator:
             (``forgetting``, ``velocity_min``, ``acceleration_max``, ``scale_min``, ``scale_max``,
             ``covariance_max``) or a ``_core.FrictionTrackingModel``: online friction tracking (RLS)
         """
-        from tendyn.ident.calibrated import CalibratedDevice
+        from tendyn.ident.calibrated import unwrap
 
-        if isinstance(device, CalibratedDevice):     # the identified loss model it holds (built once)
-            friction = device.losses if friction is None else friction
-            device = device.compiled
+        device, friction = unwrap(device, friction)     # a calibrated device: its loss model, built once
         compiled = compile_device(device)
         m = _core.CompensatorModel()
         if friction is None:

@@ -51,7 +51,7 @@ def dissipation_bound(device: Device | CompiledDevice, friction=None, margin: fl
     """
     if not 0.0 < margin <= 1.0:
         raise ValueError(f"margin must be in (0, 1] (got {margin})")
-    tr = transmission_with_friction(compile_device(device), friction)
+    tr = transmission_with_friction(device, friction)
     n = tr.n
     A = np.column_stack([np.ones_like(BOUND_SPEEDS), BOUND_SPEEDS])
     coulomb, viscous = np.zeros(n), np.zeros(n)
@@ -78,6 +78,9 @@ def passivity_model(device: Device | CompiledDevice, friction=None, *, margin: f
         ``rate_hz`` (α_max T / J_rotor = 1: a one-period damper cannot reverse a free rotor)
     rate_hz : control rate [Hz]
     """
+    from tendyn.ident.calibrated import unwrap
+
+    device, friction = unwrap(device, friction)     # a calibrated device: its one loss model
     compiled = compile_device(device)
     coulomb, viscous = dissipation_bound(compiled, friction, margin)
     if damping_max is None:

@@ -24,6 +24,9 @@ def transmission_with_friction(device: Device | CompiledDevice, friction=None, s
         (:class:`tendyn.ident.loss_model.LossModelError`) a file of another device or transmission count, or
         a negative or non-finite value, naming the source and field.
     """
+    from tendyn.ident.calibrated import unwrap
+
+    device, friction = unwrap(device, friction)     # a calibrated device: its one loss model
     compiled = compile_device(device)
     if friction is None:
         return device_transmission(compiled)

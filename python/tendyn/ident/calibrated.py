@@ -28,7 +28,7 @@ from tendyn.device.compiled import as_device, device_transmission
 
 from .loss_model import LOSS_TERMS, IdentifiedLosses, LossModelError, identified_losses
 
-__all__ = ["CalibratedDevice", "CalibrationError", "calibrate"]
+__all__ = ["CalibratedDevice", "CalibrationError", "calibrate", "unwrap"]
 
 FILE = "file"
 """The source of a value the device file gives (no identified document replaces it)."""
@@ -72,6 +72,15 @@ class CalibratedDevice:
         if self.losses is not None:
             return self.losses.transmission(self.device)
         return device_transmission(self.compiled)
+
+
+def unwrap(device, friction=None):
+    """(device, friction) for a consumer that takes either a calibrated device or a device and its friction: a
+    :class:`CalibratedDevice` gives its compiled device and its loss model (None: the file's), unless
+    ``friction`` is given; anything else is returned as it is."""
+    if isinstance(device, CalibratedDevice):
+        return device.compiled, device.losses if friction is None else friction
+    return device, friction
 
 
 def _origin(doc) -> str:
