@@ -127,13 +127,18 @@ class IDIM:
         peer's published one ("janot", "wpi", "figaroh"): its filters, decimation, velocity threshold, velocities,
         trimming, weighting (with ``method="wls"``) and fitting space replace tendyn's defaults; ``cutoff_hz``,
         ``decimate`` and ``velocity_threshold`` given win over the preset's.
+    bounds : dict or None
+        With ``consistent=True``: box constraints {name: (lower, upper)} on standard parameters (their units) and
+        centres of mass ``CX<j>``/``CY<j>``/``CZ<j>`` [m] (:func:`tendyn.ident.consistent.check_bounds`), e.g. a
+        peer's hand-chosen boxes; None: the LMIs and non-negative friction and rotor inertias only.
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
                  parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
-                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1):
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None):
         self.device = device
+        self.bounds = bounds
         self.treatment = treatment
         self.controller = controller
         self.output = output
@@ -344,6 +349,8 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.bounds and self.consistent is not True:
+            raise ValueError("bounds need consistent=True (they constrain the physically consistent fit)")
         if self.consistent == "auto":
             return self._fit_auto(logs, crossval)
         if self.method in CLOSED_LOOP:
@@ -374,7 +381,7 @@ class IDIM:
         if self.consistent:
             from .consistent import consistent_fit
 
-            xs = consistent_fit(model, Wstd * weights[:, None], Y * weights)
+            xs = consistent_fit(model, Wstd * weights[:, None], Y * weights, bounds=self.bounds)
             self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
             x = (base.combination @ xs)[cols]
             _, se, _, _ = least_squares(Wsel * weights[:, None], Y * weights, at=x)
@@ -454,7 +461,7 @@ class IDIM:
         if self.consistent:        # the same estimator on the first part
             from .consistent import consistent_fit
 
-            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w))[cols]
+            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w, bounds=self.bounds))[cols]
         Yv, Wv, rv, _, _ = self.observations(*valp)
         Wvb = Wv[:, list(base.columns)][:, cols]
         res = Yv - Wvb @ x
