@@ -58,7 +58,8 @@ __all__ = ["LURE_NONLINEARITIES", "NONLINEARITIES", "STRUCTURES", "BlockModel", 
 STRUCTURES = ("wiener", "hammerstein", "lure", "push-pull")
 LURE_STRUCTURES = ("lure", "push-pull")
 """Structures whose nonlinearity sits in G's feedback (:data:`LURE_NONLINEARITIES`, simulated by a recursion)."""
-AUTO_CANDIDATES = (("wiener", "dead-zone"), ("lure", "coulomb"), ("push-pull", "coulomb"))
+AUTO_CANDIDATES = (("wiener", "dead-zone"), ("lure", "coulomb"), ("push-pull", "coulomb"),
+                   ("push-pull", "coulomb-tension"))
 """(structure, nonlinearity) pairs tried by ``BlockModel("auto")`` (chosen by the validation NRMS)."""
 
 
@@ -113,7 +114,7 @@ NONLINEARITIES: dict[str, Nonlinearity] = {n.name: n for n in (
 NONLINEARITIES["dead-band"] = NONLINEARITIES["dead-zone"]
 IDENTITY = Nonlinearity("identity", (), lambda x, p: x, lambda x, p: np.ones_like(x),
                         lambda x, p: np.zeros((x.size, 0)), (), "f = x (the linear output-error fit)")
-NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "saturation", "abs", "polynomial")
+NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "coulomb-tension", "saturation", "abs", "polynomial")
 LURE_NONLINEARITIES: dict[str, Nonlinearity] = {n.name: n for n in (Nonlinearity(
     "coulomb", ("level",), lambda v, p: p[0] * _sgn(v), lambda v, p: np.zeros_like(v), lambda v, p: _sgn(v)[:, None],
     (0.0,), "φ = F sgn(Δy) fed back to G's input, sticking (Δy = 0, |φ| ≤ F) when it can: Coulomb friction of "
