@@ -29,6 +29,12 @@ the friction's sign read from the measured output (:func:`_initial_lure`), exact
 output-error G has its damping inflated by the friction; from it the McGill twin's fit ends at a higher
 cost, docs/bench-identification.md).
 
+``coulomb-tension`` (Lur'e, push-pull): the level of each branch F + μ s y grows with its output (a node's friction
+linear in its tendon's tension, S1 §4) and the recursion runs :data:`LURE_SUBSTEPS` steps a sample on G's
+continuous equivalent re-sampled (:func:`_fine`), so stick/slip is decided 4× finer than the log rate: a model
+fitted at one amplitude then holds at 0.5× and 1.5× of it within 1.2× its NRMS on generated benches, where the
+constant level at the log rate reached 1.35× (docs/bench-identification.md).
+
 RMS [output unit] and NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (1: no better than the mean) are reported on the fit and
 on validation records. :class:`BlockModel` is the estimator (hyper-parameters in ``__init__``, learned values
 with a trailing ``_``, ``fit`` / ``predict`` / ``score``); its ``result_`` a :class:`BlockModelFit`.
