@@ -64,8 +64,14 @@ def _treat_log(device, log, parts, settings):
 def _treat_logs(device, logs, parts, settings):
     """:func:`_treat_log` of several logs in one Dask task (a campaign is split into one batch per worker: one
     task, one model look-up and one round trip per batch, not per log)."""
+    from tendyn.ident.cluster import worker_threads
+
     model = cached_model(device)
-    return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+    before, model.threads = model.threads, worker_threads()   # the worker's threads, not every CPU (cluster.py)
+    try:
+        return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+    finally:
+        model.threads = before
 
 
 def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
@@ -475,7 +481,7 @@ class IDIM:
 
     def _distributed(self, logs, parts, settings):
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
-        from dask.distributed import Client, LocalCluster, as_completed
+        from dask.distributed import Client, as_completed
 
         from tendyn.progress import quiet_dask
 
@@ -483,8 +489,9 @@ class IDIM:
         dev = self._model().device
         own = None
         if self.scheduler == "local":
-            own = LocalCluster(n_workers=min(len(logs), os.cpu_count() or 1), threads_per_worker=1,
-                               processes=True, dashboard_address=None)
+            from tendyn.ident.cluster import local_cluster
+
+            own = local_cluster(min(len(logs), os.cpu_count() or 1))
             client = Client(own)
         else:
             from tendyn.ident.cluster import connect_scheduler
@@ -494,8 +501,10 @@ class IDIM:
             shipped = client.scatter(dev, broadcast=True)      # the device goes to each worker once
             workers = len(client.scheduler_info().get("workers", {})) or len(logs)
             batches = campaign_batches(len(logs), workers)
-            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False)
-                       for b in batches]
+            from tendyn.ident.cluster import placement
+
+            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False, **kw)
+                       for b, kw in zip(batches, placement(client, len(batches)))]
             index = {f.key: k for k, f in enumerate(futures)}
             done = [None] * len(futures)
             bar = None
