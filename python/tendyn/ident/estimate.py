@@ -606,8 +606,13 @@ class IDIM:
         self.params_, self.stderr_ = x, se
         self.rel_stderr_ = rel_stderr_pct(se, x)
         Ww = Wsel * weights[:, None]
-        self.cond_ = float(np.linalg.cond(Ww))
-        self.cond_scaled_ = float(np.linalg.cond(Ww / np.linalg.norm(Ww, axis=0)))
+        # cond(W) and cond(W D) (D: unit columns) from one QR: W = Q R, the same singular values as R, half the
+        # CPU of two SVDs of the tall W (the client's serial share of a Dask campaign, docs/design.md)
+        R = np.linalg.qr(Ww, mode="r")
+        sv = np.linalg.svd(R, compute_uv=False)
+        svs = np.linalg.svd(R / np.linalg.norm(Ww, axis=0), compute_uv=False)
+        self.cond_ = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        self.cond_scaled_ = float(svs[0] / svs[-1]) if svs[-1] > 0 else float("inf")
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
