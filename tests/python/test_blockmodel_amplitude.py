@@ -7,7 +7,9 @@ in tension); the estimator sees only the logs' (u, y). The push-pull Lur'e model
 one friction level fed the half-waves) holds; the one-loop Lur'e model does not at half the amplitude on the
 McGill twin — the test that shows the criterion can fail. Records of 4 s at 1 kHz: shorter ones let one record's detail (the twin's tension-dependent friction)
 move the ratio by ±0.3. The Lur'e fits are scalar recursions (≈ 1 µs a sample in Python): the McGill test takes
-≈ 10 s, the generated benches are marked slow (the same code path as the McGill test)."""
+≈ 10 s. On generated benches the constant-level model misses (1.21–1.35×); the ``coulomb-tension`` model (level
+linear in the branch's output, 4 recursion steps a sample) holds: one generated bench in the fast suite, the
+others and the McGill twin marked slow (the same code path)."""
 
 from __future__ import annotations
 
