@@ -44,8 +44,14 @@ def _treat_log(device, log, parts, settings):
 def _treat_logs(device, logs, parts, settings):
     """:func:`_treat_log` of several logs in one Dask task (a campaign is split into one batch per worker: one
     task, one model look-up and one round trip per batch, not per log)."""
+    from tendyn.ident.cluster import worker_threads
+
     model = cached_model(device)
-    return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+    before, model.threads = model.threads, worker_threads()   # the worker's threads, not every CPU (cluster.py)
+    try:
+        return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+    finally:
+        model.threads = before
 
 
 def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
@@ -267,7 +273,7 @@ class IDIM:
 
     def _distributed(self, logs, parts, settings):
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
-        from dask.distributed import Client, LocalCluster, as_completed
+        from dask.distributed import Client, as_completed
 
         from tendyn.progress import quiet_dask
 
@@ -275,8 +281,9 @@ class IDIM:
         dev = self._model().device
         own = None
         if self.scheduler == "local":
-            own = LocalCluster(n_workers=min(len(logs), os.cpu_count() or 1), threads_per_worker=1,
-                               processes=True, dashboard_address=None)
+            from tendyn.ident.cluster import local_cluster
+
+            own = local_cluster(min(len(logs), os.cpu_count() or 1))
             client = Client(own)
         else:
             from tendyn.ident.cluster import connect_scheduler
@@ -286,8 +293,10 @@ class IDIM:
             shipped = client.scatter(dev, broadcast=True)      # the device goes to each worker once
             workers = len(client.scheduler_info().get("workers", {})) or len(logs)
             batches = campaign_batches(len(logs), workers)
-            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False)
-                       for b in batches]
+            from tendyn.ident.cluster import placement
+
+            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False, **kw)
+                       for b, kw in zip(batches, placement(client, len(batches)))]
             index = {f.key: k for k, f in enumerate(futures)}
             done = [None] * len(futures)
             bar = None
@@ -391,8 +400,13 @@ class IDIM:
         self.params_, self.stderr_ = x, se
         self.rel_stderr_ = rel_stderr_pct(se, x)
         Ww = Wsel * weights[:, None]
-        self.cond_ = float(np.linalg.cond(Ww))
-        self.cond_scaled_ = float(np.linalg.cond(Ww / np.linalg.norm(Ww, axis=0)))
+        # cond(W) and cond(W D) (D: unit columns) from one QR: W = Q R, the same singular values as R, half the
+        # CPU of two SVDs of the tall W (the client's serial share of a Dask campaign, docs/design.md)
+        R = np.linalg.qr(Ww, mode="r")
+        sv = np.linalg.svd(R, compute_uv=False)
+        svs = np.linalg.svd(R / np.linalg.norm(Ww, axis=0), compute_uv=False)
+        self.cond_ = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        self.cond_scaled_ = float(svs[0] / svs[-1]) if svs[-1] > 0 else float("inf")
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))

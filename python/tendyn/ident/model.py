@@ -90,6 +90,7 @@ class IdentModel:
     def __init__(self, device):
         from tendyn import _core
 
+        self.threads = None         # core threads of the regressor when not given (None: every CPU; a worker's own)
         self.compiled = compile_device(device)
         self.device = self.compiled.device
         self.rigid_body = self.compiled.rigid_body
@@ -214,7 +215,8 @@ class IdentModel:
         taps : symmetric FIR of odd length (the parallel filter; (1,) = none); K : decimation factor.
         columns : None for the standard parameters (:attr:`standard_names`, the ``[[terms]]`` columns last), or
             indices into them.
-        threads : core threads (None: the CPUs this process may use); the result does not depend on it.
+        threads : core threads (None: :attr:`threads`, else the CPUs this process may use); the result does not
+            depend on it.
 
         Returns
         -------
@@ -225,7 +227,7 @@ class IdentModel:
         f = lambda x: np.ascontiguousarray(x, float)
         W = _core.identification_regressor(self.rigid_body, self._data, self.L, self.c, self.G, f(q), f(qd),
                                            f(qdd), np.asarray(taps, float), int(K),
-                                           int(threads or len(os.sched_getaffinity(0))))
+                                           int(threads or self.threads or len(os.sched_getaffinity(0))))
         if not len(self.terms):
             cols = self.standard_columns if columns is None else self.standard_columns[np.asarray(columns)]
             return W[:, cols]
