@@ -43,9 +43,11 @@ def _falling(dev, seconds, friction=False, stops=True, q0=(0.0, 0.3, 1.0)):  # n
 @pytest.mark.parametrize("seed", (0, 1, 2))
 def test_falling_arm_stops_at_its_limits_and_the_energy_balance_holds(tmp_path, seed):
     """Released with no torque, the arm falls into its end stops and stays within STOP_PENETRATION of its
-    limits (without stops it leaves them by radians); the energy balance closes with the stops' dissipation to
-    10 % of the energy exchanged (measured 4–8 %: the implicit step's impact loss is not booked — open; without
-    the stops' bookkeeping in `dissipated` it is off by ~100 %)."""
+    limits (without stops it leaves them by radians); the energy balance ΔE = W − dissipated − numerical_loss
+    closes to 2e-3 of the energy exchanged (measured 1–5e-4 at 10 kHz, first order in the step; 4–8 % before
+    the implicit step's own impact loss ½ Δvᵀ M Δv was booked in `numerical_loss`; planted: that loss not
+    booked, or booked without taking back the explicit capstan springs' ½ h² K_c (v_m − N v)², fails: −8 %,
+    +26 %; without the stops' bookkeeping in `dissipated` it is off by ~100 %)."""
     from tendyn.sim.experiments import tree_limits
     from tendyn.sim.model import STOP_PENETRATION
 
@@ -57,8 +59,9 @@ def test_falling_arm_stops_at_its_limits_and_the_energy_balance_holds(tmp_path, 
     assert np.all(qt >= lo - 1.5 * STOP_PENETRATION) and np.all(qt <= hi + 1.5 * STOP_PENETRATION), \
         (qt.min(0) - lo, qt.max(0) - hi)
     e1 = _core.mechanical_energy(m, d)
-    balance = (e1 - e0) - (d.work_motor + d.work_external - d.dissipated)
-    assert abs(balance) < 0.10 * max(d.dissipated, abs(e1 - e0)), (balance, e1 - e0, d.dissipated)
+    balance = (e1 - e0) - (d.work_motor + d.work_external - d.dissipated - d.numerical_loss)
+    assert abs(balance) < 2e-3 * max(d.dissipated, abs(e1 - e0)), (balance, e1 - e0, d.dissipated, d.numerical_loss)
+    assert 0.0 < d.numerical_loss < 0.2 * d.dissipated      # a loss, not the bulk of what the stops took
     _, _, _, q_free = _falling(dev, 1.5, friction=True, stops=False)
     assert np.any(q_free @ L.T + c < lo - 0.3) or np.any(q_free @ L.T + c > hi + 0.3)   # the stops did it
 
