@@ -137,14 +137,20 @@ class IDIM:
         With ``consistent=True``: box constraints {name: (lower, upper)} on standard parameters (their units) and
         centres of mass ``CX<j>``/``CY<j>``/``CZ<j>`` [m] (:func:`tendyn.ident.consistent.check_bounds`), e.g. a
         peer's hand-chosen boxes; None: the LMIs and non-negative friction and rotor inertias only.
+    drive_stretch : bool
+        Elastic capstan ``[[drives]]`` (``stiffness_motor`` > 0, tendyn's treatment, positions differentiated): a
+        second least squares on the link positions, the cable stretch taken out of the motor encoders with the
+        first fit's friction (:meth:`IdentModel.link_positions`). Without it the viscous terms of a generated
+        desktop arm come out +20…+90 % (the rigid model on the motor side misses M (q̈_l − q̈_m / N)).
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
                  parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
-                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None):
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None, drive_stretch=True):
         self.device = device
         self.bounds = bounds
+        self.drive_stretch = drive_stretch
         self.treatment = treatment
         self.controller = controller
         self.output = output
@@ -178,7 +184,7 @@ class IDIM:
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
         settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
-                    self.velocities)
+                    self.velocities, getattr(self, "_stretch", None))
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -244,7 +250,7 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
-        *settings, preset, velocities = settings
+        *settings, preset, velocities, stretch = settings
         rate = float(log.meta["rate_hz"])
         preset = preset or "tendyn"
         bw = getattr(model.device, "bandwidth_hz", None)
@@ -253,6 +259,8 @@ class IDIM:
             velocities = tr.velocities
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
+        if stretch is not None and velocities != "logged":   # elastic capstan drives: the link (link_positions)
+            q, qd = model.link_positions(q, tau, rate, tr.cutoff_hz, tr.order, *stretch), None
         if velocities == "logged" and qd is None:
             raise model.no_logged_velocities()
         if parts is not None:
@@ -384,6 +392,19 @@ class IDIM:
             cols = [base.names.index(n) for n in self.parameters]
         Wb = Wstd[:, list(base.columns)]
         x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
+        if self.drive_stretch and model.elastic_drives and (self.treatment or "tendyn") == "tendyn":
+            # second pass on the link positions: the cable stretch from the motor equation with this fit's friction
+            val = dict(zip([base.names[i] for i in cols], x))
+            N = np.array([d.ratio for d in model.device.drives], float)
+            num = [d.joint for d in model.device.drives]
+            self._stretch = (np.array([max(val.get(f"FS{j}", 0.0), 0.0) for j in num]) / N,
+                             np.array([max(val.get(f"FV{j}", 0.0), 0.0) for j in num]) / N ** 2)
+            try:
+                Y, Wstd, rows, t, na = self.observations(logs)
+            finally:
+                self._stretch_used, self._stretch = self._stretch, None
+            Wb = Wstd[:, list(base.columns)]
+            x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
         if self.essential:
             cols, x, se, weights = self._essential(Wb, Y, rows, na)
         Wsel = Wb[:, cols]
@@ -413,7 +434,11 @@ class IDIM:
         space = self.treatment_.space
         other = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na, space)
         per, per_motor = (per, other) if space == "joint" else (other, per)
-        cv = self._crossval(logs, cols) if crossval else None
+        self._stretch = getattr(self, "_stretch_used", None) if self.drive_stretch and model.elastic_drives else None
+        try:                              # cross-validation on the same (link) positions as the fit
+            cv = self._crossval(logs, cols) if crossval else None
+        finally:
+            self._stretch = None
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,

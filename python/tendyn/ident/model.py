@@ -376,6 +376,39 @@ class IdentModel:
         tau = y @ self.G
         return log.time, q, tau
 
+    @property
+    def elastic_drives(self) -> bool:
+        """Whether the device's capstan ``[[drives]]`` declare a finite cable stiffness (``stiffness_motor`` > 0):
+        then the motor encoders do not read the link (:meth:`link_positions`)."""
+        return bool(self.device.drives) and all(d.stiffness_motor > 0.0 for d in self.device.drives)
+
+    def link_positions(self, q, tau, rate_hz: float, cutoff_hz: float, order: int, coulomb_motor, viscous_motor):
+        """Link positions [rad] (n, n_a) of the motor-encoder positions q = q_m / N of elastic capstan drives.
+
+        The cable between motor and link (S2 §V-B, the twin's drive: τ_c = K_T (q_m − N q_l) at the motor) stretches
+        by s = τ_c / K_T, with τ_c from the motor's own equation τ_c = τ_m − J_m q̈_m − C_m sign(q̇_m) − ν_m q̇_m
+        (torque and q̈_m through the treatment's zero-phase Butterworth ``cutoff_hz`` [Hz], ``order``); the link is
+        at q_l = (q_m − s) / N. The rigid model evaluated on q_m / N instead misses M (q̈_l − q̈_m / N): an error
+        (ω / ω_r)² of the cable torque, ω_r the link–cable resonance, which least squares books largely on the
+        viscous terms (+20…+90 % on generated desktop arms, tests/python/test_parallelogram_twin.py). J_m and
+        K_T are the device file's; ``coulomb_motor`` C_m [N·m] and ``viscous_motor`` ν_m [N·m·s/rad] (n_m,) come
+        from a first fit (the file's friction is never read). The cable damping ``damping_motor`` is neglected
+        (valid while d ω ≪ K_T)."""
+        from .treatment import butter_zero_phase, central_differences
+
+        N = np.array([d.ratio for d in self.device.drives], float)
+        K = np.array([d.stiffness_motor for d in self.device.drives], float)
+        J = np.array([d.motor.rotor_inertia for d in self.device.drives], float)
+        qm = (np.asarray(q, float) - self.joint_offsets) * N
+        ym = np.asarray(tau, float) / N                     # G = diag(N): τ = y G
+        dt = 1.0 / rate_hz
+        qmf = butter_zero_phase(qm, cutoff_hz, rate_hz, order)
+        qdm = central_differences(qmf, dt)
+        qddm = central_differences(qdm, dt)
+        tc = (butter_zero_phase(ym, cutoff_hz, rate_hz, order) - J * qddm
+              - np.asarray(coulomb_motor, float) * np.sign(qdm) - np.asarray(viscous_motor, float) * qdm)
+        return (qm - tc / K) / N + self.joint_offsets
+
     def motor_torques(self, tau) -> np.ndarray:
         """Motor torques y = G⁻ᵀ τ (n, n_m) [N·m, N at a linear motor] of joint torques τ (n, n_a), one row per
         sample: the motor space of a coupled device (``tendyn.coupling``: motor_from_joint_torque)."""
