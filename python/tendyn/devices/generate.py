@@ -266,8 +266,8 @@ def tendon_bench_toml(*, seed: int = 0, name: str | None = None, peak_force: boo
     zeta = float(rng.uniform(0.02, 0.1))
     pretension = float(rng.uniform(1.0, 8.0))
     lines = ["schema = 1", "", "[device]", f'name = "{name or f"genbench{seed}"}"', 'kind = "tendon_bench_2n"',
-             f'description = "generated 2N tendon bench (seed {seed}): J = {inertia:.3g} kg m2, rho = {shaft:.3g} m, '
-             f'peak torque {torque:.3g} N m"', "", "[bench]",
+             f'description = "generated 2N tendon bench (seed {seed}): J = {inertia:.6g} kg m2, rho = {shaft:.6g} m, '
+             f'peak torque {torque:.6g} N m"', "", "[bench]",
              f"ratio = {float(rng.uniform(5.0, 20.0))!r}", f"k1 = {k1!r}", f"k2 = {k2!r}",
              f"mass_motor = {mass_motor!r}", f"damping_motor = {2.0 * zeta * math.sqrt(k_e * mass_motor)!r}",
              f"mass_load = {float(rng.uniform(0.02, 0.2))!r}",
