@@ -185,3 +185,12 @@ is still run, in its place."""
 def pytest_collection_modifyitems(session, config, items):
     rank = {name: k for k, name in enumerate(HEAVY_FIRST)}
     items.sort(key=lambda item: rank.get(item.path.name, len(rank)))      # stable: file order kept otherwise
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """A shuffled run (`-p randomly`) names its seed at the end too (pytest-randomly prints it only in the header,
+    which `-q` hides): `-p randomly --randomly-seed=N` repeats the order."""
+    seed = getattr(config.option, "randomly_seed", None)
+    if config.pluginmanager.has_plugin("randomly") and isinstance(seed, int):
+        terminalreporter.write_line(f"pytest-randomly: shuffled with seed {seed} "
+                                    f"(repeat: -p randomly --randomly-seed={seed})")
