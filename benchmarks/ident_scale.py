@@ -121,7 +121,9 @@ def bench_stream(results: list) -> None:
 
 
 def bench_dask(results: list, n_logs: int = 8) -> None:
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import Client
+
+    from tendyn.ident.cluster import local_cluster
 
     from tendyn.device import load_device
     from tendyn.devices import bundled
@@ -145,8 +147,7 @@ def bench_dask(results: list, n_logs: int = 8) -> None:
         c0, t0 = _cpu_seconds(), time.perf_counter()
         IDIM(dev).fit(logs, crossval=False)
         seq, seq_cpu = time.perf_counter() - t0, _cpu_seconds() - c0
-        with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
-                Client(cl) as client:
+        with local_cluster(2) as cl, Client(cl) as client:
             client.run(lambda: None)
             est = IDIM(dev, scheduler=cl.scheduler_address)
             est.fit(logs[:2], crossval=False)                     # warm the workers (imports, models)
@@ -159,8 +160,9 @@ def bench_dask(results: list, n_logs: int = 8) -> None:
         # CPU speed-up with one core per process: the in-process CPU over the critical path (the busier worker's
         # treatment, then the client's stacking and solve, which no worker can do)
         cpu_speedup = seq_cpu / (busiest + client_cpu)
-    print(f"[bench] dask campaign of {n_logs} logs: in process {seq:.2f} s, 2 Dask workers {par:.2f} s, "
-          f"CPU speed-up (one core per process) {cpu_speedup:.2f}; session parallelism now {sp:.2f} "
+    print(f"[bench] dask_identify_speedup: {n_logs} logs, in process {seq:.2f} s, 2 Dask workers {par:.2f} s: wall "
+          f"speed-up {seq / par:.2f}, CPU speed-up {cpu_speedup:.2f} (in-process CPU {seq_cpu:.2f} s over busiest "
+          f"worker {busiest:.2f} s + client {client_cpu:.2f} s); session parallelism now {sp:.2f} "
           f"(load {load:.1f} on {os.cpu_count()} cores)")
     results.append(dict(name="dask_identify_speedup", value=par, unit="s", baseline=f"{n_logs} logs one after "
                         "the other in process", baseline_value=seq, ratio=seq / par, cpu_speedup=cpu_speedup,

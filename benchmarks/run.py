@@ -325,7 +325,7 @@ ONLY = {"cli_help_latency": "cli", "identify_tx40_end_to_end": "identify",
         "dask_identify_speedup": "dask_identify",
         "python_suite_wall": "suite",
         "identify_iv_gen6_twin_end_to_end": "closed_loop", "identify_didim_gen6_twin_end_to_end": "closed_loop",
-        "blockmodel_amplitude_mcgill": "amplitude"}
+        "blockmodel_amplitude_mcgill": "amplitude", "blockmodel_amplitude_generated": "amplitude"}
 """Entries that `python benchmarks/run.py --only NAME,…` runs alone, merged into results.json by name."""
 
 

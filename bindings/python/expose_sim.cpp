@@ -114,6 +114,7 @@ void expose_sim(nb::module_& m) {
       .def_ro("work_motor", &D::work_motor)
       .def_ro("work_external", &D::work_external)
       .def_ro("dissipated", &D::dissipated)
+      .def_ro("numerical_loss", &D::numerical_loss)
       .def_ro("stop_depth", &D::stop_depth)
       .def_ro("stops_touched", &D::stops_touched)
       .def_ro("stop_contact_time", &D::stop_contact_time)

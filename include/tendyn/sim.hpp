@@ -138,8 +138,8 @@ struct SimModel {
   /// applied linearly implicit (the spring at the step's end, K_s (δ_k + h q̇_k⁺): stable at any K_s); through
   /// the map, the active joints feel Lᵀ τ. Energy: ½ K_s δ² is in mechanical_energy; each step adds to
   /// data.dissipated what the stop took, −h q̇⁺ τ − Δ(½ K_s δ²) (the damper's h B_s q̇², the implicit spring's
-  /// ½ K_s h² q̇², and the entry/exit steps exactly). Open: on an arm falling into its stops the balance
-  /// closes to ~8 % of the energy exchanged (1e-3 without stops): the implicit step's impact loss is not booked. Both empty
+  /// ½ K_s h² q̇², and the entry/exit steps exactly). The step's own loss at an impact (½ Δvᵀ M Δv, large when
+  /// a stop changes v by much in one step) is data.numerical_loss. Both empty
   /// (the default) = no stops; ±inf = no stop on that side.
   Eigen::VectorXd stop_lower;       ///< (nq_tree) [rad or m]
   Eigen::VectorXd stop_upper;       ///< (nq_tree) [rad or m]
@@ -250,6 +250,11 @@ struct SimData {
   double work_motor = 0.0;          ///< ∫ C_mᵀ q̇_m dt [J]
   double work_external = 0.0;       ///< ∫ τ_extᵀ q̇_a dt [J]
   double dissipated = 0.0;          ///< energy taken by friction and damping [J]
+  /// Energy the implicit (backward-Euler in v) step itself removes [J]: Σ ½ (v⁺ − v)ᵀ M (v⁺ − v). With
+  /// M (v⁺ − v) = h F(v⁺) and every force's work booked at v⁺, ½ v⁺ᵀ M v⁺ − ½ vᵀ M v = h v⁺ᵀ F − ½ Δvᵀ M Δv:
+  /// first order in h, negligible on smooth motion, 4–14 % of the energy exchanged on an arm falling into its
+  /// end stops at 20–5 kHz (issue 40). Balance: ΔE = work_motor + work_external − dissipated − numerical_loss.
+  double numerical_loss = 0.0;
 
   explicit SimData(const SimModel& m);
   /// Set the joint state (velocities zero) and reset sensors, controller, diagnostics. Motor positions
@@ -958,6 +963,21 @@ inline Status step_core(const SimModel& m, SimData& d, const Eigen::MatrixXd& Mt
     visc += vf[c] * s;
   }
   d.dissipated += h * visc;
+  // the step's own loss ½ Δvᵀ M Δv (M without hD and the stops' implicit terms: d.M is still the plain one;
+  // v at the step start from d.qd / d.qd_motor: d.v is the friction solve's scratch by now)
+  const auto v0 = [&](int r) { return r < na ? d.qd(r) : d.qd_motor(r - na); };
+  double loss = 0.0;
+  for (int c = 0; c < nv; ++c) {
+    double s = 0.0;
+    for (int r = 0; r < nv; ++r) s += M[r + c * nv] * (vf[r] - v0(r));
+    loss += (vf[c] - v0(c)) * s;
+  }
+  if (m.drive == DriveKind::Elastic)   // the explicit capstan springs: their ΔV carries +½ h² (Δv_spring)ᵀ K_c … back
+    for (int i = 0; i < na; ++i) {
+      const double ds = vf[na + i] - m.ratio(i) * vf[i];
+      loss -= h * h * m.stiffness_motor(i) * ds * ds;
+    }
+  d.numerical_loss += 0.5 * loss;
   return Status::Ok;
 }
 
@@ -1110,7 +1130,7 @@ inline void SimData::reset(const Eigen::VectorXd& q0, std::uint64_t seed) {
   v_end_valid = false;
   rng = Rng{};
   rng.state = seed;
-  work_motor = work_external = dissipated = 0.0;
+  work_motor = work_external = dissipated = numerical_loss = 0.0;
   stop_depth.setZero();
   stops_touched = 0;
   stop_contact_time = 0.0;

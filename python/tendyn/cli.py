@@ -20,6 +20,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load, print_json as _print_json
+from tendyn.commands.shared import version as _version
 from tendyn.errors import CheckFailed, UsageError, flag
 
 if TYPE_CHECKING:  # numpy is imported by the commands that compute (`tendyn config` must start fast)
@@ -152,28 +154,6 @@ class _VersionAction(argparse.Action):
 
 def _metavar(opt) -> str:
     return {"floats": "X,…", "choice": "|".join(opt.choices), "int": "N", "seed": "N"}.get(opt.kind, "X")
-
-
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        return version("tendyn")
-    except PackageNotFoundError:
-        return "unknown"
-
-
-def _load(device_arg: str):
-    """A device file path, or the name of a bundled twin (e.g. ``lexos``): :func:`tendyn.devices.load`."""
-    from tendyn.devices import load
-
-    return load(device_arg)
-
-
-def _print_json(doc) -> None:
-    from tendyn.io import to_jsonable
-
-    print(json.dumps(to_jsonable(doc), indent=2))
 
 
 # ---- routing show ---------------------------------------------------------------------------------
@@ -479,22 +459,6 @@ def _write_run(log, truth, path: Path):
 
 
 # ---- demo -----------------------------------------------------------------------------------------
-
-def _check_out_folder(text: str, option: str = "out") -> Path:
-    """An output folder (of ``--out`` or ``--report``) that exists as a folder or can be created (nothing is
-    created here)."""
-    out = Path(text)
-    if out.exists() and not out.is_dir():
-        raise UsageError(f"{out} exists and is not a folder", option)
-    from tendyn.io.files import creatable
-
-    parent, problem = creatable(out / "_")      # the folder itself may be the nearest existing one
-    if problem == "not a folder":
-        raise UsageError(f"cannot create {out}: {parent} is not a folder", option)
-    if problem:
-        raise UsageError(f"cannot write into {parent} (permission denied)", option)
-    return out
-
 
 def cmd_demo(args) -> int:
     global _DEMO_STEP

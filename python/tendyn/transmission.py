@@ -10,11 +10,11 @@ signed and a diagonal may be zero (docs/device-file.md, "General routing").
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from tendyn import _core
-from tendyn.device.schema import LOSS_FIELD_NAMES, TRANSMISSION_MODEL_FIELDS
 
 MATRIX_NAMES = (
     "joint_from_motor_position",
@@ -23,10 +23,24 @@ MATRIX_NAMES = (
     "joint_from_motor_torque",
 )
 
-MODEL_FIELDS = TRANSMISSION_MODEL_FIELDS
-"""The fields of the core model (name, dims, unit, default, device-file route), from the schema tables."""
 
-LOSS_FIELDS = LOSS_FIELD_NAMES
+
+class CoreField(NamedTuple):
+    """One field of the core transmission model, as the core declares it (``TENDYN_TRANSMISSION_FIELDS`` in
+    ``include/tendyn/routing.hpp``): name, dims (1: per transmission, 2: per branch), SI unit, meaning."""
+
+    name: str
+    dims: int
+    unit: str
+    doc: str
+
+
+MODEL_FIELDS = tuple(CoreField(*f) for f in _core.TransmissionModel.fields())
+"""The fields of the core model, in the core's order, from the core itself (this face sits below
+:mod:`tendyn.device`, whose schema tables add each field's device-file route and default; a test keeps the two in
+step)."""
+
+LOSS_FIELDS = tuple(f.name for f in MODEL_FIELDS if f.dims == 2 and f.name != "K")
 """The per-branch loss and bearing fields accepted by :meth:`Transmission.from_arrays` (derived)."""
 
 
@@ -81,15 +95,10 @@ def as_matrix(x, name: str, rows: int, cols: int) -> np.ndarray:
 
 
 def without_losses(arrays: dict) -> dict:
-    """A copy of routing arrays with every loss switched off: each loss and bearing field at its default
-    (no friction, no bearings) and ideal reducers (η_d = 1). Routing, reducer ratios and pretension stay."""
-    out = dict(arrays)
-    for f in MODEL_FIELDS:
-        if f.name in LOSS_FIELDS or f.name == "reducer_efficiency":
-            shape = np.shape(arrays[f.name]) if f.name in arrays else None
-            if shape is not None:
-                out[f.name] = np.full(shape, f.default, dtype=float)
-    return out
+    """A copy of routing arrays with every loss switched off: the loss and bearing fields and the reducer efficiency
+    left out, so the core gives each its lossless default (no friction, no bearings, η_d = 1). Routing, reducer
+    ratios and pretension stay."""
+    return {k: v for k, v in arrays.items() if k not in LOSS_FIELDS and k != "reducer_efficiency"}
 
 
 @dataclass(frozen=True)
@@ -197,15 +206,12 @@ class Transmission:
     def from_device(cls, device, losses: bool = True) -> "Transmission":
         """Build from a loaded :class:`tendyn.device.Device`; ``losses=False`` gives the same routing with
         every loss off (:func:`without_losses`). An N+1 device is refused (DeviceError: its K is not square)."""
-        from tendyn.device.schema import require_one_per_joint
-
-        require_one_per_joint(device, "the transmission model (statics with losses)")
-        arrays = device.routing_arrays()
+        arrays = device.square_routing_arrays("the transmission model (statics with losses)")
         if not losses:
             arrays = without_losses(arrays)
         return cls.from_arrays(
             arrays["motor_radius"], arrays["K"], arrays["reducer_ratio"],
-            arrays["reducer_efficiency"], arrays["pretension"],
+            arrays.get("reducer_efficiency"), arrays["pretension"],
             **{k: arrays[k] for k in LOSS_FIELDS if k in arrays})
 
     @classmethod
@@ -248,6 +254,14 @@ class Transmission:
         """Joint positions [rad] from motor positions [rad] (S0 eqs. 1–2, corrected)."""
         _core.joint_from_motor(self._model, self._data, as_vector(q_motor, "q_motor", self.n))
         return np.array(self._data.q)
+
+    def motor_alone_joint_speeds(self, i: int, speed: float) -> np.ndarray:
+        """Joint speeds [rad/s] while motor ``i`` (0-based) alone turns at ``speed`` [rad/s], the others held:
+        q̇ = K⁻¹ R_m e_i v (S0 eqs. 1–2 and 14, corrected: ERRATA; the core's joint_from_motor_position). The one
+        definition of "motor i alone" the passivity bound and the export summary read."""
+        if not 0 <= i < self.n:
+            raise ValueError(f"motor index {i} out of range 0..{self.n - 1}")
+        return np.asarray(self._model.joint_from_motor_position, float)[:, i] * float(speed)
 
     def motor_from_joint(self, q) -> np.ndarray:
         """Motor positions [rad] from joint positions [rad]."""

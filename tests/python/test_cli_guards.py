@@ -97,9 +97,9 @@ def test_plan_refuses_what_cannot_fit_in_memory_before_building_it(tmp_path, cap
 
 
 def test_sweep_refuses_what_cannot_fit_in_memory_before_starting_workers(tmp_path, capsys, monkeypatch):
-    from tendyn.sim import catalogue
+    from tendyn.sim import limits
 
-    monkeypatch.setattr(catalogue, "memory_available", lambda: 500e6)   # a small machine: 2 workers do not fit
+    monkeypatch.setattr(limits, "memory_available", lambda: 500e6)   # a small machine: 2 workers do not fit
     code = main(["sweep", "mcgill_bench", "--param", "mass_motor=0.01:0.02:2", "--workers", "2",
                  "--out", str(tmp_path / "s.parquet"), "--quiet"])
     err = _err(capsys)

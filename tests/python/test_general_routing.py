@@ -282,3 +282,23 @@ def test_plan_simulate_compensator_on_a_generated_differential(tmp_path, capsys)
     comp = Compensator.from_device(load_device(dev))
     out = comp.cycle(np.array([0.1, 0.2, -0.1]), np.array([0.1, -0.2, 0.05]))
     assert out.shape == (3,) and np.all(np.isfinite(out))
+
+
+@pytest.mark.parametrize("lossy", (False, True))
+def test_differential_reducer_direction_by_hand(lossy):
+    """Issue 34 blind area (the reducer's direction in the differential-pair table, losses.hpp take_pair_table):
+    K = [[r, r], [r, -r]], a reducer η_d = 0.8 on joint 1 (cable 1's driven pulley; cable 0 wraps on: none at 0).
+    Joint 1 driven (τ1 q̇1 > 0): τ1 = r t0 − η_d r t1; back-driven: the factor is η_d/(2η_d − 1) (S0 eqs. 9–10);
+    τ0 = r (t0 + t1). Lossy: τ0 = 0.3 N on branch 1 of both cables adds sgn(Ṡ_i1) 0.3 N to each motor tension.
+    Both power directions are checked, so swapping the two factors fails (planted in take_pair_table: fails)."""
+    r, eta = 0.02, 0.8
+    K = np.array([[r, r], [r, -r]])
+    kw = {"tau0": np.array([[0.0, 0.3], [0.0, 0.3]])} if lossy else {}
+    tr = Transmission.from_arrays([0.01, 0.01], K, reducer_efficiency=[1.0, eta], **kw)
+    tau = np.array([0.5, -0.2])
+    for qd in (np.array([1.0, 0.5]), np.array([1.0, -0.5])):
+        e = eta if tau[1] * qd[1] > 0 else eta / (2 * eta - 1)
+        t = np.linalg.solve(np.array([[r, r], [r, -r * e]]), tau)
+        if lossy:
+            t = t + 0.3 * np.sign(K[:, 1] * qd[1])
+        np.testing.assert_allclose(tr.feedforward(tau, qd).torque_motor, 0.01 * t, rtol=1e-12)

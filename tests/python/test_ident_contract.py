@@ -169,3 +169,30 @@ def test_logged_joint_velocities_read_like_motor_velocities(arm):  # noqa: F811
     motors = [f"qd_motor_{i + 1}" for i in range(arm.n_motors)]
     assert arm.velocity_columns(["time", *motors]) == motors
     assert arm.velocity_columns(["time", *motors[1:]]) is None
+
+
+def test_bounds_constrain_the_consistent_fit(arm):  # noqa: F811
+    """``IDIM(bounds=...)`` (a peer's boxes, WPI's dVRK SDP): a box on a standard parameter and on a centre of
+    mass (CX2 = MX2 / M2 [m], linear as lo·M ≤ MX ≤ hi·M) is met by the consistent estimate and moves it; unknown
+    names, lower > upper and bounds without consistent=True are refused. Plant seen failing: the centre-of-mass
+    box written on MX2 itself (not times M2)."""
+    log = synthetic_log(arm, duration=6.0, seed=4, noise=0.01)
+    free = IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True).fit(log, crossval=False)
+    s0 = free.standard_params_
+    fv_hi = 0.5 * s0["FV1"]
+    cx = s0["MX2"] / s0["M2"]
+    box = (cx + 0.05, cx + 0.1) if cx < 0 else (cx - 0.1, cx - 0.05)     # a box that excludes the free value
+    est = IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True,
+               bounds={"FV1": (None, fv_hi), "CX2": box, "M2": (0.5 * s0["M2"], 2.0 * s0["M2"])}).fit(
+        log, crossval=False)
+    s = est.standard_params_
+    tol = 1e-6 * max(1.0, abs(fv_hi))
+    assert s["FV1"] <= fv_hi + tol and abs(s["FV1"] - fv_hi) < 1e-3 * abs(fv_hi) + tol    # active
+    assert box[0] - 1e-5 <= s["MX2"] / s["M2"] <= box[1] + 1e-5
+    assert est.result_.residual_rel > free.result_.residual_rel
+    for bad, match in (({"FOO": (0, 1)}, "not a standard parameter"), ({"M2": (2.0, 1.0)}, "lower"),
+                       ({"CX9": (0, 1)}, "not a standard parameter")):
+        with pytest.raises(ValueError, match=match):
+            IDIM(arm.device, cutoff_hz=20.0, decimate=10, consistent=True, bounds=bad).fit(log, crossval=False)
+    with pytest.raises(ValueError, match="consistent=True"):
+        IDIM(arm.device, cutoff_hz=20.0, decimate=10, bounds={"M2": (0, 1)}).fit(log, crossval=False)

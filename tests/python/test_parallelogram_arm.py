@@ -177,7 +177,7 @@ def test_cli_plan_and_decompose_take_drives(tmp_path):
     dev = load(str(arm))
     doc = {"format": "tendyn.friction/1", "device": dev.name, "n_transmissions": 3,
            "coulomb_motor": [d.coulomb_motor for d in dev.drives], "viscous_motor": [d.viscous_motor for d in dev.drives]}
-    from tendyn.commands.s0 import drive_split
+    from tendyn.ident.decomposition import drive_split
 
     out = drive_split(dev, doc)
     assert [r["joint"] for r in out["drives"]] == [1, 2, 5]

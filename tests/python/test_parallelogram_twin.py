@@ -43,9 +43,11 @@ def _falling(dev, seconds, friction=False, stops=True, q0=(0.0, 0.3, 1.0)):  # n
 @pytest.mark.parametrize("seed", (0, 1, 2))
 def test_falling_arm_stops_at_its_limits_and_the_energy_balance_holds(tmp_path, seed):
     """Released with no torque, the arm falls into its end stops and stays within STOP_PENETRATION of its
-    limits (without stops it leaves them by radians); the energy balance closes with the stops' dissipation to
-    10 % of the energy exchanged (measured 4–8 %: the implicit step's impact loss is not booked — open; without
-    the stops' bookkeeping in `dissipated` it is off by ~100 %)."""
+    limits (without stops it leaves them by radians); the energy balance ΔE = W − dissipated − numerical_loss
+    closes to 2e-3 of the energy exchanged (measured 1–5e-4 at 10 kHz, first order in the step; 4–8 % before
+    the implicit step's own impact loss ½ Δvᵀ M Δv was booked in `numerical_loss`; planted: that loss not
+    booked, or booked without taking back the explicit capstan springs' ½ h² K_c (v_m − N v)², fails: −8 %,
+    +26 %; without the stops' bookkeeping in `dissipated` it is off by ~100 %)."""
     from tendyn.sim.experiments import tree_limits
     from tendyn.sim.model import STOP_PENETRATION
 
@@ -57,8 +59,9 @@ def test_falling_arm_stops_at_its_limits_and_the_energy_balance_holds(tmp_path, 
     assert np.all(qt >= lo - 1.5 * STOP_PENETRATION) and np.all(qt <= hi + 1.5 * STOP_PENETRATION), \
         (qt.min(0) - lo, qt.max(0) - hi)
     e1 = _core.mechanical_energy(m, d)
-    balance = (e1 - e0) - (d.work_motor + d.work_external - d.dissipated)
-    assert abs(balance) < 0.10 * max(d.dissipated, abs(e1 - e0)), (balance, e1 - e0, d.dissipated)
+    balance = (e1 - e0) - (d.work_motor + d.work_external - d.dissipated - d.numerical_loss)
+    assert abs(balance) < 2e-3 * max(d.dissipated, abs(e1 - e0)), (balance, e1 - e0, d.dissipated, d.numerical_loss)
+    assert 0.0 < d.numerical_loss < 0.2 * d.dissipated      # a loss, not the bulk of what the stops took
     _, _, _, q_free = _falling(dev, 1.5, friction=True, stops=False)
     assert np.any(q_free @ L.T + c < lo - 0.3) or np.any(q_free @ L.T + c > hi + 0.3)   # the stops did it
 
@@ -188,3 +191,43 @@ def test_sigma_dwarfing_a_friction_value_is_a_warning():
 
     w = implausible(["FV1", "FS1", "ZZ1R"], [2e-4, 0.02, 1e-3], [5e-4, 1e-4, 5e-3])
     assert len(w) == 1 and w[0].startswith("FV1 = 0.0002 ± 0.0005") and "does not" not in w[0][:10]
+
+
+@pytest.mark.parametrize("seed", (0, 1, 2))
+def test_identify_recovers_coulomb_and_viscous_of_elastic_capstan_drives(tmp_path, seed):
+    """IDIM on a 20 s exciting log at capstan-arm speeds (triangles of 1–3 rad/s: the viscous torque above the
+    current noise) with the reversal rows dropped (|q̇| < 0.2 rad/s: the motor sticks behind the cable there, S2
+    Fig. 4): Coulomb N C_m0 of every drive within 10 % of the file's, viscous N² ν_m of the shoulder and elbow
+    drives within 10 %, the base drive's within 25 % (its σ is 5–10 %: noise-limited; open). The cause fixed: the
+    rigid model on the motor encoders (q_m / N) misses the cable stretch; `drive_stretch` refits on the link
+    positions. Planted: drive_stretch=False gives FV2 +35…+65 %, FV5 +6…+40 % (fails); a stretch of the wrong sign
+    (q_m + τ_c/K) fails likewise. ~3 s."""
+    from tendyn.ident import IDIM
+    from tendyn.sim.experiments import design_exciting, exciting_trajectory
+
+    dev = _arm(tmp_path, seed=seed)
+    comp = compile_device(dev)
+    design = design_exciting(comp, seed=1, tri_freq_factors=(6, 8, 10), max_speed=3.0)
+    run = exciting_trajectory(dev, duration=20.0, seed=1, design=design)
+    assert "end_stops" not in run.log.meta["options"]
+    res = IDIM(comp, consistent="auto", velocity_threshold=0.2).fit(run.log).result_
+    val = dict(zip(res.names, res.values))
+    for k, d in enumerate(dev.drives):
+        fs, fv = val[f"FS{d.joint}"], val[f"FV{d.joint}"]
+        assert abs(fs / (d.ratio * d.coulomb_motor) - 1) < 0.10, (d.name, fs, d.ratio * d.coulomb_motor)
+        tol = 0.25 if k == 0 else 0.10
+        assert abs(fv / (d.ratio ** 2 * d.viscous_motor) - 1) < tol, (d.name, fv, d.ratio ** 2 * d.viscous_motor)
+
+
+def test_the_default_exciting_design_keeps_a_parallelogram_off_its_stops(tmp_path):
+    """exciting_trajectory's default on a device with passive tree joints is the band design (every tree joint
+    inside its limits): the "classic" one drove the elbow into its stops (0.6 s of 20 on arm0), the stop forces
+    then in the identification log. Fails with the old default ("classic" without bandwidth_hz)."""
+    from tendyn.sim.experiments import exciting_trajectory, tree_limits
+
+    dev = _arm(tmp_path, seed=0)
+    run = exciting_trajectory(dev, duration=20.0, seed=1)
+    assert "end_stops" not in run.log.meta["options"], run.log.meta["options"].get("end_stops")
+    lo, hi, L, c = tree_limits(dev)
+    qt = np.asarray(run.states["q_joint"]) @ L.T + c
+    assert np.all(qt >= lo) and np.all(qt <= hi), (qt.min(0) - lo, hi - qt.max(0))

@@ -106,6 +106,15 @@ def test_default_predicts_pulses_as_well_as_the_peer(emps, logs):
 
 
 @needs_emps
+@pytest.mark.xfail(strict=True, reason="the literal 5.98 % of the issue: measured 5.9810 % (default), every cut-off "
+                   "60-150 Hz x decimation 2-10 within 5.9788-5.9830 %; decimating to 5 x the bandwidth (5.9799 %) "
+                   "costs the TX40 and the MTM (docs/realdata.md, 'Cut-off and decimation')")
+def test_default_predicts_pulses_below_the_rounded_5_98(emps, logs):
+    est = emps.fit(logs[0])
+    assert emps.janot_error(est, logs[1]) <= 5.98
+
+
+@needs_emps
 def test_default_values_within_one_percent(emps, logs):
     """With the default threshold of 0.25 % of the peak speed: OFFSET1 0.36 % off (at 2 %: 1.25 %, seen failing)."""
     est = emps.fit(logs[0])

@@ -112,9 +112,26 @@ def test_split_default_predicts_the_unseen_half_better_than_figaroh_method(tx40,
     assert 0.06 < default < 0.095
 
 
+def test_equal_footing_default_on_the_whole_log_at_least_as_good_on_each_half(tx40, log, names):
+    """Given what FIGAROH's published parameters saw (the whole log), tendyn's default fit of the whole log predicts
+    each half at least as well: measured 6.23 / 5.83 % against 6.31 / 5.85 % (both in-sample: not the issue's
+    unseen-part target, which stays an expected failure below). Plants measured: the velocity threshold 0 fails it
+    (6.74 / 6.42 %), so does WLS on the second half (6.39 %); the cut-off read as rad/s (314 Hz) does not
+    (6.23 / 5.84 %: the parallel filter, not the position filter, sets the band)."""
+    ref = tx40.reference(SHARED)
+    published = tx40.tendyn_values(names, [ref[n][0] for n in names])
+    whole = tx40.solve(tx40.observations(log))
+    for fit_p, test_p in tx40.SPLITS.values():
+        test = tx40.observations(log, test_p)
+        assert tx40.relative_error(test, whole)[0] <= tx40.relative_error(test, published)[0]
+
+
 @pytest.mark.xfail(strict=True, reason="FIGAROH's published parameters were fitted on the whole log, the unseen "
                                        "half included: 6.31 % / 5.85 % against tendyn's 8.56 % / 7.87 % fitted on "
-                                       "the other half (docs/realdata.md); in-sample 6.03 % / 6.00 %")
+                                       "the other half (WLS 8.14 / 7.45, consistent 8.10 / 7.77, WLS + consistent "
+                                       "7.93 / 7.45, essential 7.93 / 7.99; interleaved blocks of 0.25-3 s: tendyn "
+                                       "9-62 % above); on equal footing (tendyn also fitted on the whole log) "
+                                       "6.23 / 5.83 %: docs/realdata.md")
 def test_split_default_at_least_as_good_as_the_published_parameters(tx40, log, names):
     ref = tx40.reference(SHARED)
     published = tx40.tendyn_values(names, [ref[n][0] for n in names])

@@ -254,32 +254,15 @@ def test_one_constant_velocity_run_builds_the_rigid_body_once(monkeypatch):
 
 # ---- import rules (DESIGN: who may import whom) ------------------------------------------------------
 
-# device/ may use tendyn.transmission, the core's Python face (the compiled device holds one);
-# sim/ may use io/ (a twin writes the same log schema a bench records; io/ imports no other subpackage).
-ALLOWED = {
-    "device": {"device", "_core", "transmission"},
-    "io": {"io"},
-    "sim": {"sim", "device", "io", "results", "transmission", "protocols", "_core"},
-    "analysis": {"analysis", "device", "io", "results", "transmission", "protocols", "_core"},
-    "control": {"control", "ident", "device", "io", "results", "transmission", "_core"},
-    "ident": {"ident", "device", "io", "results", "transmission", "protocols", "_core"},
-    "protocols": {"protocols", "device", "transmission", "_core"},
-    "pipelines": {"pipelines", "sim", "analysis", "control", "ident", "device", "io", "results", "transmission",
-                  "protocols", "_core"},
-    "results": {"results"},
-    "report": {"report", "io", "drawing"},   # turns results into pages: computes nothing, imports no physics
-    "drawing": {"drawing"},           # the routing drawn (SVG) from the device it is given: a leaf
-    "transmission": {"transmission", "_core", "device.schema"},
-    "capstan": {"capstan"},
-    "coupling": {"coupling"},
-    "tendons": {"tendons", "_core", "device"},
-    "interop": {"interop", "coupling", "device", "transmission", "_core"},
-    "errors": {"errors"},
-    "progress": {"progress"},
-    "text": {"text"},
-}
-for _sub in ALLOWED:   # the exceptions a user can cause, progress on stderr and the domain of text read from a file
-    ALLOWED[_sub] |= {"errors", "progress", "text"}   # are leaves every package may use
+# The rules are the one table of docs/architecture.md ("Layers: who may import whom"), read by
+# tests/python/test_architecture.py, which also checks every module for circles; here, per package: its own
+# modules, the leaves (floor 0) and the packages its row names.
+from test_architecture import layers as _layers  # noqa: E402
+
+_TABLE = _layers()
+_LEAVES = {p for p, (floor, _) in _TABLE.items() if floor == 0}
+ALLOWED = {sub: {sub, *allowed} | _LEAVES for sub, (floor, allowed) in _TABLE.items()
+           if (PACKAGE / sub).is_dir() or (PACKAGE / f"{sub}.py").exists()}
 
 
 def _tendyn_imports(path: pathlib.Path):

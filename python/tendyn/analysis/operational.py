@@ -39,6 +39,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from tendyn.analysis.handle_point import HandlePoint
+from tendyn.device.stiffness import reflected_stiffness, total_stiffness
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.results import Result, format_table
 
@@ -203,8 +204,8 @@ class OperationalModel:
         self.stiffness_motor = kt
         ke = np.array([np.inf if d.servo_stiffness_motor is None else d.servo_stiffness_motor for d in drives])
         self.servo_stiffness_motor = ke
-        self.total_stiffness_motor = 1.0 / (1.0 / kt + 1.0 / ke)          # S2 eq. 19 (motor side)
-        self.joint_stiffness = self.ratio ** 2 * self.total_stiffness_motor  # N² K_tot (ERRATA eq. 19)
+        self.total_stiffness_motor = total_stiffness(kt, ke)                        # S2 eq. 19 (motor side)
+        self.joint_stiffness = reflected_stiffness(self.total_stiffness_motor, self.ratio)  # N² K_tot (ERRATA eq. 19)
         # the handle point and its kinematics (tendyn.analysis.handle_point, shared with the cable maps)
         self.handle = HandlePoint(self.compiled)
         self.L, self.c = self.handle.L, self.handle.c

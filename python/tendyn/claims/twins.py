@@ -66,20 +66,17 @@ def s1_params(ctx):
 
 
 def s1_json(ctx):
-    """`tendyn pipeline s1 --json --quick` on the McGill twin (C21–C28)."""
+    """The document `tendyn pipeline s1 --json --quick` prints, computed by the library it calls
+    (:func:`tendyn.pipelines.s1.run_s1` on the McGill twin, C21–C28): the claims check the library, the command
+    line only calls them."""
     def make():
-        import contextlib
-        import io
         import json
 
-        from tendyn.cli import main
+        from tendyn.io import to_jsonable
+        from tendyn.pipelines.s1 import run_s1
 
-        buf, err = io.StringIO(), io.StringIO()
-        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(err):   # its step lines: not ours
-            code = main(["pipeline", "s1", "--json", "--quick"])
-        if code != 0:
-            raise RuntimeError(f"tendyn pipeline s1 --json --quick exited {code}: {err.getvalue().strip()[-300:]}")
-        return json.loads(buf.getvalue())
+        report = run_s1(mcgill(ctx), quick=True)
+        return json.loads(json.dumps(to_jsonable(dict(report.summary))))
 
     return ctx.get("s1_json", make)
 

@@ -96,11 +96,11 @@ def existing_input(text: str) -> Path:
 
 def report_dir(text: str) -> Path:
     """``--report DIR``: a folder that exists or can be created (nothing is created here)."""
-    from tendyn.cli import _check_out_folder
+    from tendyn.commands.shared import check_out_folder
     from tendyn.errors import UsageError
 
     try:
-        return Path(_check_out_folder(text, "report"))
+        return Path(check_out_folder(text, "report"))
     except UsageError as exc:
         raise argparse.ArgumentTypeError(exc.problem) from None
 

@@ -33,7 +33,7 @@ def _out(suffix: str):
 
 def _report_dir(text: str):
     """A report folder that exists or can be created (nothing is created here)."""
-    from tendyn.cli import _check_out_folder
+    from tendyn.commands.shared import check_out_folder as _check_out_folder
 
     try:
         return _check_out_folder(text, "report")
@@ -169,10 +169,12 @@ def add_identify_bench_arguments(sub) -> None:
                         "friction of the output's motion at G's input; --nonlinearity coulomb); push-pull: two "
                         "lure loops of one G and one friction fed the half-waves max(u,0), min(u,0) (a class-B "
                         "2N drive: each motor its half-wave, each node its friction); auto: the structure "
-                        "(wiener dead-zone, lure, push-pull) with the lowest NRMS on the --validate logs (record "
+                        "(wiener dead-zone, lure, push-pull coulomb and coulomb-tension) with the lowest NRMS on the --validate logs (record "
                         "them at another amplitude than the estimation logs)")
     p.add_argument("--nonlinearity", choices=NONLINEARITY_NAMES, default=None,
-                   help="the static nonlinearity f (required unless --structure auto; lure, push-pull: coulomb)")
+                   help="the static nonlinearity f (required unless --structure auto; lure, push-pull: coulomb, or "
+                        "coulomb-tension: a friction level linear in the branch's output, F + mu s y, the "
+                        "recursion at 4 steps a sample: holds across amplitudes on the twins)")
     p.add_argument("--order", type=conv.number(1, 12, integer=True), default=None,
                    help="order of G(z) (default: chosen in 1…--max-order by the validation NRMS)")
     p.add_argument("--max-order", type=conv.number(1, 12, integer=True), default=4, help="default 4")

@@ -51,7 +51,7 @@ def run(args) -> int:
     keys = _select(args.only)
     out = None
     if args.report is not None:
-        from tendyn.cli import _check_out_folder
+        from tendyn.commands.shared import check_out_folder as _check_out_folder
 
         out = _check_out_folder(args.report, "report")
     ctx = Context(quick=args.quick)
@@ -74,7 +74,7 @@ def run(args) -> int:
         write_report(out, doc)
         doc["report"] = str(out)
     if args.json:
-        from tendyn.cli import _print_json
+        from tendyn.commands.shared import print_json as _print_json
 
         _print_json(doc)
     else:
@@ -86,6 +86,6 @@ def run(args) -> int:
 
 
 def _version() -> str:
-    from tendyn.cli import _version as v
+    from tendyn.commands.shared import version as v
 
     return v()

@@ -32,7 +32,7 @@ def _constraint(text: str):
 
 
 def _out_dir(text: str):
-    from tendyn.cli import _check_out_folder
+    from tendyn.commands.shared import check_out_folder as _check_out_folder
 
     try:
         return _check_out_folder(text, "out")
@@ -90,7 +90,7 @@ def register(subparsers) -> None:
 
 def _space(args):
     from tendyn.analysis.design_space import DesignSpace, read_motor_table
-    from tendyn.cli import _load
+    from tendyn.commands.shared import load as _load
 
     dev = _load(args.device)
     vary = {}

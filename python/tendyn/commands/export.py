@@ -85,7 +85,7 @@ def run_export(args) -> int:
     if args.kind in ("mjcf", "ros2-control"):
         return _export_other(args)
     from tendyn.control import Compensator
-    from tendyn.ident.loss_model import LossModelError, identified_losses
+    from tendyn.ident.calibrated import CalibrationError, calibrate
 
     dev = cable_device(args.device, "to export", drives=True)
     if args.kind == "compensator":        # before any file is read: the name must fit the .comp's device line
@@ -100,25 +100,21 @@ def run_export(args) -> int:
                          "nominal losses", "friction")
     if args.shares is not None and args.friction is None:
         raise UsageError("shares split identified friction: give --friction too", "shares")
-    losses = None
-    try:
-        if args.friction is not None:
-            losses = identified_losses(dev, args.friction, args.shares)
-    except LossModelError as exc:
+    try:            # the device file with the identified friction laid over it: one loss model, read once
+        cal = calibrate(dev, args.friction, shares=args.shares)
+    except CalibrationError as exc:
         raise UsageError(str(exc)) from None
+    losses = cal.losses
     if args.kind == "compensator":
-        comp = Compensator.from_device(dev, friction=losses, underestimation=args.k,
+        comp = Compensator.from_device(cal, underestimation=args.k,
                                        velocity_band=args.velocity_band, velocity_cutoff_hz=args.velocity_cutoff,
                                        rate_hz=args.rate)
         comp.export(args.out)
         Compensator.load(args.out, expected_device=dev.name)     # read back: what a C controller will load
-        transmission = losses.transmission(dev)
-    else:
-        from tendyn.control.compensator import device_transmission
-
-        transmission = losses.transmission(dev) if losses is not None else device_transmission(dev)
+    transmission = cal.transmission()
+    if args.kind != "compensator":
         transmission.export(args.out)
-    rows = _summary_rows(dev, losses, transmission)
+    rows = _summary_rows(transmission)
     summary = {"out": str(args.out), "kind": args.kind, "device": dev.name,
                "friction": None if args.friction is None else str(args.friction),
                "sources": losses.sources if losses is not None else "device", "underestimation": args.k,
@@ -139,18 +135,14 @@ def run_export(args) -> int:
     return 0
 
 
-def _summary_rows(dev, losses, transmission) -> list[dict]:
+def _summary_rows(transmission) -> list[dict]:
     """Friction [N·m] the exported transmission puts at each motor moving alone at CHECK_SPEEDS, zero load."""
-    from tendyn.ident.friction import isolated_move_joint_speeds
-    from tendyn.ident.loss_model import routing_of
-
-    arr = routing_of(dev)
     n = transmission.n
     rows = []
     for j in range(n):
         f = []
         for v in CHECK_SPEEDS:
-            qd = isolated_move_joint_speeds(arr["K"], arr["motor_radius"], j, "S2", v)
+            qd = transmission.motor_alone_joint_speeds(j, v)
             f.append(float(transmission.feedforward(np.zeros(n), qd).torque_motor[j]))
         rows.append({"transmission": j + 1, "speeds": list(CHECK_SPEEDS), "friction": f})
     return rows

@@ -68,7 +68,7 @@ def _check_out(path: str | None, suffix: str, option: str) -> Path | None:
 
 
 def run(args) -> int:
-    from tendyn.cli import _check_out_folder, _load, _print_json
+    from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load, print_json as _print_json
     from tendyn.io import atomic_write_bytes, atomic_write_text, save_png
     from tendyn.ident.history import history
 

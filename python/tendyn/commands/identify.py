@@ -109,7 +109,7 @@ def cmd_identify(args) -> int:
         raise UsageError(f"must end in .json (got {args.out})", "out")
     check_record(args)
     if args.report is not None:                 # checked before the fit, like --out (type=out_path)
-        from tendyn.cli import _check_out_folder
+        from tendyn.commands.shared import check_out_folder as _check_out_folder
 
         _check_out_folder(args.report, "report")
     if args.stream:

@@ -42,7 +42,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from tendyn.analysis.operational import (DEFAULT_HALF_WIDTH, DEFAULT_POINTS, OperationalModel, ParamsError,
                                              operational_maps)
-    from tendyn.cli import _check_out_folder, _load
+    from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load
     from tendyn.report import publish
 
     dev = _load(args.device)
@@ -85,7 +85,7 @@ def run(args) -> int:
 def _run_handle(args, dev) -> int:
     """Cable transmissions or geared actuators: the maps of :mod:`tendyn.analysis.handle_maps`."""
     from tendyn.analysis.handle_maps import handle_maps
-    from tendyn.cli import _check_out_folder
+    from tendyn.commands.shared import check_out_folder as _check_out_folder
     from tendyn.report import publish
 
     for opt in ("stiffness", "half_width"):

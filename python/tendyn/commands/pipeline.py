@@ -43,7 +43,7 @@ def _dispatch(args) -> int:
     if getattr(args, "logs", None) is not None and not p.writes_logs:
         known = ", ".join(sorted(k for k, v in PIPELINES.items() if v.writes_logs)) or "none"
         raise UsageError(f"pipeline {p.name} writes no logs (--logs: {known})", "logs")
-    from tendyn.cli import _check_out_folder
+    from tendyn.commands.shared import check_out_folder as _check_out_folder
 
     if args.report is not None:                 # before the work: a file or an unwritable place is exit 2
         _check_out_folder(args.report, "report")

@@ -7,7 +7,7 @@ from tendyn.commands.pipeline import Pipeline, publish, register_pipeline
 
 
 def run_pipeline_s0(args) -> int:
-    from tendyn.cli import _load
+    from tendyn.commands.shared import load as _load
     from tendyn.errors import CheckFailed, UsageError
     from tendyn.pipelines.s0 import run_s0
 

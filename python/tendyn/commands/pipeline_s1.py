@@ -8,7 +8,7 @@ from tendyn.errors import UsageError
 
 
 def run(args) -> int:
-    from tendyn.cli import _check_out_folder, _load
+    from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load
     from tendyn.pipelines.s1 import run_s1
 
     if str(args.device).lower().endswith((".csv", ".parquet")):

@@ -120,9 +120,9 @@ def run(args, load_device) -> int:
     summary = {"experiment": args.experiment, "device": device, "column": column, "rate_hz": args.rate,
                "logs": written, **options}
     if args.json:
-        from tendyn.commands.s0 import _print_json
+        from tendyn.commands.shared import print_json
 
-        _print_json(summary)
+        print_json(summary, allow_nan=False)
     else:
         for w in written:
             print(f"{w['out']}: {w['samples']} samples, {w['duration_s']:.2f} s of {column}")

@@ -2,7 +2,8 @@
 ``decompose``. :func:`register` (found by :func:`tendyn.cli.build_parser`) adds them with
 :func:`add_plan_arguments`, :func:`add_identify_friction_arguments`, :func:`add_decompose_arguments`; each
 sets ``func`` to the ``run_*`` function, which returns the exit code (0) and raises :class:`tendyn.errors.UsageError` for bad
-input (exit 2). No physics here: it calls :mod:`tendyn.sim.experiments` and :mod:`tendyn.ident`.
+input (exit 2). No physics here: it calls :mod:`tendyn.sim.experiments` and :mod:`tendyn.ident` (the campaign's
+grouping, fits and loss decomposition: :mod:`tendyn.ident.friction_campaign`).
 
 ::
 
@@ -14,7 +15,6 @@ input (exit 2). No physics here: it calls :mod:`tendyn.sim.experiments` and :mod
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 import numpy as np
@@ -22,7 +22,6 @@ import numpy as np
 from tendyn.commands import args as conv
 from tendyn.commands import plan_bench, plan_exciting
 from tendyn.errors import UsageError
-from tendyn.protocols import MIN_SPEEDS
 
 PLAN_EXPERIMENTS = ("constant-velocity",)
 LOG_SUFFIXES = (".csv", ".parquet")
@@ -57,9 +56,9 @@ def _separable(dev, what: str) -> None:
 
 
 def _print_json(doc) -> None:
-    from tendyn.io import to_jsonable
+    from tendyn.commands.shared import print_json
 
-    print(json.dumps(to_jsonable(doc), indent=2, allow_nan=False))
+    print_json(doc, allow_nan=False)
 
 
 # ---- plan -------------------------------------------------------------------------------------------
@@ -197,52 +196,18 @@ def add_identify_friction_arguments(subparsers) -> argparse.ArgumentParser:
 
 def identify_friction(device, logs, gravity: str = "pairs", min_speeds: int | None = None, names=None,
                       load: str = "auto", force: bool = False) -> dict:
-    """Fit every transmission from ``logs`` (:class:`tendyn.io.Log`), attach the residual-error bounds
-    computed from the identified values themselves (decomposed with the default shares) and return the
-    FRICTION.json document. Raises UsageError naming the log or transmission when something is missing, or a log
-    whose meta names another device (unless ``force``)."""
-    from tendyn.ident.decomposition import decompose
-    from tendyn.ident.friction import (IdentificationError, TransmissionFriction, log_strategy,
-                                       log_transmission, residual_error_bound)
-    from tendyn.ident.friction_file import friction_document
+    """The FRICTION.json document of ``logs`` (:func:`tendyn.ident.friction_campaign.identify_friction`), after
+    refusing a log whose meta names another device (unless ``force``); a campaign that cannot give one is a
+    UsageError naming the log or transmission."""
+    from tendyn.ident.friction_campaign import FrictionCampaignError, identify_friction as identify
 
     names = names or [f"log {k + 1}" for k in range(len(logs))]
-    n = device.n_transmissions or len(device.drives)
-    groups: dict[int, list] = {}
     for name, log in zip(names, logs):
         conv.refuse_other_device(name, log.meta.get("device"), device, force)
-        t = log_transmission(log)
-        if not 1 <= t <= n:
-            raise UsageError(f"{name}: transmission {t}, the device has 1…{n}")
-        groups.setdefault(t, []).append((name, log))
-    missing = [t for t in range(1, n + 1) if t not in groups]
-    if missing:
-        raise UsageError(f"no constant-velocity log for transmission {', '.join(map(str, missing))} "
-                         f"(FRICTION.json needs every transmission 1…{n})")
-    fits = []
-    for t in range(1, n + 1):
-        strategies = {log_strategy(lg) for _, lg in groups[t]}
-        if len(strategies) > 1:
-            raise UsageError(f"transmission {t}: logs of different strategies "
-                             f"({', '.join(sorted(str(s) for s in strategies))}); give one strategy per transmission")
-        est = TransmissionFriction(t, gravity=gravity, device=device if gravity != "pairs" else None,
-                                   min_speeds=MIN_SPEEDS if min_speeds is None else min_speeds, load=load)
-        try:
-            est.fit([lg for _, lg in groups[t]])
-        except IdentificationError as exc:
-            raise UsageError(f"{', '.join(nm for nm, _ in groups[t])}: {exc}") from None
-        fits.append(est.result_)
-    if not device.n_transmissions:   # capstan drives: one cable stretch per drive, no branches to bound
-        return friction_document(device.name, fits)
-    c0 = np.array([f.coulomb_motor for f in fits])
-    nu = np.array([f.viscous_motor for f in fits])
-    dec = decompose(device, np.maximum(c0, 0.0), np.maximum(nu, 0.0))
-    arr = device.routing_arrays()
-    for f in fits:
-        if f.strategy in ("S1", "S2"):
-            f.residual_bound = residual_error_bound(arr["K"], arr["motor_radius"], f.transmission - 1, f.strategy,
-                                                    dec.tau0_branch, dec.nu_branch, max(f.speeds_motor))
-    return friction_document(device.name, fits)
+    try:
+        return identify(device, logs, gravity, min_speeds, names, load)
+    except FrictionCampaignError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def run_identify_friction(args) -> int:
@@ -329,22 +294,8 @@ def run_decompose(args) -> int:
     return 0
 
 
-def drive_split(dev, doc) -> dict:
-    """Capstan drives: each drive is one cable stretch (no branches to split, S0 eqs. 18–21 reduce to one term):
-    its identified motor-side C_m0 [N·m] and ν [N·m·s/rad] and what they are at the joint (N C_m0 [N·m],
-    N² ν [N·m·s/rad]) beside the device file's values (information, not used by the fit)."""
-    rows = []
-    for k, d in enumerate(dev.drives):
-        c0, nu = float(doc["coulomb_motor"][k]), float(doc["viscous_motor"][k])
-        rows.append({"drive": k + 1, "name": d.name, "joint": d.joint, "ratio": d.ratio, "branches": 1,
-                     "coulomb_motor": c0, "viscous_motor": nu, "coulomb_joint": d.ratio * c0,
-                     "viscous_joint": d.ratio ** 2 * nu, "file_coulomb_motor": d.coulomb_motor,
-                     "file_viscous_motor": d.viscous_motor})
-    return {"format": "tendyn.decomposition/1", "device": dev.name, "kind": "drives",
-            "note": "capstan drives: one cable stretch per drive, nothing to split", "drives": rows}
-
-
 def _decompose_drives(dev, args) -> int:
+    from tendyn.ident.decomposition import drive_split
     from tendyn.ident.friction_file import FrictionFileError, read_friction
 
     if args.shares is not None:

@@ -39,7 +39,7 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from tendyn.cli import _load, _print_json
+    from tendyn.commands.shared import load as _load, print_json as _print_json
     from tendyn.pipelines.sweep import MAX_DESIGNS, parse_param, run_sweep
     from tendyn.report import warn, write_beside
     from tendyn.sim.tendon_bench import bench_model

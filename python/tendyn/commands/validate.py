@@ -41,7 +41,7 @@ def metrics(results) -> dict:
 
 def cmd_validate(args) -> int:
     from tendyn.io.params import ParamsError
-    from tendyn.cli import _check_out_folder, _load
+    from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load
     from tendyn.ident.identified import IdentifiedModel
     from tendyn.io import read_log
     from tendyn.io.logs import LogError

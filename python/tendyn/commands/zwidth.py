@@ -58,7 +58,7 @@ def _grid(text: str, option: str, lo_min: float):
 
 def run(args) -> int:
     from tendyn import _core
-    from tendyn.cli import _load, _print_json
+    from tendyn.commands.shared import load as _load, print_json as _print_json
     from tendyn.pipelines.zwidth import MODES, run_zwidth
 
     dev = _load(args.device)

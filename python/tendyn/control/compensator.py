@@ -24,7 +24,8 @@ import numpy as np
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
 from tendyn.device.closed_loop import end_effector_point
-from tendyn.transmission import Transmission, as_vector
+from tendyn.control.transmission_losses import device_transmission, transmission_with_friction
+from tendyn.transmission import as_vector
 
 __all__ = ["Compensator", "chain_model", "device_line_problem", "device_transmission", "end_effector_point",
            "transmission_with_friction",
@@ -85,51 +86,6 @@ def chain_model(device: Device | CompiledDevice) -> Any:
     if problem:
         raise ValueError(f"{compiled.name}: chain model: {problem}")
     return c
-
-
-def transmission_with_friction(device: Device | CompiledDevice, friction=None, shares=None) -> Transmission:
-    """The device's transmission with one loss model: its own (``friction=None``) or the identified one.
-
-    Identified friction (FRICTION.json, a decomposition, or per-branch arrays: see
-    :func:`tendyn.ident.loss_model.identified_losses`) *replaces* every loss term of the device file —
-    bearings, β, τ0, ν and the reducer efficiency — since friction identified at the motor already contains
-    them all (one loss model at a time; stacking both over-compensates and makes a haptic device active).
-
-    Raises
-    ------
-    ValueError
-        (:class:`tendyn.ident.loss_model.LossModelError`) a file of another device or transmission count, or
-        a negative or non-finite value, naming the source and field.
-    """
-    compiled = compile_device(device)
-    if friction is None:
-        return device_transmission(compiled)
-    from tendyn.ident.loss_model import identified_losses
-
-    return identified_losses(compiled, friction, shares).transmission(compiled.device)
-
-
-def device_transmission(device: Device | CompiledDevice) -> Transmission:
-    """The transmission a compensator of ``device`` drives with the device file's losses: its cable
-    transmissions, or its capstan ``[[drives]]`` as one-branch transmissions (S0 eq. 17 with one branch:
-    C_m = τ/N + C_m0 sgn(q̇_m) + ν_m q̇_m; :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`).
-
-    Raises
-    ------
-    ValueError
-        A device with neither (a tendon bench, geared ``[[actuators]]``).
-    """
-    compiled = compile_device(device)
-    if compiled.transmission is not None:
-        return compiled.transmission
-    dev = compiled.device
-    if compiled.kind == "serial" and getattr(dev, "drives", ()):
-        from tendyn.transmission import LOSS_FIELDS
-
-        a = dev.drive_routing_arrays()
-        return Transmission.from_arrays(a["motor_radius"], a["K"], a["reducer_ratio"], a["reducer_efficiency"],
-                                        a["pretension"], **{k: a[k] for k in LOSS_FIELDS})
-    raise ValueError(f"{compiled.name}: no cable transmissions or capstan drives to compensate")
 
 
 def _passivity(compiled: CompiledDevice, passivity, friction, rate_hz: float) -> Any:
@@ -210,6 +166,9 @@ class Compensator:
             (``forgetting``, ``velocity_min``, ``acceleration_max``, ``scale_min``, ``scale_max``,
             ``covariance_max``) or a ``_core.FrictionTrackingModel``: online friction tracking (RLS)
         """
+        from tendyn.ident.calibrated import unwrap
+
+        device, friction = unwrap(device, friction)     # a calibrated device: its loss model, built once
         compiled = compile_device(device)
         m = _core.CompensatorModel()
         if friction is None:
@@ -217,7 +176,7 @@ class Compensator:
         else:
             from tendyn.ident.loss_model import identified_losses
 
-            losses = identified_losses(compiled, friction, shares)
+            losses = friction = identified_losses(compiled, friction, shares)   # read once: the passivity bound too
             m.transmission = losses.transmission(compiled.device).model
             m.loss_source = losses.source_list()
             m.friction_source = losses.origin

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from tendyn import _core
+from tendyn.control.transmission_losses import transmission_with_friction
 from tendyn.device import CompiledDevice, Device, compile_device
 
 __all__ = ["dissipation_bound", "passivity_model", "DEFAULT_MARGIN", "DEFAULT_RESERVE", "BOUND_SPEEDS"]
@@ -48,19 +49,16 @@ def dissipation_bound(device: Device | CompiledDevice, friction=None, margin: fl
         the reference friction (:func:`tendyn.control.transmission_with_friction`); None: the device's own
     margin : (0, 1] fraction certified
     """
-    from tendyn.control.compensator import transmission_with_friction
-
     if not 0.0 < margin <= 1.0:
         raise ValueError(f"margin must be in (0, 1] (got {margin})")
-    tr = transmission_with_friction(compile_device(device), friction)
+    tr = transmission_with_friction(device, friction)
     n = tr.n
-    joint_from_motor = np.array(tr.model.joint_from_motor_position)
     A = np.column_stack([np.ones_like(BOUND_SPEEDS), BOUND_SPEEDS])
     coulomb, viscous = np.zeros(n), np.zeros(n)
     for i in range(n):
         torque = np.empty(len(BOUND_SPEEDS))
         for k, v in enumerate(BOUND_SPEEDS):
-            qd = joint_from_motor @ (v * np.eye(n)[i])
+            qd = tr.motor_alone_joint_speeds(i, v)
             torque[k] = tr.feedforward(np.zeros(n), qd).torque_motor[i]
         c, b = np.linalg.lstsq(A, torque, rcond=None)[0]
         coulomb[i], viscous[i] = max(c, 0.0) * margin, max(b, 0.0) * margin
@@ -80,6 +78,9 @@ def passivity_model(device: Device | CompiledDevice, friction=None, *, margin: f
         ``rate_hz`` (α_max T / J_rotor = 1: a one-period damper cannot reverse a free rotor)
     rate_hz : control rate [Hz]
     """
+    from tendyn.ident.calibrated import unwrap
+
+    device, friction = unwrap(device, friction)     # a calibrated device: its one loss model
     compiled = compile_device(device)
     coulomb, viscous = dissipation_bound(compiled, friction, margin)
     if damping_max is None:

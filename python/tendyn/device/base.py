@@ -9,10 +9,34 @@ from __future__ import annotations
 from pathlib import Path
 from typing import ClassVar
 
-__all__ = ["EXPERIMENTS", "Device"]
+__all__ = ["EXPERIMENTS", "Device", "DeviceError"]
 
 EXPERIMENTS = ("constant-velocity", "exciting", "blocked-link", "stepped-sine", "swept-sine", "low-speed-loop", "prbs")
 """Every experiment name a device may support (the CLI's names, ``tendyn simulate DEVICE EXPERIMENT``)."""
+
+
+class DeviceError(ValueError):
+    """A device file (or a request about bundled devices) is invalid.
+
+    The message names the file, the field path and what is wrong, e.g.
+    ``lexos.toml: transmissions[2].driven_radius: must be > 0 (got 0.0): ...``.
+
+    Attributes
+    ----------
+    file : str or None
+        The file name the error is about (None when no file is involved).
+    field : str or None
+        The dotted field path, with 1-based indices of array entries (``transmissions[2].friction[1].tau0``).
+    problem : str
+        What is wrong, without the file and field prefix.
+    """
+
+    def __init__(self, problem: str, *, file: str | None = None, field: str | None = None):
+        self.file = file
+        self.field = field
+        self.problem = problem
+        parts = [p for p in (file, field) if p]
+        super().__init__(": ".join(parts + [problem]))
 
 
 class Device:

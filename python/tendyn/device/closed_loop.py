@@ -27,6 +27,7 @@ import numpy as np
 from .base import Device
 from .compiled import CompiledDevice, compile_device
 from .rigid_body import (
+    active_coordinate_map,
     cut_frames,
     rot_x,
     rot_z,
@@ -46,48 +47,6 @@ __all__ = [
     "end_effector_point",
     "loop_closure_error",
 ]
-
-
-def active_coordinate_map(device) -> tuple[list[int], np.ndarray, np.ndarray]:
-    """The linear map from active to tree coordinates, q_tree = L q_active + c.
-
-    Parameters
-    ----------
-    device : Device
-        A loaded device ("dh" or "mdh"; constraints only for "mdh").
-
-    Returns
-    -------
-    active : list of int
-        0-based tree indices of the active (mu = 1) joints, in tree order.
-    L : ndarray, shape (n_tree, n_active)
-        ∂q_tree/∂q_active [-]: identity rows for active joints, the constraint coefficients for passive ones.
-    c : ndarray, shape (n_tree,)
-        Constant offsets [rad] (or [m]) of the constraints; 0 for active joints.
-
-    For a serial device (no passive joints) L = I and c = 0.
-    """
-    kin = device.kinematics
-    numbers = tree_joint_numbers(device)
-    pos = {num: k for k, num in enumerate(numbers)}
-    joints = kin.joints
-    active = [k for k, num in enumerate(numbers) if joints[num - 1].actuated]
-    col = {numbers[k]: i for i, k in enumerate(active)}
-    L = np.zeros((len(numbers), len(active)))
-    c = np.zeros(len(numbers))
-    for num in col:
-        L[pos[num], col[num]] = 1.0
-    constrained = set()
-    for con in getattr(kin, "constraints", ()):
-        row = pos[con.joint]
-        for jn, coef in con.terms:
-            L[row, col[jn]] += coef
-        c[row] = con.offset
-        constrained.add(con.joint)
-    missing = [num for num in numbers if num not in col and num not in constrained]
-    if missing:
-        raise ValueError(f"passive joints without a constraint: {missing}")
-    return active, L, c
 
 
 def _tree_state(L, c, qa, qda=None, qdda=None):

@@ -31,7 +31,7 @@ import numpy as np
 
 from .base import Device
 
-__all__ = ["ActiveMap", "CompiledDevice", "compile_device"]
+__all__ = ["ActiveMap", "CompiledDevice", "compile_device", "device_transmission"]
 
 _CACHE_ATTR = "_compiled"
 
@@ -130,7 +130,7 @@ class CompiledDevice:
     # ---- active coordinates -------------------------------------------------------------------
     @cached_property
     def _active(self) -> tuple[list[int], ActiveMap]:
-        from .closed_loop import active_coordinate_map
+        from .rigid_body import active_coordinate_map
 
         active, L, c = active_coordinate_map(self._serial("joint coordinates"))
         L, c = np.asarray(L, float), np.asarray(c, float)
@@ -207,3 +207,26 @@ def compile_device(device: Device | CompiledDevice) -> CompiledDevice:
 def as_device(device: Device | CompiledDevice) -> Device:
     """The description behind a Device or CompiledDevice."""
     return device.device if isinstance(device, CompiledDevice) else device
+
+
+def device_transmission(device: Device | CompiledDevice) -> Any:
+    """The transmission a compensator of ``device`` drives with the device file's losses: its cable
+    transmissions, or its capstan ``[[drives]]`` as one-branch transmissions (S0 eq. 17 with one branch:
+    C_m = τ/N + C_m0 sgn(q̇_m) + ν_m q̇_m; :meth:`tendyn.device.schema.SerialDevice.drive_routing_arrays`).
+
+    Raises
+    ------
+    ValueError
+        A device with neither (a tendon bench, geared ``[[actuators]]``).
+    """
+    compiled = compile_device(device)
+    if compiled.transmission is not None:
+        return compiled.transmission
+    dev = compiled.device
+    if compiled.kind == "serial" and getattr(dev, "drives", ()):
+        from tendyn.transmission import LOSS_FIELDS, Transmission
+
+        a = dev.drive_routing_arrays()
+        return Transmission.from_arrays(a["motor_radius"], a["K"], a["reducer_ratio"], a["reducer_efficiency"],
+                                        a["pretension"], **{k: a[k] for k in LOSS_FIELDS})
+    raise ValueError(f"{compiled.name}: no cable transmissions or capstan drives to compensate")

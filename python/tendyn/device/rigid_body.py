@@ -162,7 +162,7 @@ def _urdf_frames(device) -> list[JointFrame]:
     coordinates in Pinocchio) or a floating base is refused with a clear message."""
     import pinocchio as pin
 
-    from tendyn.device.schema import DeviceError
+    from tendyn.device.base import DeviceError
 
     path = str(device.kinematics.urdf)
     try:
@@ -294,3 +294,46 @@ def dh_forward_kinematics(device, q) -> list[np.ndarray]:
         T = T @ dh_transform(js.a, js.alpha, js.d, qi + js.theta_offset)
         out.append(T)
     return out
+
+
+def active_coordinate_map(device) -> tuple[list[int], np.ndarray, np.ndarray]:
+    """The linear map from active to tree coordinates, q_tree = L q_active + c.
+
+    Parameters
+    ----------
+    device : Device
+        A loaded device ("dh" or "mdh"; constraints only for "mdh").
+
+    Returns
+    -------
+    active : list of int
+        0-based tree indices of the active (mu = 1) joints, in tree order.
+    L : ndarray, shape (n_tree, n_active)
+        ∂q_tree/∂q_active [-]: identity rows for active joints, the constraint coefficients for passive ones.
+    c : ndarray, shape (n_tree,)
+        Constant offsets [rad] (or [m]) of the constraints; 0 for active joints.
+
+    For a serial device (no passive joints) L = I and c = 0. Kinematics of the description only, so the compiled
+    device (``CompiledDevice.active_map``) and :mod:`tendyn.device.closed_loop` read it from here.
+    """
+    kin = device.kinematics
+    numbers = tree_joint_numbers(device)
+    pos = {num: k for k, num in enumerate(numbers)}
+    joints = kin.joints
+    active = [k for k, num in enumerate(numbers) if joints[num - 1].actuated]
+    col = {numbers[k]: i for i, k in enumerate(active)}
+    L = np.zeros((len(numbers), len(active)))
+    c = np.zeros(len(numbers))
+    for num in col:
+        L[pos[num], col[num]] = 1.0
+    constrained = set()
+    for con in getattr(kin, "constraints", ()):
+        row = pos[con.joint]
+        for jn, coef in con.terms:
+            L[row, col[jn]] += coef
+        c[row] = con.offset
+        constrained.add(con.joint)
+    missing = [num for num in numbers if num not in col and num not in constrained]
+    if missing:
+        raise ValueError(f"passive joints without a constraint: {missing}")
+    return active, L, c

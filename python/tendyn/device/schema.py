@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .base import Device
+from .base import Device, DeviceError  # noqa: F401 — DeviceError: its home is base.py (terms, rigid_body raise it)
 
 SCHEMA_VERSION = 1
 """The schema version this package reads (``schema = 1`` at the top of the file)."""
@@ -33,30 +33,6 @@ INERTIA_TOL = 1e-12
 """Tolerance [kg m^2] of the positive-semidefinite and triangle-inequality checks of inertias."""
 
 TWO_PI = 2.0 * math.pi
-
-
-class DeviceError(ValueError):
-    """A device file (or a request about bundled devices) is invalid.
-
-    The message names the file, the field path and what is wrong, e.g.
-    ``lexos.toml: transmissions[2].driven_radius: must be > 0 (got 0.0): ...``.
-
-    Attributes
-    ----------
-    file : str or None
-        The file name the error is about (None when no file is involved).
-    field : str or None
-        The dotted field path, with 1-based indices of array entries (``transmissions[2].friction[1].tau0``).
-    problem : str
-        What is wrong, without the file and field prefix.
-    """
-
-    def __init__(self, problem: str, *, file: str | None = None, field: str | None = None):
-        self.file = file
-        self.field = field
-        self.problem = problem
-        parts = [p for p in (file, field) if p]
-        super().__init__(": ".join(parts + [problem]))
 
 
 # ----------------------------------------------------------------------------------------------------------
@@ -650,16 +626,19 @@ class Drive:
 
     @property
     def stiffness_joint(self) -> float:
-        """Capstan stiffness seen at the joint [N m/rad] = N^2 * stiffness_motor (ERRATA eq. 19)."""
-        return self.ratio ** 2 * self.stiffness_motor
+        """Capstan stiffness seen at the joint [N m/rad] = N^2 * stiffness_motor (ERRATA eq. 19,
+        :func:`tendyn.device.stiffness.reflected_stiffness`)."""
+        from .stiffness import reflected_stiffness
+
+        return reflected_stiffness(self.stiffness_motor, self.ratio)
 
     @property
     def total_stiffness_motor(self) -> float:
-        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19); K_T if K_E is not given."""
-        kt, ke = self.stiffness_motor, self.servo_stiffness_motor
-        if ke is None:
-            return kt
-        return kt * ke / (kt + ke) if ke > 0 else 0.0
+        """K_tot = 1 / (1/K_T + 1/K_E) [N m/rad] at the motor (S2 eq. 19, :func:`tendyn.device.stiffness.total_stiffness`);
+        K_T if K_E is not given."""
+        from .stiffness import total_stiffness
+
+        return total_stiffness(self.stiffness_motor, self.servo_stiffness_motor)
 
     @property
     def rotor_inertia_joint(self) -> float:
@@ -893,6 +872,13 @@ class SerialDevice(Device):
     @property
     def joint_names(self) -> tuple[str, ...]:
         return tuple(j.name for j in self.kinematics.joints)
+
+    def square_routing_arrays(self, what: str) -> dict[str, np.ndarray]:
+        """:meth:`routing_arrays` of a device with one cable (or antagonistic pair) per joint, for ``what`` (the
+        square statics with losses, :meth:`tendyn.transmission.Transmission.from_device`); an N+1 device raises
+        DeviceError naming ``what`` (:func:`require_one_per_joint`)."""
+        require_one_per_joint(self, what)
+        return self.routing_arrays()
 
     def routing_arrays(self) -> dict[str, np.ndarray]:
         """The routing and friction data as numpy arrays, 0-based.

@@ -368,7 +368,7 @@ class TermModel:
             q[:, i] = lo[i] + step[i] * np.arange(n_knots)
             tau = self.torque(q)
             if not np.all(np.isfinite(tau)):
-                from .schema import DeviceError
+                from .base import DeviceError
 
                 path = getattr(self.device, "path", None)
                 raise DeviceError(f"the terms' torque on joint {active_numbers[i]} is not finite over "
@@ -382,7 +382,7 @@ class TermModel:
                 [k for k in range(na) if k != i]]
             if np.max(np.abs(other), initial=0.0) > 1e-9 * (1 + np.max(np.abs(tau))) or \
                     not np.allclose(self.torque(q2)[:, i], tau[:, i], rtol=1e-9, atol=1e-12):
-                from .schema import DeviceError
+                from .base import DeviceError
 
                 culprit = [t.name for t in self.terms if t.kind == "spring" or t.kind in ("functions", "known")]
                 path = getattr(self.device, "path", None)

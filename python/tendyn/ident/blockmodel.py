@@ -29,6 +29,12 @@ the friction's sign read from the measured output (:func:`_initial_lure`), exact
 output-error G has its damping inflated by the friction; from it the McGill twin's fit ends at a higher
 cost, docs/bench-identification.md).
 
+``coulomb-tension`` (Lur'e, push-pull): the level of each branch F + μ s y grows with its output (a node's friction
+linear in its tendon's tension, S1 §4) and the recursion runs :data:`LURE_SUBSTEPS` steps a sample on G's
+continuous equivalent re-sampled (:func:`_fine`), so stick/slip is decided 4× finer than the log rate: a model
+fitted at one amplitude then holds at 0.5× and 1.5× of it within 1.2× its NRMS on generated benches, where the
+constant level at the log rate reached 1.35× (docs/bench-identification.md).
+
 RMS [output unit] and NRMS = ‖y − ŷ‖/‖y − ȳ‖ [-] (1: no better than the mean) are reported on the fit and
 on validation records. :class:`BlockModel` is the estimator (hyper-parameters in ``__init__``, learned values
 with a trailing ``_``, ``fit`` / ``predict`` / ``score``); its ``result_`` a :class:`BlockModelFit`.
@@ -58,7 +64,8 @@ __all__ = ["LURE_NONLINEARITIES", "NONLINEARITIES", "STRUCTURES", "BlockModel", 
 STRUCTURES = ("wiener", "hammerstein", "lure", "push-pull")
 LURE_STRUCTURES = ("lure", "push-pull")
 """Structures whose nonlinearity sits in G's feedback (:data:`LURE_NONLINEARITIES`, simulated by a recursion)."""
-AUTO_CANDIDATES = (("wiener", "dead-zone"), ("lure", "coulomb"), ("push-pull", "coulomb"))
+AUTO_CANDIDATES = (("wiener", "dead-zone"), ("lure", "coulomb"), ("push-pull", "coulomb"),
+                   ("push-pull", "coulomb-tension"))
 """(structure, nonlinearity) pairs tried by ``BlockModel("auto")`` (chosen by the validation NRMS)."""
 
 
@@ -113,11 +120,19 @@ NONLINEARITIES: dict[str, Nonlinearity] = {n.name: n for n in (
 NONLINEARITIES["dead-band"] = NONLINEARITIES["dead-zone"]
 IDENTITY = Nonlinearity("identity", (), lambda x, p: x, lambda x, p: np.ones_like(x),
                         lambda x, p: np.zeros((x.size, 0)), (), "f = x (the linear output-error fit)")
-NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "saturation", "abs", "polynomial")
-LURE_NONLINEARITIES: dict[str, Nonlinearity] = {"coulomb": Nonlinearity(
+NONLINEARITY_NAMES = ("dead-zone", "dead-band", "coulomb", "coulomb-tension", "saturation", "abs", "polynomial")
+LURE_NONLINEARITIES: dict[str, Nonlinearity] = {n.name: n for n in (Nonlinearity(
     "coulomb", ("level",), lambda v, p: p[0] * _sgn(v), lambda v, p: np.zeros_like(v), lambda v, p: _sgn(v)[:, None],
     (0.0,), "φ = F sgn(Δy) fed back to G's input, sticking (Δy = 0, |φ| ≤ F) when it can: Coulomb friction of "
-            "level F [input unit] inside the dynamics (Lur'e)")}
+            "level F [input unit] inside the dynamics (Lur'e)"), Nonlinearity(
+    "coulomb-tension", ("level", "per_output"), lambda v, p: p[0] * _sgn(v), lambda v, p: np.zeros_like(v),
+    lambda v, p: _sgn(v)[:, None], (0.0, -np.inf),
+    "φ as coulomb with a level that grows with the branch's own output, F + μ s y (s the branch's sign; the "
+    "one-loop model F + μ |y|), μ = per_output [input unit per output unit]: a node's friction linear in its "
+    "tendon's tension (S1 §4, F_c = F_c0 + μ_T T); the recursion runs LURE_SUBSTEPS steps per sample"))}
+LURE_SUBSTEPS = 4
+"""Steps per sample of the ``coulomb-tension`` Lur'e recursion: the friction's stick/slip decisions are taken at
+4× the log rate (module docstring: why)."""
 """Feedback nonlinearities of the Lur'e structure (:func:`_lure_simulate`)."""
 
 
@@ -215,7 +230,7 @@ def nrms(y, yhat) -> float:
 
 # ---- simulation and Jacobian ----------------------------------------------------------------------------
 
-def _lure_simulate(b, a, level, u) -> np.ndarray:
+def _lure_simulate(b, a, level, u, per_output=0.0, sign=1.0) -> np.ndarray:
     """ŷ of the Lur'e model from rest: y = G (u − φ), G(z) = (b_1 z⁻¹ + … + b_n z⁻ⁿ)/A(z) strictly proper
     (``b`` = b_1…b_n, ``a`` = a_1…a_n), φ_t Coulomb friction of level F = ``level`` [u unit] held over the
     sample like u_t, opposing the output's next increment Δ = y_{t+1} − y_t (time stepping at the velocity
@@ -229,12 +244,16 @@ def _lure_simulate(b, a, level, u) -> np.ndarray:
     |u − y/G(1)| ≤ F: F is the half-width of the dead-band seen from u. Resting the state (rather than only
     holding y_{t+1} = y_t, which inverts G's numerator and makes the stuck friction ring on its sampling
     zero near z = −1) is what a stuck mass does: its velocity is zero. One scalar recursion per sample (the
-    stick/slip choice depends on the simulated output): plain floats, ≈ 0.5 µs a sample."""
+    stick/slip choice depends on the simulated output): plain floats, ≈ 0.5 µs a sample.
+
+    ``per_output`` μ ≠ 0: the level of step t is max(F + μ s y_t, 0), s = ``sign`` (0: |y_t|) — friction linear
+    in the tension the branch's output is (``coulomb-tension``)."""
     n = len(a)
     b = [float(v) for v in b]
     a = [float(v) for v in a]
     b1, F = b[0], max(float(level), 0.0)
     thr, sb = abs(b1) * F, (1.0 if b1 >= 0.0 else -1.0)
+    ab1, F0, mu, sgn = abs(b1), float(level), float(per_output), float(sign)
     sum_b = sum(b)
     inv_g0 = (1.0 + sum(a)) / sum_b if sum_b != 0.0 else 0.0        # 1/G(1)
     uu = np.asarray(u, float).tolist()
@@ -251,6 +270,10 @@ def _lure_simulate(b, a, level, u) -> np.ndarray:
         for k in range(n):
             acc -= a[k] * yh[k]
         yt = yh[0]
+        if mu != 0.0:
+            F = F0 + mu * (sgn * yt if sgn != 0.0 else abs(yt))
+            F = F if F > 0.0 else 0.0
+            thr = ab1 * F
         d = acc - yt
         if -thr <= d <= thr:                                        # stick: at rest at y_t
             yh = [yt] * n
@@ -270,24 +293,76 @@ def _lure_simulate(b, a, level, u) -> np.ndarray:
     return np.array(out)
 
 
-def _push_pull_simulate(b, a, level, u) -> np.ndarray:
+def _push_pull_simulate(b, a, level, u, per_output=0.0) -> np.ndarray:
     """ŷ of the push-pull (class-B) Lur'e model: two Lur'e loops of the same G and friction level F, one fed
     the positive half-wave max(u, 0), the other the negative one min(u, 0), outputs added (S1's 2N drive: the
     amplifier's clamping diodes give each motor its half-wave, each motor/tendon node its own Coulomb friction;
     with the load clamped the two halves do not interact). ``b`` = b_1…b_n, ``a`` = a_1…a_n, F [u unit] the
     level of one branch."""
     u = np.asarray(u, float)
-    return _lure_simulate(b, a, level, np.maximum(u, 0.0)) + _lure_simulate(b, a, level, np.minimum(u, 0.0))
+    return (_lure_simulate(b, a, level, np.maximum(u, 0.0), per_output, 1.0)
+            + _lure_simulate(b, a, level, np.minimum(u, 0.0), per_output, -1.0))
 
 
-def _lure_family_simulate(structure, b, a, level, u):
-    return (_push_pull_simulate if structure == "push-pull" else _lure_simulate)(b, a, level, u)
+def _fine(b, a, substeps):
+    """G(z) = (b_1 z⁻¹ + … + b_n z⁻ⁿ)/A(z) at the sample time h re-sampled at h/r, r = ``substeps``: the
+    zero-order-hold state space M = [[A_d, B_d], [0, 1]] of G(z) (observable companion form) is exp(L h)
+    of its continuous equivalent, so the step h/r is M^(1/r) = exp(log(M)/r) (the same continuous G(s) as
+    :meth:`BlockModelFit.linear_continuous`). Returns (b, a) at h/r, or None when a pole of G(z) lies on the
+    non-positive real axis (no continuous equivalent: the fit rejects that point)."""
+    from scipy.linalg import expm, logm
+
+    n = len(a)
+    Ad = np.zeros((n, n))
+    Ad[:, 0] = -np.asarray(a, float)
+    Ad[:-1, 1:] = np.eye(n - 1)
+    M = np.zeros((n + 1, n + 1))
+    M[:n, :n], M[:n, n], M[n, n] = Ad, np.asarray(b, float), 1.0
+    poles = np.linalg.eigvals(Ad)
+    if not np.all(np.isfinite(poles)) or np.any((np.abs(poles.imag) < 1e-12) & (poles.real <= 0)):
+        return None
+    with np.errstate(all="ignore"):
+        L = logm(M)
+    if np.iscomplexobj(L):
+        if np.abs(L.imag).max() > 1e-8 * (np.abs(L.real).max() or 1.0):
+            return None
+        L = L.real
+    Mf = expm(L / substeps)
+    Af, Bf = Mf[:n, :n], Mf[:n, n]
+    af = np.real(np.poly(Af))[1:]
+    # numerator of C (zI − A_f)⁻¹ B_f, C = e_1ᵀ: Markov parameters h_k = C A_f^(k−1) B_f, b = (h convolved with A)
+    h, x = [], Bf.copy()
+    for _ in range(n):
+        h.append(x[0])
+        x = Af @ x
+    bf = np.array([h[k] + sum(af[j] * h[k - 1 - j] for j in range(k)) for k in range(n)])
+    return bf, af
+
+
+def _lure_family_simulate(structure, b, a, p, u, substeps=1):
+    """ŷ of a Lur'e structure; ``p`` = (F,) or (F, μ) (``coulomb-tension``, run at ``substeps`` steps per
+    sample: u held over the sample, ŷ the fine output at each sample instant)."""
+    level = p[0]
+    mu = p[1] if len(p) > 1 else 0.0
+    r = int(substeps)
+    if r > 1:
+        fine = _fine(b, a, r)
+        if fine is None:
+            return np.full(np.size(u), np.nan)
+        b, a = fine
+        u = np.repeat(np.asarray(u, float), r)
+    if structure == "push-pull":
+        y = _push_pull_simulate(b, a, level, u, mu)
+    else:
+        y = _lure_simulate(b, a, level, u, mu, 0.0)
+    return y[::r] if r > 1 else y
 
 
 def simulate(structure: str, nl: Nonlinearity, b, a, p, u) -> np.ndarray:
-    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1; Lur'e: b_0 = 0)."""
+    """ŷ of the model from rest for the input sequence ``u`` (``a`` without its leading 1; Lur'e: b_0 = 0;
+    ``coulomb-tension``: :data:`LURE_SUBSTEPS` recursion steps per sample)."""
     if structure in LURE_STRUCTURES:
-        return _lure_family_simulate(structure, b[1:], a, p[0], u)
+        return _lure_family_simulate(structure, b[1:], a, p, u, LURE_SUBSTEPS if nl.name == "coulomb-tension" else 1)
     A = np.concatenate([[1.0], a])
     if structure == "wiener":
         return nl.f(_lfilter(b, A, u), p)
@@ -307,14 +382,14 @@ LURE_TOL = 1e-7
 sample's stick/slip change: finer tolerances buy evaluations, not accuracy)."""
 
 
-def _lure_residual_and_jac(n, theta, records, want_jac, skip, structure="lure"):
+def _lure_residual_and_jac(n, theta, records, want_jac, skip, structure="lure", substeps=1):
     """Residual of the Lur'e model and its Jacobian by forward differences (b_0 ≡ 0: its column is zero, so
     the step leaves it at 0). The recursion's stick/slip choice is redone at each perturbed θ; ŷ jumps (by
     about the velocity of one threshold |b_1| F a sample) where a sample changes between stick and slip, a
     set of measure zero that a step of 1e-7 relative seldom meets."""
     def res(th):
-        r = np.concatenate([(_lure_family_simulate(structure, th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1],
-                                                   rec.u) - rec.y)[skip:] for rec in records])
+        r = np.concatenate([(_lure_family_simulate(structure, th[1:n + 1], th[n + 1:2 * n + 1], th[2 * n + 1:],
+                                                   rec.u, substeps) - rec.y)[skip:] for rec in records])
         bad = ~np.isfinite(r)
         return np.where(bad, 1e6, np.clip(r, -1e6, 1e6)) if bad.any() else r
 
@@ -323,7 +398,8 @@ def _lure_residual_and_jac(n, theta, records, want_jac, skip, structure="lure"):
         return r
     J = np.zeros((r.size, theta.size))
     umax = max(float(np.max(np.abs(rec.u))) for rec in records) or 1.0
-    scale = np.concatenate([[0.0], np.full(n, np.abs(theta[1:n + 1]).max() or 1.0), np.ones(n), [umax]])
+    scale = np.concatenate([[0.0], np.full(n, np.abs(theta[1:n + 1]).max() or 1.0), np.ones(n), [umax],
+                            np.ones(theta.size - 2 * n - 2)])
     for j in range(1, theta.size):
         h = 1e-7 * (abs(theta[j]) + 1e-2 * scale[j])
         th = theta.copy()
@@ -334,7 +410,8 @@ def _lure_residual_and_jac(n, theta, records, want_jac, skip, structure="lure"):
 
 def _residual_and_jac(structure, nl, n, theta, records, want_jac, skip):
     if structure in LURE_STRUCTURES:
-        return _lure_residual_and_jac(n, theta, records, want_jac, skip, structure)
+        return _lure_residual_and_jac(n, theta, records, want_jac, skip, structure,
+                                      LURE_SUBSTEPS if nl.name == "coulomb-tension" else 1)
     b, a, p = theta[:n + 1], theta[n + 1:2 * n + 1], theta[2 * n + 1:]
     A = np.concatenate([[1.0], a])
     res, jacs = [], []
@@ -723,7 +800,13 @@ class BlockModel:
         with a pole and a zero at the origin (the same model), so a higher order never fits worse."""
         nl = self._nl()
         starts = []
-        if self.structure in LURE_STRUCTURES:
+        if self.structure in LURE_STRUCTURES and nl.name == "coulomb-tension":
+            # the constant-level model first (its G and F), then μ = 0 added and all refined on the fine steps
+            th0, nf0 = BlockModel(self.structure, "coulomb", order=n, skip=self.skip,
+                                  max_nfev=self.max_nfev)._fit_order(records, n, warm=None if warm is None
+                                                                     else warm[:-1])
+            b, a, p = th0[:n + 1], th0[n + 1:2 * n + 1], np.concatenate([th0[2 * n + 1:], [0.0]])
+        elif self.structure in LURE_STRUCTURES:
             b, a, p = _initial_lure(n, records)
             if self.structure == "push-pull":
                 # the one-loop Lur'e model by output error first: its G is the push-pull's, its level the

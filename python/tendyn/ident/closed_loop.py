@@ -292,7 +292,7 @@ def fit_closed_loop(est, logs):
     :meth:`tendyn.ident.IDIM.fit` does, plus ``iterations_``, ``converged_``, ``params_ls_``, ``history_``."""
     from tendyn import _core
 
-    from .estimate import IdentificationResult
+    from .result import IdentificationResult
     from .lsq import rel_stderr_pct
     from .treatment import default_treatment, parallel_filter_taps, stack_blocks, treat
 

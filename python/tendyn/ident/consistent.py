@@ -12,16 +12,44 @@ import numpy as np
 __all__ = ["consistent_fit"]
 
 
-def consistent_fit(model, W, Y, eps: float = 0.0) -> np.ndarray:
+COM_BOUND = ("CX", "CY", "CZ")
+"""Bound names ``CX<j>``, ``CY<j>``, ``CZ<j>``: link j's centre of mass [m] in its frame (first moment / mass)."""
+
+
+def check_bounds(model, bounds) -> dict:
+    """``bounds`` {name: (lower, upper)} validated against the device's standard parameters: a name is a standard
+    parameter (``M2``, ``FS1``, ``OFFSET3``, ``IAm6``, a term's ``wrist_spring_k``; its unit) or ``CX<j>``/``CY<j>``/
+    ``CZ<j>``, link j's centre of mass [m] (linear: lower·M_j ≤ MX_j ≤ upper·M_j, with M_j ≥ 0); None: no bound on
+    that side. Raises ValueError naming an unknown name or lower > upper."""
+    names = set(model.standard_names)
+    out = {}
+    for name, pair in dict(bounds or {}).items():
+        lo, hi = pair
+        ok = name in names or (name[:2] in COM_BOUND and f"M{name[2:]}" in names)
+        if not ok:
+            raise ValueError(f"bounds: {name!r} is not a standard parameter of {model.device.name} nor CX/CY/CZ<link> "
+                             f"(standard: {', '.join(model.standard_names)})")
+        lo = None if lo is None else float(lo)
+        hi = None if hi is None else float(hi)
+        if lo is not None and hi is not None and lo > hi:
+            raise ValueError(f"bounds: {name} lower {lo} > upper {hi}")
+        out[name] = (lo, hi)
+    return out
+
+
+def consistent_fit(model, W, Y, eps: float = 0.0, bounds=None) -> np.ndarray:
     """Standard parameters (``model.standard_names`` order) minimising ‖W x − Y‖ under the LMIs.
 
     ``W`` is the (weighted) standard regressor; its null space is fixed by a tiny pull (1e-8 relative)
-    towards the device's prior, which changes no base parameter beyond the solver tolerance.
+    towards the device's prior, which changes no base parameter beyond the solver tolerance. ``bounds``:
+    box constraints on standard parameters and centres of mass (:func:`check_bounds`), as a peer's
+    hand-chosen boxes (WPI's dVRK SDP: masses, centres of mass, friction, spring stiffness).
     """
     import cvxpy as cp
 
     names = model.standard_names
     idx = {n: k for k, n in enumerate(names)}
+    bounds = check_bounds(model, bounds)
     Q, R = np.linalg.qr(W)
     z = Q.T @ Y
     x = cp.Variable(len(names))
@@ -37,6 +65,12 @@ def consistent_fit(model, W, Y, eps: float = 0.0) -> np.ndarray:
     for n, k in idx.items():
         if n.startswith(("IA", "FV", "FS")):
             cons.append(x[k] >= 0)
+    for name, (lo, hi) in bounds.items():
+        if name[:2] in COM_BOUND and name not in idx:
+            first, mass = x[idx[f"M{name[1]}{name[2:]}"]], x[idx[f"M{name[2:]}"]]
+            cons += ([first >= lo * mass] if lo is not None else []) + ([first <= hi * mass] if hi is not None else [])
+        else:
+            cons += ([x[idx[name]] >= lo] if lo is not None else []) + ([x[idx[name]] <= hi] if hi is not None else [])
     scale = float(np.linalg.norm(z)) or 1.0
     prior = model.prior()
     reg = 1e-8 * scale * cp.sum_squares(x - prior)

@@ -234,3 +234,18 @@ def read_shares(path, device) -> tuple[np.ndarray, np.ndarray]:
             raise SharesError(f"transmission {t} missing", file=path, field="transmissions")
     check_shares(p, pp, branches, source=path)
     return p, pp
+
+
+def drive_split(dev, doc) -> dict:
+    """Capstan drives: each drive is one cable stretch (no branches to split, S0 eqs. 18–21 reduce to one term):
+    its identified motor-side C_m0 [N·m] and ν [N·m·s/rad] and what they are at the joint (N C_m0 [N·m],
+    N² ν [N·m·s/rad]) beside the device file's values (information, not used by the fit)."""
+    rows = []
+    for k, d in enumerate(dev.drives):
+        c0, nu = float(doc["coulomb_motor"][k]), float(doc["viscous_motor"][k])
+        rows.append({"drive": k + 1, "name": d.name, "joint": d.joint, "ratio": d.ratio, "branches": 1,
+                     "coulomb_motor": c0, "viscous_motor": nu, "coulomb_joint": d.ratio * c0,
+                     "viscous_joint": d.ratio ** 2 * nu, "file_coulomb_motor": d.coulomb_motor,
+                     "file_viscous_motor": d.viscous_motor})
+    return {"format": "tendyn.decomposition/1", "device": dev.name, "kind": "drives",
+            "note": "capstan drives: one cable stretch per drive, nothing to split", "drives": rows}

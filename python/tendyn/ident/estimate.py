@@ -16,15 +16,14 @@ import sys
 
 import numpy as np
 
-from tendyn.results import Result, format_table
 
 from .lsq import least_squares, rel_stderr_pct
-from .model import IdentModel, unit_of
-from .treatment import DEFAULT_VELOCITY_FRACTION, PRESETS, drop_stale, preset_treatment, stack_blocks, treat
+from .model import IdentModel, cached_model, diagonal_coupling  # noqa: F401 — cached_model: its home is model.py
+from .result import IdentificationResult, implausible, not_physical  # noqa: F401 — their home is result.py
+from .treatment import (PRESETS, above_threshold, drop_stale, preset_treatment, stack_blocks, treat,
+                        velocity_thresholds)
 
 __all__ = ["IDIM", "IdentificationResult", "least_squares", "VELOCITIES"]
-
-_MODELS: dict = {}
 
 METHODS = ("ols", "wls", "iv", "didim")
 """IDIM estimators: ordinary / weighted least squares, and the closed-loop IDIM-IV and DIDIM
@@ -36,25 +35,6 @@ VELOCITIES = ("auto", "logged", "differentiate")
 ("auto"), always the log's ("logged"), or the filtered positions differentiated ("differentiate")."""
 
 
-def cached_model(device) -> IdentModel:
-    """The IdentModel of a device, built once per process per device file (its base parameters cost a QR).
-
-    Keyed by the device file and the modification times of it and its URDF, so an edited file is rebuilt.
-    """
-    from tendyn.device.compiled import as_device
-
-    dev = as_device(device)
-    path = getattr(dev, "path", None)
-    urdf = getattr(getattr(dev, "kinematics", None), "urdf", None)
-    try:
-        key = (str(path), path.stat().st_mtime_ns, str(urdf), urdf.stat().st_mtime_ns if urdf else 0)
-    except (OSError, AttributeError):
-        return IdentModel(device)
-    if key not in _MODELS:
-        _MODELS[key] = IdentModel(device)
-    return _MODELS[key]
-
-
 def _treat_log(device, log, parts, settings):
     """Treated joint blocks of one log (a Log or a path) on a Dask worker; one IdentModel per device per
     worker process."""
@@ -64,8 +44,14 @@ def _treat_log(device, log, parts, settings):
 def _treat_logs(device, logs, parts, settings):
     """:func:`_treat_log` of several logs in one Dask task (a campaign is split into one batch per worker: one
     task, one model look-up and one round trip per batch, not per log)."""
+    from tendyn.ident.cluster import worker_threads
+
     model = cached_model(device)
-    return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+    before, model.threads = model.threads, worker_threads()   # the worker's threads, not every CPU (cluster.py)
+    try:
+        return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+    finally:
+        model.threads = before
 
 
 def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
@@ -73,39 +59,6 @@ def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
     fewer logs than workers); the batches' results concatenated in order are the logs' in order."""
     k = max(1, min(n_logs, n_workers))
     return [list(map(int, b)) for b in np.array_split(np.arange(n_logs), k) if len(b)]
-
-
-_MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a viscous coefficient",
-                     "FVm": "a viscous coefficient", "FS": "a Coulomb friction", "FSm": "a Coulomb friction"}
-"""Stems of the parameters that are physically ≥ 0 on their own (not regrouped: a name without the R)."""
-
-
-def implausible(names, values, stderr=None, units=None) -> list[str]:
-    """Warnings for identified values that cannot be physical: a negative rotor inertia, viscous coefficient or
-    Coulomb friction (a base parameter that is one standard parameter alone, ``IA6``, ``FVm6``), named with its
-    value, σ, and the fix (the physically consistent estimate)."""
-    out = []
-    for i, (n, v) in enumerate(zip(names, values)):
-        stem = n.rstrip("0123456789")
-        if stem in _MUST_BE_POSITIVE and v < 0:
-            sig = f" (σ {stderr[i]:.2g})" if stderr is not None else ""
-            unit = units[i] if units else unit_of(n)
-            out.append(f"{n} = {v:.4g} {unit}{sig} is negative, which {_MUST_BE_POSITIVE[stem]} cannot be: either "
-                       "the data do not determine it (excite that joint more) or the model misses a term; "
-                       "--consistent constrains it to be physical")
-        elif stem in _MUST_BE_POSITIVE and stderr is not None and abs(stderr[i]) > abs(v):
-            unit = units[i] if units else unit_of(n)
-            out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: its σ exceeds its value, so the data do not "
-                       f"determine {_MUST_BE_POSITIVE[stem]} (excite that joint faster or longer)")
-    return out
-
-
-def _diagonal(G) -> bool:
-    """Whether each motor drives one joint and each joint one motor (G a scaled permutation): then joint and
-    motor space differ by a gain per axis and their relative residuals are the same."""
-    G = np.asarray(G, float)
-    nz = np.abs(G) > 1e-12
-    return G.shape[0] == G.shape[1] and bool(np.all(nz.sum(axis=0) == 1) and np.all(nz.sum(axis=1) == 1))
 
 
 def motor_space_residual(G, Y, y_hat, rows, samples, n_active, fitted_space: str = "joint") -> list[float] | None:
@@ -136,162 +89,6 @@ def motor_space_residual(G, Y, y_hat, rows, samples, n_active, fitted_space: str
     y = tau @ to_other.T                           # motor torques y = G⁻ᵀ τ (or joint τ = Gᵀ y)
     y_h = tau_hat @ to_other.T
     return [float(v) for v in np.linalg.norm(y - y_h, axis=0) / np.maximum(np.linalg.norm(y, axis=0), 1e-300)]
-
-
-def not_physical(result) -> bool:
-    """True when an identification result cannot be a real device's: a link whose pseudo-inertia no completion
-    makes positive (semi)definite, or a negative rotor inertia, viscous or Coulomb coefficient."""
-    links = any(not p["ok"] for p in (result.pseudo_inertia or []))
-    signs = any(n.rstrip("0123456789") in _MUST_BE_POSITIVE and v < 0 for n, v in zip(result.names, result.values))
-    return bool(links or signs)
-
-
-class IdentificationResult(Result):
-    """Identified base parameters with their statistics (S2 Table 4), and measured vs estimated torques."""
-
-    _panels = 1
-    _figsize = (8.0, 6.0)
-
-    def __init__(self, device, method, names, expressions, values, stderr, cond, n_rows, residual_rel,
-                 per_joint_residual_rel, treatment, time, y, y_hat, rows, joint_numbers, crossval=None,
-                 units=None):
-        self.device, self.method, self.names, self.expressions = device, method, list(names), list(expressions)
-        self.values, self.stderr = np.asarray(values), np.asarray(stderr)
-        self.cond, self.n_rows, self.residual_rel = float(cond), int(n_rows), float(residual_rel)
-        per_joint = [] if per_joint_residual_rel is None else per_joint_residual_rel
-        self.per_joint_residual_rel = [float(v) for v in per_joint]
-        self.treatment, self.time, self.y, self.y_hat, self.rows = treatment, time, y, y_hat, rows
-        self.joint_numbers = list(joint_numbers)
-        self.crossval = crossval
-        self.units = list(units) if units is not None else [unit_of(n) for n in self.names]
-        self.warnings = implausible(self.names, self.values, self.stderr, self.units)
-        self.warnings += list(getattr(treatment, "warnings", []))
-        self.omitted: list[str] = []   # base parameters left out on purpose (--essential, --parameters): taken as 0
-        self.pseudo_inertia: list[dict] | None = None   # per link: smallest eigenvalue of J, ok (flag_pseudo_inertia)
-        self.per_motor_residual_rel: list[float] | None = None   # motor space y = G⁻ᵀ τ (motor_space_residual)
-        self.coupled = False          # G is not one motor per joint: the two spaces differ
-        self.residual_space = "joint"  # the space of the fitted rows (Treatment.space): residual_rel is in it
-        self.closed_loop: dict | None = None   # IDIM-IV / DIDIM: iterations, convergence, the LS start
-
-    def flag_pseudo_inertia(self, model) -> None:
-        """Check the links' pseudo-inertias at the identified values (what the data cannot separate at the device
-        file's values, :func:`tendyn.ident.consistent.completed_standard`); a link that fails there is checked
-        again over every completion (:func:`tendyn.ident.consistent.best_min_eigenvalue`), and a warning is
-        added per link whose J cannot be positive (semi)definite: no mass distribution has these parameters."""
-        from .consistent import best_min_eigenvalue, completed_standard, pseudo_inertia_check
-
-        self.pseudo_inertia = pseudo_inertia_check(model, completed_standard(model, self.names, self.values))
-        bad = [p["link"] for p in self.pseudo_inertia if not p["ok"]]
-        if bad:     # the device file's values may be what fails: ask whether any completion is physical (SDP)
-            best = dict(zip(bad, best_min_eigenvalue(model, self.names, self.values, bad)))
-            for p in self.pseudo_inertia:
-                if p["link"] in best:
-                    p["min_eigenvalue"], p["ok"] = best[p["link"]], bool(best[p["link"]] >= 0.0)
-        for p in self.pseudo_inertia:
-            if not p["ok"]:
-                self.warnings.append(
-                    f"link {p['link']}: pseudo-inertia not positive definite for any choice of the parameters the "
-                    f"data cannot separate (smallest eigenvalue reached {p['min_eigenvalue']:.3g} kg·m²): no mass "
-                    "distribution has these parameters; --consistent constrains them")
-
-    @property
-    def rel_stderr_pct(self) -> np.ndarray:
-        return rel_stderr_pct(self.stderr, self.values)
-
-    def to_dict(self) -> dict:
-        params = [{"name": n, "value": float(v), "stderr": float(s), "rel_stderr_pct": float(p), "unit": u,
-                   "expression": e}
-                  for n, v, s, p, e, u in zip(self.names, self.values, self.stderr, self.rel_stderr_pct,
-                                              self.expressions, self.units)]
-        return {"device": self.device, "method": self.method, "cond": self.cond,
-                "cond_scaled": getattr(self, "cond_scaled", None), "n_rows": self.n_rows,
-                "residual_rel": self.residual_rel, "per_joint_residual_rel": self.per_joint_residual_rel,
-                "residual_space": self.residual_space, "per_motor_residual_rel": self.per_motor_residual_rel,
-                "params": params, "omitted": list(self.omitted), "crossval": self.crossval,
-                "warnings": list(self.warnings), "pseudo_inertia": self.pseudo_inertia,
-                "closed_loop": self.closed_loop,
-                "treatment": None if self.treatment is None else self.treatment.to_dict()}
-
-    def table(self) -> str:
-        rows = [(n, f"{v:.5g}", u, f"{p:.3g}") for n, v, p, u in zip(self.names, self.values, self.rel_stderr_pct,
-                                                                    self.units)]
-        text = format_table(("Parameter", "Value", "Unit", "Relative deviation %"), rows,
-                            title=f"{self.device}: base parameters ({self.method.upper()}), cond(W) = {self.cond:.4g}"
-                                  + (f" ({getattr(self, 'cond_scaled'):.4g} with unit columns)" if getattr(self, "cond_scaled", None) else "")
-                                  + ", "
-                                  f"W {self.n_rows} x {len(self.names)}")
-        motor = self.residual_space == "motor"
-        tail = [""]
-        if self.per_joint_residual_rel:
-            tail.append("relative residual per joint (joint space, tau = G^T y" + ("" if motor else ", the space of the "
-                        "fit") + "): " + ", ".join(f"{j}: {100 * r:.2f} %"
-                                                  for j, r in zip(self.joint_numbers, self.per_joint_residual_rel)))
-        if (self.coupled or motor) and self.per_motor_residual_rel:
-            tail.append("relative residual per motor (motor space, y = G^-T tau" + (", the space of the fit"
-                        if motor else "") + "): " + ", ".join(
-                f"{i}: {100 * r:.2f} %" for i, r in enumerate(self.per_motor_residual_rel, start=1)))
-        tail += [
-            f"relative residual ||Y - W X|| / ||Y|| ({self.residual_space} space): {100 * self.residual_rel:.2f} %"]
-        cl = self.closed_loop
-        if cl:
-            tail.append(f"closed loop ({cl['controller']}): {cl['iterations']} iterations, "
-                        f"{'converged' if cl['converged'] else 'NOT converged'} (|dX|/|X| < {cl['tol']:g}); simulated "
-                        f"torque residual {100 * cl['simulated_torque_residual_rel']:.2f} %; least-squares start: "
-                        + ", ".join(f"{p['name']} {p['value']:.5g}" for p in cl["ls_start"]))
-        if self.crossval:
-            per = self.crossval.get("per_joint_residual_rel") or []
-            tail.append(f"cross-validation ({self.crossval['fit']} -> {self.crossval['validate']}): relative residual "
-                        f"{100 * self.crossval['residual_rel']:.2f} %" + (" (per joint: " + ", ".join(
-                            f"{j}: {100 * r:.2f} %" for j, r in zip(self.joint_numbers, per)) + ")" if per else ""))
-        if self.treatment is not None:
-            tail.append(self.treatment.describe())
-        tail += [f"warning: {w}" for w in self.warnings]
-        return text + "\n" + "\n".join(tail)
-
-    @property
-    def reading(self) -> str:
-        """How to read :meth:`plot` (the caption in a report)."""
-        if self.y is None or len(self.y) == 0:
-            return ("One bar per base parameter: its relative standard deviation %σ on a log scale; a bar above "
-                    "100 % is a parameter the data do not determine.")
-        return ("One panel per joint: the measured torque (colour) and the torque of the identified model W X "
-                "(black dashes) at the same decimated samples; where they part, the model misses that joint's "
-                "motion.")
-
-    def _draw(self, ax):
-        n = len(self.joint_numbers)
-        if self.y is None or len(self.y) == 0:    # a streamed fit keeps no samples: draw the %σ instead
-            ax = ax[0] if isinstance(ax, (list, tuple)) else ax
-            ax.bar(range(len(self.names)), self.rel_stderr_pct, color="C0")
-            ax.set_xticks(range(len(self.names)), self.names, rotation=90, fontsize=6)
-            ax.set_yscale("log")
-            ax.set_ylabel("relative deviation %σ [%]")
-            ax.set_xlabel("base parameter (its unit in the table)")
-            ax.set_title(f"{self.device}: base parameters ({self.method})")
-            return
-        axes = ax if isinstance(ax, (list, tuple)) else [ax]
-        for j, num in enumerate(self.joint_numbers[:len(axes)]):
-            a, sel = axes[j], self.rows == j
-            t = self.time[sel]
-            a.plot(t, self.y[sel], lw=0.8, color=f"C{j}", label="measured")
-            a.plot(t, self.y_hat[sel], lw=0.8, ls="--", color="k", label="estimated (W X)")
-            a.set_ylabel(f"joint {num} torque\n[N·m] (N if prismatic)", fontsize=8)
-            a.legend(loc="upper right", fontsize=7)
-            a.grid(alpha=0.3)
-        axes[-1].set_xlabel("time [s] (decimated samples)")
-        axes[0].set_title(f"{self.device}: measured vs estimated joint torques, {n} joints")
-
-    def plot(self, ax=None):
-        """One panel per joint (measured and estimated torque over time), or the %σ bars of a streamed fit."""
-        if ax is None:
-            from tendyn.results import new_figure
-
-            streamed = self.y is None or len(self.y) == 0
-            n = 1 if streamed else len(self.joint_numbers)
-            _, axes = new_figure(n, 1, figsize=(8.0, 6.0 if streamed else max(2.0 * n, 3.0)), sharex=True)
-            ax = axes if n == 1 else list(np.ravel(axes))
-        self._draw(ax)
-        return (ax[0] if isinstance(ax, (list, tuple)) else ax).figure
 
 
 class IDIM:
@@ -336,13 +133,24 @@ class IDIM:
         peer's published one ("janot", "wpi", "figaroh"): its filters, decimation, velocity threshold, velocities,
         trimming, weighting (with ``method="wls"``) and fitting space replace tendyn's defaults; ``cutoff_hz``,
         ``decimate`` and ``velocity_threshold`` given win over the preset's.
+    bounds : dict or None
+        With ``consistent=True``: box constraints {name: (lower, upper)} on standard parameters (their units) and
+        centres of mass ``CX<j>``/``CY<j>``/``CZ<j>`` [m] (:func:`tendyn.ident.consistent.check_bounds`), e.g. a
+        peer's hand-chosen boxes; None: the LMIs and non-negative friction and rotor inertias only.
+    drive_stretch : bool
+        Elastic capstan ``[[drives]]`` (``stiffness_motor`` > 0, tendyn's treatment, positions differentiated): a
+        second least squares on the link positions, the cable stretch taken out of the motor encoders with the
+        first fit's friction (:meth:`IdentModel.link_positions`). Without it the viscous terms of a generated
+        desktop arm come out +20…+90 % (the rigid model on the motor side misses M (q̈_l − q̈_m / N)).
     """
 
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
                  parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
-                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1):
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None, drive_stretch=True):
         self.device = device
+        self.bounds = bounds
+        self.drive_stretch = drive_stretch
         self.treatment = treatment
         self.controller = controller
         self.output = output
@@ -376,7 +184,7 @@ class IDIM:
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
         settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
-                    self.velocities)
+                    self.velocities, getattr(self, "_stretch", None))
         if self.scheduler is not None and len(logs) > 1:
             out = self._distributed(logs, parts, settings)
         else:
@@ -402,7 +210,7 @@ class IDIM:
             t = np.concatenate([b.time for b in blocks])
             vel = np.concatenate([b.velocity for b in blocks])
             thr = self._thresholds(blocks)
-            keep = np.abs(vel) >= np.repeat(thr, [b.y.size for b in blocks])
+            keep = above_threshold(vel, np.repeat(thr, [b.y.size for b in blocks]))
             self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
             Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
             n_out = blocks[0].y.size                # the sample of every row, numbered over all the logs
@@ -434,11 +242,7 @@ class IDIM:
         ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
         tr = getattr(self, "treatment_", None)      # the option given, else the preset's (None: the default rule)
         vt = self.velocity_threshold if tr is None else tr.velocity_threshold
-        if vt is None:
-            return np.array([DEFAULT_VELOCITY_FRACTION * np.max(np.abs(b.velocity)) for b in blocks])
-        if isinstance(vt, tuple):
-            return np.asarray(vt, float)
-        return np.full(len(blocks), float(vt))
+        return velocity_thresholds(vt, [np.max(np.abs(b.velocity)) for b in blocks])
 
     @staticmethod
     def _treat_here(model, log, parts, settings):
@@ -446,7 +250,7 @@ class IDIM:
 
         if not hasattr(log, "meta"):
             log = read_log(log)
-        *settings, preset, velocities = settings
+        *settings, preset, velocities, stretch = settings
         rate = float(log.meta["rate_hz"])
         preset = preset or "tendyn"
         bw = getattr(model.device, "bandwidth_hz", None)
@@ -455,6 +259,8 @@ class IDIM:
             velocities = tr.velocities
         time, q, tau = model.joint_signals(log)
         qd = None if velocities == "differentiate" else model.joint_velocities(log)
+        if stretch is not None and velocities != "logged":   # elastic capstan drives: the link (link_positions)
+            q, qd = model.link_positions(q, tau, rate, tr.cutoff_hz, tr.order, *stretch), None
         if velocities == "logged" and qd is None:
             raise model.no_logged_velocities()
         if parts is not None:
@@ -475,7 +281,7 @@ class IDIM:
 
     def _distributed(self, logs, parts, settings):
         """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
-        from dask.distributed import Client, LocalCluster, as_completed
+        from dask.distributed import Client, as_completed
 
         from tendyn.progress import quiet_dask
 
@@ -483,8 +289,9 @@ class IDIM:
         dev = self._model().device
         own = None
         if self.scheduler == "local":
-            own = LocalCluster(n_workers=min(len(logs), os.cpu_count() or 1), threads_per_worker=1,
-                               processes=True, dashboard_address=None)
+            from tendyn.ident.cluster import local_cluster
+
+            own = local_cluster(min(len(logs), os.cpu_count() or 1))
             client = Client(own)
         else:
             from tendyn.ident.cluster import connect_scheduler
@@ -494,8 +301,10 @@ class IDIM:
             shipped = client.scatter(dev, broadcast=True)      # the device goes to each worker once
             workers = len(client.scheduler_info().get("workers", {})) or len(logs)
             batches = campaign_batches(len(logs), workers)
-            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False)
-                       for b in batches]
+            from tendyn.ident.cluster import placement
+
+            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False, **kw)
+                       for b, kw in zip(batches, placement(client, len(batches)))]
             index = {f.key: k for k, f in enumerate(futures)}
             done = [None] * len(futures)
             bar = None
@@ -557,6 +366,8 @@ class IDIM:
         Learned: ``params_`` (base values), ``stderr_``, ``rel_stderr_`` [%], ``cond_``, ``names_``,
         ``expressions_``, ``result_`` (:class:`IdentificationResult`), ``treatment_``.
         """
+        if self.bounds and self.consistent is not True:
+            raise ValueError("bounds need consistent=True (they constrain the physically consistent fit)")
         if self.consistent == "auto":
             return self._fit_auto(logs, crossval)
         if self.method in CLOSED_LOOP:
@@ -581,13 +392,26 @@ class IDIM:
             cols = [base.names.index(n) for n in self.parameters]
         Wb = Wstd[:, list(base.columns)]
         x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
+        if self.drive_stretch and model.elastic_drives and (self.treatment or "tendyn") == "tendyn":
+            # second pass on the link positions: the cable stretch from the motor equation with this fit's friction
+            val = dict(zip([base.names[i] for i in cols], x))
+            N = np.array([d.ratio for d in model.device.drives], float)
+            num = [d.joint for d in model.device.drives]
+            self._stretch = (np.array([max(val.get(f"FS{j}", 0.0), 0.0) for j in num]) / N,
+                             np.array([max(val.get(f"FV{j}", 0.0), 0.0) for j in num]) / N ** 2)
+            try:
+                Y, Wstd, rows, t, na = self.observations(logs)
+            finally:
+                self._stretch_used, self._stretch = self._stretch, None
+            Wb = Wstd[:, list(base.columns)]
+            x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
         if self.essential:
             cols, x, se, weights = self._essential(Wb, Y, rows, na)
         Wsel = Wb[:, cols]
         if self.consistent:
             from .consistent import consistent_fit
 
-            xs = consistent_fit(model, Wstd * weights[:, None], Y * weights)
+            xs = consistent_fit(model, Wstd * weights[:, None], Y * weights, bounds=self.bounds)
             self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
             x = (base.combination @ xs)[cols]
             _, se, _, _ = least_squares(Wsel * weights[:, None], Y * weights, at=x)
@@ -597,15 +421,24 @@ class IDIM:
         self.params_, self.stderr_ = x, se
         self.rel_stderr_ = rel_stderr_pct(se, x)
         Ww = Wsel * weights[:, None]
-        self.cond_ = float(np.linalg.cond(Ww))
-        self.cond_scaled_ = float(np.linalg.cond(Ww / np.linalg.norm(Ww, axis=0)))
+        # cond(W) and cond(W D) (D: unit columns) from one QR: W = Q R, the same singular values as R, half the
+        # CPU of two SVDs of the tall W (the client's serial share of a Dask campaign, docs/design.md)
+        R = np.linalg.qr(Ww, mode="r")
+        sv = np.linalg.svd(R, compute_uv=False)
+        svs = np.linalg.svd(R / np.linalg.norm(Ww, axis=0), compute_uv=False)
+        self.cond_ = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        self.cond_scaled_ = float(svs[0] / svs[-1]) if svs[-1] > 0 else float("inf")
         per = [float(np.linalg.norm(Y[rows == j] - y_hat[rows == j]) / max(np.linalg.norm(Y[rows == j]), 1e-300))
                for j in range(na)]
         resid = float(np.linalg.norm(Y - y_hat) / np.linalg.norm(Y))
         space = self.treatment_.space
         other = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na, space)
         per, per_motor = (per, other) if space == "joint" else (other, per)
-        cv = self._crossval(logs, cols) if crossval else None
+        self._stretch = getattr(self, "_stretch_used", None) if self.drive_stretch and model.elastic_drives else None
+        try:                              # cross-validation on the same (link) positions as the fit
+            cv = self._crossval(logs, cols) if crossval else None
+        finally:
+            self._stretch = None
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
@@ -613,7 +446,7 @@ class IDIM:
         self.result_.cond_scaled = self.cond_scaled_
         self.result_.per_motor_residual_rel = per_motor
         self.result_.residual_space = space
-        self.result_.coupled = not _diagonal(model.G)
+        self.result_.coupled = not diagonal_coupling(model.G)
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self.result_.flag_pseudo_inertia(model)
         self._cols = cols
@@ -667,7 +500,7 @@ class IDIM:
         if self.consistent:        # the same estimator on the first part
             from .consistent import consistent_fit
 
-            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w))[cols]
+            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w, bounds=self.bounds))[cols]
         Yv, Wv, rv, _, _ = self.observations(*valp)
         Wvb = Wv[:, list(base.columns)][:, cols]
         res = Yv - Wvb @ x

@@ -139,7 +139,7 @@ def plan_exciting(device, harmonics: int = 5, base_hz: float | None = None, max_
     """
     from tendyn.device import compile_device
 
-    from .estimate import cached_model
+    from .model import cached_model
 
     compiled = compile_device(device)
     model = cached_model(compiled)

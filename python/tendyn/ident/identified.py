@@ -200,7 +200,7 @@ class IdentifiedModel:
 
     # -- use --------------------------------------------------------------------------------------------
     def _model(self):
-        from .estimate import cached_model
+        from .model import cached_model
 
         return cached_model(self.device)
 
@@ -259,12 +259,12 @@ class IdentifiedModel:
         # motor_torques, so a wrong map there shows as a motor-space error
         measured_motor = np.linalg.solve(m.G.T, measured.T).T
         units = ["N" if j in m.prismatic_numbers else "N·m" for j in m.active_numbers]
-        from .estimate import _diagonal
+        from .model import diagonal_coupling
 
         K = int(self.treatment.get("decimate") or 1)
         edge = max(5 * K if K > 1 else 0, int(np.ceil(2.0 * rate / tr.cutoff_hz))) + 1
         return TorquePrediction(m.device.name, time, joint, motor, measured, m.active_numbers, units,
-                                measured_motor=measured_motor, edge=edge, coupled=not _diagonal(m.G))
+                                measured_motor=measured_motor, edge=edge, coupled=not diagonal_coupling(m.G))
 
     def score(self, log) -> np.ndarray:
         """Per joint relative error ‖τ_measured − τ̂‖ / ‖τ_measured‖ [-] of a log (see :meth:`predict`)."""

@@ -90,6 +90,7 @@ class IdentModel:
     def __init__(self, device):
         from tendyn import _core
 
+        self.threads = None         # core threads of the regressor when not given (None: every CPU; a worker's own)
         self.compiled = compile_device(device)
         self.device = self.compiled.device
         self.rigid_body = self.compiled.rigid_body
@@ -214,7 +215,8 @@ class IdentModel:
         taps : symmetric FIR of odd length (the parallel filter; (1,) = none); K : decimation factor.
         columns : None for the standard parameters (:attr:`standard_names`, the ``[[terms]]`` columns last), or
             indices into them.
-        threads : core threads (None: the CPUs this process may use); the result does not depend on it.
+        threads : core threads (None: :attr:`threads`, else the CPUs this process may use); the result does not
+            depend on it.
 
         Returns
         -------
@@ -225,7 +227,7 @@ class IdentModel:
         f = lambda x: np.ascontiguousarray(x, float)
         W = _core.identification_regressor(self.rigid_body, self._data, self.L, self.c, self.G, f(q), f(qd),
                                            f(qdd), np.asarray(taps, float), int(K),
-                                           int(threads or len(os.sched_getaffinity(0))))
+                                           int(threads or self.threads or len(os.sched_getaffinity(0))))
         if not len(self.terms):
             cols = self.standard_columns if columns is None else self.standard_columns[np.asarray(columns)]
             return W[:, cols]
@@ -374,6 +376,39 @@ class IdentModel:
         tau = y @ self.G
         return log.time, q, tau
 
+    @property
+    def elastic_drives(self) -> bool:
+        """Whether the device's capstan ``[[drives]]`` declare a finite cable stiffness (``stiffness_motor`` > 0):
+        then the motor encoders do not read the link (:meth:`link_positions`)."""
+        return bool(self.device.drives) and all(d.stiffness_motor > 0.0 for d in self.device.drives)
+
+    def link_positions(self, q, tau, rate_hz: float, cutoff_hz: float, order: int, coulomb_motor, viscous_motor):
+        """Link positions [rad] (n, n_a) of the motor-encoder positions q = q_m / N of elastic capstan drives.
+
+        The cable between motor and link (S2 §V-B, the twin's drive: τ_c = K_T (q_m − N q_l) at the motor) stretches
+        by s = τ_c / K_T, with τ_c from the motor's own equation τ_c = τ_m − J_m q̈_m − C_m sign(q̇_m) − ν_m q̇_m
+        (torque and q̈_m through the treatment's zero-phase Butterworth ``cutoff_hz`` [Hz], ``order``); the link is
+        at q_l = (q_m − s) / N. The rigid model evaluated on q_m / N instead misses M (q̈_l − q̈_m / N): an error
+        (ω / ω_r)² of the cable torque, ω_r the link–cable resonance, which least squares books largely on the
+        viscous terms (+20…+90 % on generated desktop arms, tests/python/test_parallelogram_twin.py). J_m and
+        K_T are the device file's; ``coulomb_motor`` C_m [N·m] and ``viscous_motor`` ν_m [N·m·s/rad] (n_m,) come
+        from a first fit (the file's friction is never read). The cable damping ``damping_motor`` is neglected
+        (valid while d ω ≪ K_T)."""
+        from .treatment import butter_zero_phase, central_differences
+
+        N = np.array([d.ratio for d in self.device.drives], float)
+        K = np.array([d.stiffness_motor for d in self.device.drives], float)
+        J = np.array([d.motor.rotor_inertia for d in self.device.drives], float)
+        qm = (np.asarray(q, float) - self.joint_offsets) * N
+        ym = np.asarray(tau, float) / N                     # G = diag(N): τ = y G
+        dt = 1.0 / rate_hz
+        qmf = butter_zero_phase(qm, cutoff_hz, rate_hz, order)
+        qdm = central_differences(qmf, dt)
+        qddm = central_differences(qdm, dt)
+        tc = (butter_zero_phase(ym, cutoff_hz, rate_hz, order) - J * qddm
+              - np.asarray(coulomb_motor, float) * np.sign(qdm) - np.asarray(viscous_motor, float) * qdm)
+        return (qm - tc / K) / N + self.joint_offsets
+
     def motor_torques(self, tau) -> np.ndarray:
         """Motor torques y = G⁻ᵀ τ (n, n_m) [N·m, N at a linear motor] of joint torques τ (n, n_a), one row per
         sample: the motor space of a coupled device (``tendyn.coupling``: motor_from_joint_torque)."""
@@ -413,3 +448,33 @@ class IdentModel:
 
         return LogError(f"logged velocities asked for, but the log has no qd_motor_1…qd_motor_{self.n_motors} "
                         f"(nor qd_joint_<j> of every active joint)", column="qd_motor_")
+
+
+_MODELS: dict = {}
+
+
+def diagonal_coupling(G) -> bool:
+    """Whether each motor drives one joint and each joint one motor (G a scaled permutation): then joint and
+    motor space differ by a gain per axis and their relative residuals are the same."""
+    G = np.asarray(G, float)
+    nz = np.abs(G) > 1e-12
+    return G.shape[0] == G.shape[1] and bool(np.all(nz.sum(axis=0) == 1) and np.all(nz.sum(axis=1) == 1))
+
+
+def cached_model(device) -> IdentModel:
+    """The IdentModel of a device, built once per process per device file (its base parameters cost a QR).
+
+    Keyed by the device file and the modification times of it and its URDF, so an edited file is rebuilt.
+    """
+    from tendyn.device.compiled import as_device
+
+    dev = as_device(device)
+    path = getattr(dev, "path", None)
+    urdf = getattr(getattr(dev, "kinematics", None), "urdf", None)
+    try:
+        key = (str(path), path.stat().st_mtime_ns, str(urdf), urdf.stat().st_mtime_ns if urdf else 0)
+    except (OSError, AttributeError):
+        return IdentModel(device)
+    if key not in _MODELS:
+        _MODELS[key] = IdentModel(device)
+    return _MODELS[key]

@@ -17,8 +17,8 @@ import numpy as np
 from .estimate import IDIM
 from .lsq import least_squares, rel_stderr_pct
 from .model import IdentModel
-from .treatment import (DEFAULT_VELOCITY_FRACTION, butter_zero_phase, central_differences, default_treatment,
-                        parallel_filter_taps)
+from .treatment import (above_threshold, butter_zero_phase, central_differences, default_treatment,
+                        parallel_filter_taps, velocity_thresholds)
 
 __all__ = ["NormalEquations", "accumulate", "iter_parquet_chunks", "prefetch", "solve_normal"]
 
@@ -139,7 +139,7 @@ def accumulate(model: IdentModel, chunks, rate_hz: float, treatment=None, overla
                 cut = n_out if split_at is None else int(np.clip(split_at - next_k, 0, n_out))
                 for j in range(model.n_active):
                     Wj, yj = Wb[j * n_out:(j + 1) * n_out], ydec[:, j]
-                    keep = np.ones(n_out, bool) if thr is None else np.abs(vdec[:, j]) >= thr[j]
+                    keep = np.ones(n_out, bool) if thr is None else above_threshold(vdec[:, j], thr[j])
                     if cut > 0:
                         ne.add(j, Wj[:cut][keep[:cut]], yj[:cut][keep[:cut]])
                     if cut < n_out:
@@ -379,7 +379,7 @@ class StreamingIDIM:
 
     def identified_model(self):
         """The fitted parameters as a :class:`tendyn.ident.identified.IdentifiedModel`."""
-        from .estimate import cached_model
+        from .model import cached_model
         from .identified import IdentifiedModel
 
         d = self.result_.to_dict()
@@ -403,7 +403,9 @@ class StreamingIDIM:
 
         from tendyn.io.logs import LogError, read_meta
 
-        from .estimate import VELOCITIES, IdentificationResult, cached_model
+        from .estimate import VELOCITIES
+        from .model import cached_model
+        from .result import IdentificationResult
 
         model = cached_model(self.device)
         if self.velocities not in VELOCITIES:
@@ -446,10 +448,8 @@ class StreamingIDIM:
         from tendyn import _core
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
-        if self.velocity_threshold is None:
-            thr = DEFAULT_VELOCITY_FRACTION * peak
-        else:
-            thr = np.full(model.n_active, float(self.velocity_threshold))
+        thr = velocity_thresholds(self.velocity_threshold, peak if self.velocity_threshold is None
+                                  else np.zeros(model.n_active))
         tr = dataclasses.replace(tr, velocity_threshold=tuple(float(v) for v in thr))
         (ne_a, ne_b), _ = accumulate(model, self._chunks(model, path), rate, tr, split_at=n_out // 2,
                                      velocity_threshold=thr)

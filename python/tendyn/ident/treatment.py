@@ -32,6 +32,7 @@ from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
            "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION",
+           "velocity_thresholds", "above_threshold",
            "PRESETS", "Preset", "preset_treatment", "zero_phase_cutoff_of_design"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
@@ -41,6 +42,24 @@ DEFAULT_VELOCITY_FRACTION = 0.0025
 its peak |q̇| in the log are dropped from its rows. 0.25 %, chosen on the real logs and the twins
 (docs/realdata.md, "The default velocity threshold"): EMPS every value within 1 % of Janot's only below 0.5 %,
 the MTM 7/7 at or below WPI from 0.25 % to 2 %, the TX40 halves 5 % worse than at 2 %, the twins' tests unchanged."""
+
+def velocity_thresholds(rule, peaks) -> np.ndarray:
+    """Per-joint velocity threshold [rad/s] (the one rule, in memory and ``--stream``): ``rule`` None gives the
+    :data:`DEFAULT_VELOCITY_FRACTION` of each joint's peak |q̇| ``peaks`` [rad/s] in the log; a tuple, one value
+    per joint; a number, the same for every joint (0 keeps every row)."""
+    peaks = np.asarray(peaks, float)
+    if rule is None:
+        return DEFAULT_VELOCITY_FRACTION * peaks
+    if isinstance(rule, tuple):
+        return np.asarray(rule, float)
+    return np.full(peaks.shape, float(rule))
+
+
+def above_threshold(qd, threshold) -> np.ndarray:
+    """Which samples a velocity threshold keeps: |q̇| ≥ threshold (both [rad/s], broadcast), the rows of W a
+    joint contributes (S2 §V-C: slow rows, where the dry friction sticks, are left out)."""
+    return np.abs(np.asarray(qd, float)) >= threshold
+
 
 FIGAROH_DECIMATE = (10, 10)
 """FIGAROH's TX40 script decimates the torques and every regressor column by scipy.signal.decimate(q=10,

@@ -240,8 +240,10 @@ def _run_islands(space, objectives, constraints, seeds, population, generations,
 
     with dask_client(None if scheduler in (None, "local") else scheduler, n_workers, client) as c:
         shipped = c.scatter(space, broadcast=True)           # the compiled design space goes to each worker once
+        from tendyn.ident.cluster import placement
+
         futures = [c.submit(island, shipped, list(objectives), list(constraints), int(s), int(population),
-                            int(generations), pure=False) for s in seeds]
+                            int(generations), pure=False, **kw) for s, kw in zip(seeds, placement(c, len(seeds)))]
         pops = gather_in_order(futures, f"{space.device_name}: design", "island", progress)
     where = scheduler if scheduler not in (None, "local") else ("given client" if client is not None
                                                                 else f"local ({n_workers} workers)")

@@ -27,6 +27,7 @@ from tendyn.control.compensator import (DEFAULT_UNDERESTIMATION, DEFAULT_VELOCIT
 from tendyn.device import compile_device, load_device
 from tendyn.devices import bundled
 from tendyn.results import Result, format_table
+from tendyn.pipelines.twin_loop import ControlBlock as _Block, encoders as _encoders, reset_at as _reset
 from tendyn.sim.model import sim_model
 
 __all__ = ["Fig7Result", "HandRun", "HandTask", "WallRun", "fig7_experiment", "hand_run", "hand_task", "wall_run",
@@ -165,39 +166,6 @@ class _Handle:
         x = np.array(self.data.oMf[self.frame].translation)
         J = pin.getFrameJacobian(self.model, self.data, self.frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
         return x, np.asarray(J).reshape(6, -1)[:3] @ self.L   # a 1-joint Jacobian comes back as a vector
-
-
-def _reset(sim, data, q0, seed) -> None:
-    """Reset the twin at rest at q0 with the (slaved) motor positions set, so the first encoder reading is
-    already the pose's (``SimData.reset`` leaves them at zero until the first step)."""
-    data.reset(q0, seed)
-    data.set_motor_position(np.asarray(sim.Gm) @ q0)   # cables: R_m⁻¹ K q; capstan drives: N q (springs relaxed)
-
-
-def _encoders(sim, data) -> np.ndarray:
-    """Quantised motor encoder readings [rad] (the simulator's own rule, S0: position sensors only)."""
-    qm = np.array(data.q_motor)
-    counts = np.array(sim.encoder_counts)
-    step = np.where(counts > 0, 2 * np.pi / np.where(counts > 0, counts, 1), 0.0)
-    return np.where(step > 0, step * np.floor(qm / np.where(step > 0, step, 1) + 0.5), qm)
-
-
-class _Block:
-    """One control period of the twin in one core call (tendyn._core.run), inputs held over the period."""
-
-    def __init__(self, sim):
-        dec, na = sim.control_decimation, sim.na
-        self.sim, self.dec = sim, dec
-        self.zeros = np.zeros((dec, na))
-        self.ff = np.zeros((dec, na))
-        self.ext = np.zeros((dec, na))
-        self.time = np.empty(1)
-        self.log = [np.empty((1, na)) for _ in range(7)]
-
-    def run(self, data, torque_motor, torque_ext) -> None:
-        self.ff[:] = torque_motor
-        self.ext[:] = torque_ext
-        _core.run(self.sim, data, self.zeros, self.zeros, self.ff, self.ext, self.dec, self.time, *self.log)
 
 
 @dataclass(eq=False)

@@ -25,6 +25,7 @@ from tendyn.control.loop_shaping import (LOOP_OMEGA_N, closed_loop, discretise, 
                                          loop_shaping_controller, robust_performance, sensitivity_gain, target_loop)
 from tendyn.device import compile_device
 from tendyn.pipelines import s1_loops
+from tendyn.pipelines.s1_loops import loop_area
 from tendyn.pipelines.s1_logs import SIM_RATE_HZ, s1_from_logs
 from tendyn.results import FrequencyResponse, Result, format_table, new_figure
 from tendyn.sim.tendon_bench import Controller, simulate_closed_loop
@@ -81,17 +82,6 @@ def controller_gain_band(C, band_hz: float = 30.0) -> list:
     w = 2 * math.pi * np.linspace(0.5, band_hz, 200)
     c = np.abs(freqresp(C, omega=w))
     return [float(c.min()), float(c.max())]
-
-
-def loop_area(x: np.ndarray, y: np.ndarray) -> float:
-    """Normalised area of the input/output loop y(x): |∮ y dx| / (π · half-range(x) · half-range(y)) [-]
-    (1 for a circle, sin φ for an ellipse of phase lag φ, 0 for a single-valued curve)."""
-    x = np.asarray(x, float)
-    y = np.asarray(y, float)
-    area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-    ax = 0.5 * (x.max() - x.min())
-    ay = 0.5 * (y.max() - y.min())
-    return float(area / (math.pi * ax * ay)) if ax > 0 and ay > 0 else 0.0
 
 
 def spread_db(responses, band_hz: float) -> float:

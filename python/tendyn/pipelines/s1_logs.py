@@ -118,7 +118,7 @@ def s1_from_logs(bench, *, freqs_hz, large_amplitude_N: float, truth_G=None, dea
     ``truth_G`` (python-control TF) and ``dead_band_truth_N`` are the twin's internals, used only to report
     the errors of what the logs gave."""
     from tendyn.control.loop_shaping import fit_plant_frf, freqresp
-    from tendyn.pipelines.s1 import loop_area
+    from tendyn.pipelines.s1_loops import loop_area
     from tendyn.sim.tendon_bench import LOW_SPEED_FREQ_HZ
 
     # Ĝ_L from stepped-sine logs at large amplitude

@@ -28,13 +28,16 @@ correction) are the oracle of tests/python/test_s1_loops.py.
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
+
+import numpy as np
 
 from tendyn.device import compile_device
 from tendyn.results import FrequencyResponse
 from tendyn.sim import tendon_bench as tb
 
-__all__ = ["LOG_EVERY", "NOISE_LOG_EVERY", "LogBook", "noise_log", "sine_loop", "stepped_sine_frf"]
+__all__ = ["LOG_EVERY", "NOISE_LOG_EVERY", "LogBook", "loop_area", "noise_log", "sine_loop", "stepped_sine_frf"]
 
 LOG_EVERY = 20
 """Steps of the 20 kHz twin per log sample: logs at 1 kHz [-]."""
@@ -132,3 +135,14 @@ def noise_log(bench, controller, reference, *, seed: int, book: LogBook | None =
     log = tb.loop_log(bench, controller, reference, experiment="closed_loop_noise", log_every=NOISE_LOG_EVERY,
                       seed=seed, **changes)
     return _add(book, group, log, **changes)[0]
+
+
+def loop_area(x: np.ndarray, y: np.ndarray) -> float:
+    """Normalised area of the input/output loop y(x): |∮ y dx| / (π · half-range(x) · half-range(y)) [-]
+    (1 for a circle, sin φ for an ellipse of phase lag φ, 0 for a single-valued curve)."""
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    area = 0.5 * abs(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+    ax = 0.5 * (x.max() - x.min())
+    ay = 0.5 * (y.max() - y.min())
+    return float(area / (math.pi * ax * ay)) if ax > 0 and ay > 0 else 0.0

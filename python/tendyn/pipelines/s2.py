@@ -166,14 +166,15 @@ def optimise_exciting(device, design, parameters, duration: float, rate_hz: floa
     Nelder–Mead on the phases, at most ``maxfev`` evaluations. Returns (design, cond_before, cond_after)."""
     from scipy.optimize import minimize
 
-    from tendyn.ident.estimate import cached_model
+    from tendyn.ident.model import cached_model
+    from tendyn.ident.treatment import above_threshold
 
     model = cached_model(device)
     cols = np.array(model.base.columns)[[model.base.names.index(n) for n in parameters]]
 
     def cond_of(d):
         q, qd, qdd = d.references(duration, 1.0 / rate_hz)
-        keep = np.abs(qd) >= VELOCITY_THRESHOLD                 # as the velocity threshold of IDIM
+        keep = above_threshold(qd, VELOCITY_THRESHOLD)          # IDIM's velocity threshold (the treatment's rule)
         W = model.regressor(q, qd, qdd)[:, cols]
         return float(np.linalg.cond(W[keep.T.ravel()]))
 

@@ -196,7 +196,9 @@ def capstan_bandwidth(device, stiffness_motor, poses=None, n_poses: int = 60, se
     L, c = compiled.active_map
     model, data = compiled.pinocchio_model, compiled.pinocchio_data()
     ratio = np.array([d.ratio for d in dev.drives], float)
-    Kj = np.diag(ratio**2 * np.asarray(stiffness_motor, float))
+    from tendyn.device.stiffness import reflected_stiffness
+
+    Kj = np.diag(reflected_stiffness(stiffness_motor, ratio))
     if poses is None:
         from tendyn.sim.experiments import _active_limits
 

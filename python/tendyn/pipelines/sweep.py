@@ -13,11 +13,11 @@ a local Dask cluster (default) or on a given scheduler. Metrics per design:
   stepped sine at the largest amplitude), C28;
 * ``robust_performance``: ‖ |W1 S| + |W2 T| ‖∞ of C = L/P with P the design's analytic plant (C25).
 
-The local cluster (:func:`local_cluster`) runs single-threaded worker processes without the memory monitor
-and the statistical profiler, with the event-loop tick probe and the system monitor slowed down: a design
-point is ~0.15 s of CPU, and with the defaults these periodic samplers cost the workers (and the client
-process that hosts the nannies) a third again as much CPU as the design points themselves (issue 11 report:
-16 designs, busiest worker 1.59 s → 1.20 s of CPU against 2.0–2.3 s for all of them in one process).
+The local cluster (:func:`tendyn.ident.cluster.local_cluster`) runs single-threaded worker processes without the
+memory monitor and the statistical profiler: a design point is ~0.15 s of CPU, and with the
+defaults these periodic samplers cost the workers (and the client process that hosts the nannies) a third again
+as much CPU as the design points themselves (issue 11 report: 16 designs, busiest worker 1.59 s → 1.20 s of CPU
+against 2.0–2.3 s for all of them in one process).
 """
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from tendyn.device import compile_device
+from tendyn.ident.cluster import local_cluster, placement  # noqa: F401  (local_cluster re-exported)
 from tendyn.results import Result, format_table
 
 __all__ = ["LOOPS", "METRICS", "SweepResult", "batches", "design_grid", "evaluate_design", "evaluate_designs",
@@ -225,23 +226,6 @@ class SweepResult(Result):
         return format_table(cols, [[r[c] for c in cols] for r in self.rows], f"{self.device}: design sweep")
 
 
-def local_cluster(n_workers: int = 2):
-    """A local Dask cluster of ``n_workers`` single-threaded worker processes for design sweeps (no dashboard,
-    no memory monitor, no statistical profiler: see the module docstring). Use as a context manager."""
-    import dask
-    from dask.distributed import LocalCluster
-
-    from tendyn.progress import quiet_dask
-
-    quiet_dask()                                                   # no nanny/worker warnings unless --debug
-    quiet = {"distributed.worker.profile.enabled": False,          # read by the spawned workers
-             "distributed.admin.tick.interval": "1000ms",           # event-loop blocking probe (default 20 ms)
-             "distributed.admin.system-monitor.interval": "5000ms"}  # psutil sampling (default 500 ms)
-    with dask.config.set(quiet):
-        return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, memory_limit=0,
-                            dashboard_address=None)
-
-
 @contextmanager
 def dask_client(scheduler: str | None = None, n_workers: int = 2, client=None):
     """A Dask client for a grid: ``client`` itself when given (left open); else a client of the scheduler at
@@ -316,7 +300,7 @@ def run_sweep(device: Any, params: dict, *, amplitudes=(0.31, 0.38, 0.6, 2.0), f
         workers = len(client.scheduler_info().get("workers", {})) or n_workers
         parts = batches(len(grid), workers)
         futures = [client.submit(evaluate_designs, fields, [grid[i] for i in b], list(amplitudes), freqs_hz,
-                                 loop=loop, pure=False) for b in parts]
+                                 loop=loop, pure=False, **kw) for b, kw in zip(parts, placement(client, len(parts)))]
         rows = [r for batch in gather_in_order(futures, f"{bench.name}: sweep", "batch", progress) for r in batch]
     return SweepResult(bench.name, params, rows, metric, scheduler or f"local ({n_workers} workers)",
                        [float(f) for f in freqs_hz])

@@ -156,7 +156,7 @@ def self_test_run(device, *, duration: float = 120.0, drift: FrictionDrift | Non
     from tendyn import _core
     from tendyn.control import Compensator
     from tendyn.device import compile_device
-    from tendyn.pipelines.s0_compensation import _Block, _encoders, _reset
+    from tendyn.pipelines.twin_loop import ControlBlock as _Block, encoders as _encoders, reset_at as _reset
     from tendyn.sim.model import sim_model
 
     compiled = compile_device(device)

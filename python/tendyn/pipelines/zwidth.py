@@ -79,7 +79,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     from tendyn import _core
     from tendyn.control import Compensator, Renderer, passivity_model
     from tendyn.device import compile_device
-    from tendyn.pipelines.s0_compensation import _Block, _encoders, _reset
+    from tendyn.pipelines.twin_loop import ControlBlock, encoders, reset_at
     from tendyn.sim.model import sim_model
 
     if mode not in MODES:
@@ -99,7 +99,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     sim = sim_model(compiled, rate_hz=rate_hz, control_hz=control_hz, stops=True)
     data = _core.SimData(sim)
     q0, normal = _task(compiled, q0, normal)
-    _reset(sim, data, q0, seed)
+    reset_at(sim, data, q0, seed)
     chain = comp.model.chain
     cdata = _core.ChainData(chain)
     _core.chain_active(chain, cdata, q0)
@@ -108,9 +108,9 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     force = -float(push) * normal
     periods = int(round(horizon * control_hz))
     height, to_hand = np.empty(periods), np.empty(periods)
-    block = _Block(sim)
+    block = ControlBlock(sim)
     for s in range(periods):
-        torque_motor = rend.cycle(_encoders(sim, data))
+        torque_motor = rend.cycle(encoders(sim, data))
         _core.chain_active(chain, cdata, np.array(data.q))
         block.run(data, torque_motor, np.asarray(cdata.ee_jacobian_active).T @ force)
         height[s] = float(normal @ cdata.ee_position) - floor

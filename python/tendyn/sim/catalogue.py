@@ -16,7 +16,6 @@ An option an experiment does not use is refused, never silently ignored.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from typing import Any, Callable
 
@@ -24,14 +23,10 @@ import numpy as np
 
 from tendyn.errors import UsageError, flag
 from tendyn.protocols import DEFAULT_LOADS, DEFAULT_SPEEDS
+from tendyn.sim.limits import (BENCH_RATE_HZ, CHAIN_RATE_HZ, MEMORY_SHARE, memory_available,  # noqa: F401 (API)
+                               require_memory)
 
 SEED_MAX = 2**64 - 1
-CHAIN_RATE_HZ = (1_000.0, 20_000.0)
-"""Integration rates [Hz] the chain simulator accepts (stiff cables, friction impulses)."""
-BENCH_RATE_HZ = (1_000.0, 1_000_000.0)
-"""Step rates [Hz] of the tendon-bench integrator (it sub-steps internally where needed)."""
-MEMORY_SHARE = 0.8
-"""A run may use at most this share of the memory available when it starts."""
 
 PRBS_CLOCK_HZ = 50.0
 """Default PRBS clock of a tendon bench [Hz] (`simulate … prbs`, `pipeline s1`): a level lasts 20 ms; power flat
@@ -401,34 +396,6 @@ def memory_needed(device, experiment: str, o: dict) -> float:
         na = _active_count(device)
         per_step, per_row = 4 * na + 3, (12 * na + 2) * 2   # refs, feedforward, torques; log + true states
     return 8.0 * (max(lengths) * rate * per_step + sum(lengths) * log_rate * per_row)
-
-
-def memory_available() -> float:
-    """Memory [bytes] the system can give now (MemAvailable on Linux, physical memory elsewhere)."""
-    try:
-        with open("/proc/meminfo") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return float(line.split()[1]) * 1024.0
-    except OSError:
-        pass
-    try:
-        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
-    except (ValueError, OSError, AttributeError):
-        return math.inf
-
-
-def _gb(x: float) -> str:
-    return f"{x / 1e9:.0f} GB" if x >= 10e9 else f"{x / 1e9:.1f} GB"
-
-
-def require_memory(need: float, advice: str, what: str = "this run") -> None:
-    """Refuse, before it starts, work whose arrays need ``need`` bytes when that is more than
-    :data:`MEMORY_SHARE` of the memory available now (UsageError: exit 2 instead of a MemoryError or the OOM
-    killer after minutes). ``advice`` says how to make it smaller. `simulate`, `plan` and `sweep` use it."""
-    have = memory_available()
-    if need > MEMORY_SHARE * have:
-        raise UsageError(f"{what} needs {_gb(need)} of memory and {_gb(have)} are available: {advice}")
 
 
 def _check_memory(device, exp: Experiment, o: dict) -> None:

@@ -21,7 +21,7 @@ Parquet text (2 columns) — to refuse a plan that cannot fit before building it
 
 
 def _require_memory(n_values: float, what: str) -> None:
-    from tendyn.sim.catalogue import require_memory
+    from tendyn.sim.limits import require_memory
 
     require_memory(n_values, "shorten it or lower the rate", what)
 

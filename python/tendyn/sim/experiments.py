@@ -531,15 +531,17 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
         :func:`design_exciting` inside the device's identification band (0.1 Hz … ``device.bandwidth_hz``),
         passive joints kept inside their limits, distinct frequencies per joint (``q0``, ``amplitude``,
         ``f_tri``, ``f_sin``, ``a_sin`` unused). None: "band" when the device file gives ``bandwidth_hz``
-        (its motion bandwidth, e.g. the CEA branch's 2 Hz), else "classic".
+        (its motion bandwidth, e.g. the CEA branch's 2 Hz) or has passive tree joints (a parallelogram: "classic"
+        drove a desktop arm's elbow into its end stops for 0.6 s of 20, the stop forces in the log, σ(FV) 1.4–3.6×
+        FV), else "classic".
     friction : False runs the twin without its friction sources (a rigid-body-plus-terms truth).
     """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction, stops=True)
     na = m.na
     dev_bw = getattr(device.device, "bandwidth_hz", None)
-    if design is None:
-        design = "band" if dev_bw else "classic"
+    if design is None:      # "classic" clips the active limits only: passive tree joints would ride their stops
+        design = "band" if dev_bw or tree_limits(device)[2].shape[0] > na else "classic"
     if isinstance(design, str) and design == "band":
         design = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
     if not isinstance(design, str) and hasattr(design, "references"):   # ExcitingDesign, ident.exciting.FourierDesign

@@ -11,7 +11,7 @@ import numpy as np
 
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
-from tendyn.sim.catalogue import CHAIN_RATE_HZ
+from tendyn.sim.limits import CHAIN_RATE_HZ
 from tendyn.transmission import Transmission
 
 
