@@ -182,6 +182,39 @@ other workers idle at the end of a parallel run (longest-first scheduling). Name
 is still run, in its place."""
 
 
+def _wide_params(item) -> tuple:
+    """(argname, index) of the parameters of item's module-, class- or session-scoped fixtures (test_any_device's
+    devices, test_examples' build routes): the items sharing them share one set-up."""
+    cs = getattr(item, "callspec", None)
+    if cs is None:
+        return ()
+    scopes = getattr(cs, "_arg2scope", {})
+    return tuple(sorted((a, i) for a, i in cs.indices.items()
+                        if str(getattr(scopes.get(a), "value", "function")) != "function"))
+
+
+@pytest.hookimpl(wrapper=True, tryfirst=True)
 def pytest_collection_modifyitems(session, config, items):
+    """After every other reordering (pytest-randomly's shuffle too, a wrapper itself): the HEAVY_FIRST modules
+    first, each module's items together, and inside a module the items of one parameter of a module-scoped
+    fixture together (a shuffle interleaving them rebuilt test_any_device's device chains up to four times each);
+    any other order (pytest's, or the shuffled one) is kept."""
+    result = yield
     rank = {name: k for k, name in enumerate(HEAVY_FIRST)}
-    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))      # stable: file order kept otherwise
+    first_module: dict = {}
+    first_param: dict = {}
+    for k, item in enumerate(items):
+        first_module.setdefault(item.path, k)
+        first_param.setdefault((item.path, _wide_params(item)), k)
+    items.sort(key=lambda item: (rank.get(item.path.name, len(rank)), first_module[item.path],
+                                 first_param[(item.path, _wide_params(item))]))
+    return result
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    """A shuffled run (`-p randomly`) names its seed at the end too (pytest-randomly prints it only in the header,
+    which `-q` hides): `-p randomly --randomly-seed=N` repeats the order."""
+    seed = getattr(config.option, "randomly_seed", None)
+    if config.pluginmanager.has_plugin("randomly") and isinstance(seed, int):
+        terminalreporter.write_line(f"pytest-randomly: shuffled with seed {seed} "
+                                    f"(repeat: -p randomly --randomly-seed={seed})")

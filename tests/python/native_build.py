@@ -57,15 +57,18 @@ def user_env() -> dict:
     return env
 
 
-def build(route: str, out: Path, cmake_prefix_path: str | None = None, pkg_config_path: str | None = None) -> dict:
-    """Build the four programs into ``out`` by ``route``; returns name → executable path. The paths default to
-    what `tendyn config` prints (another install tree can be given, e.g. a `cmake --install` prefix)."""
+def build(route: str, out: Path, cmake_prefix_path: str | None = None, pkg_config_path: str | None = None,
+          only: tuple[str, ...] | None = None) -> dict:
+    """Build the four programs (or ``only`` those named) into ``out`` by ``route``; returns name → executable
+    path. The paths default to what `tendyn config` prints (another install tree can be given, e.g. a
+    `cmake --install` prefix)."""
     out.mkdir(parents=True, exist_ok=True)
+    names = tuple(PROGRAMS) if only is None else only
     if route == "cmake":
         prefix = cmake_prefix_path or tendyn_config("--cmake-prefix-path")
         run(["cmake", "-S", str(EXAMPLES), "-B", str(out), f"-DCMAKE_PREFIX_PATH={prefix}"], env=user_env())
-        run(["cmake", "--build", str(out), "-j", "2"])
-        return {name: out / name for name in PROGRAMS}
+        run(["cmake", "--build", str(out), "-j", "2", *([] if only is None else ["--target", *only])])
+        return {name: out / name for name in names}
     if route == "pkg-config":
         if shutil.which("pkg-config") is None:
             pytest.fail("pkg-config is not installed (`make test` installs it with apt)")
@@ -78,7 +81,8 @@ def build(route: str, out: Path, cmake_prefix_path: str | None = None, pkg_confi
     else:
         raise ValueError(route)
     exes = {}
-    for name, (source, lang) in PROGRAMS.items():
+    for name in names:
+        source, lang = PROGRAMS[name]
         # feedforward.cpp is the header-only core (Eigen); compensation.cpp calls the C ABI from C++
         flags = cpp_flags if name == "feedforward_cpp" else c_flags
         compiler = ["cc", "-O2"] if lang == "c" else ["c++", "-std=c++17", "-O2"]

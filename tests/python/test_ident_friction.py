@@ -328,7 +328,8 @@ def _parse(argv):
 
 
 def test_plan_writes_the_twins_references(lexos, tmp_path):
-    """``tendyn plan`` writes exactly the references the twin's experiment runs (same function, same grid)."""
+    """``tendyn plan`` writes exactly the references the twin's experiment runs (same function, same grid).
+    At 2 kHz (the grid is the option's: 10 kHz wrote 91 MB of CSV per strategy, 5 × the time, same code)."""
     from tendyn.commands import s0
     from tendyn.protocols import references as cv_references
     from tendyn.sim.model import sim_model
@@ -336,10 +337,10 @@ def test_plan_writes_the_twins_references(lexos, tmp_path):
     out = tmp_path / "ref.csv"
     for strategy, prefix in (("S1", "q_motor_ref_"), ("S2", "q_ref_")):
         args = _parse(["plan", "constant-velocity", "lexos", "--transmission", "2", "--strategy", strategy,
-                       "--rate", "10000", "--out", str(out), "--json"])
+                       "--rate", "2000", "--out", str(out), "--json"])
         assert s0.run_plan(args) == 0
         ref = read_log(out)
-        m = sim_model(lexos, rate_hz=10_000.0)
+        m = sim_model(lexos, rate_hz=2_000.0)
         Gm = np.array(m.tendon.motor_from_joint_position)
         # the twin's run with the same options (tendyn simulate's catalogue) plans the same test
         from tendyn.sim import catalogue
