@@ -8,6 +8,20 @@ from tendyn.device import load_device
 from tendyn.transmission import Transmission
 
 
+def _friction_document(dev, path):
+    """A FRICTION.json of made-up per-transmission friction for ``dev`` (τ0 = 0.02 + 0.01 i N m, ν = 1e-3 (i + 1)
+    N m s/rad), written at ``path``; returns (the document, the path)."""
+    import json
+
+    n = dev.n_transmissions
+    c0, nu = [0.02 + 0.01 * i for i in range(n)], [1e-3 * (i + 1) for i in range(n)]
+    doc = {"format": "tendyn.friction/1", "device": dev.name, "n_transmissions": n, "coulomb_motor": c0,
+           "viscous_motor": nu, "fits": [{"transmission": i + 1, "coulomb_motor": c0[i], "viscous_motor": nu[i],
+                                          "coulomb_motor_std": 1e-4, "viscous_motor_std": 1e-5} for i in range(n)]}
+    path.write_text(json.dumps(doc))
+    return doc, path
+
+
 @pytest.mark.parametrize("name", ["lexos", "generated"])
 def test_motor_alone_speeds_hold_the_other_motors(name, tmp_path):
     """``Transmission.motor_alone_joint_speeds`` (the passivity bound's and the export summary's one definition):
@@ -43,20 +57,12 @@ def test_the_velocity_threshold_rule_is_the_treatments():
 def test_friction_json_is_read_once_by_a_compensator_with_its_passivity_controller(tmp_path, monkeypatch):
     """The compensator and its passivity bound take one loss model, built once from FRICTION.json (with the
     shares given): the file is read once and the bound is the one of those losses."""
-    import json
-
     from tendyn.control import Compensator
     from tendyn.control.passivity import dissipation_bound
     from tendyn.ident import loss_model
 
     dev = load_device(bundled("lexos"))
-    n = dev.n_transmissions
-    c0, nu = [0.02 + 0.01 * i for i in range(n)], [1e-3 * (i + 1) for i in range(n)]
-    doc = {"format": "tendyn.friction/1", "device": dev.name, "n_transmissions": n, "coulomb_motor": c0,
-           "viscous_motor": nu, "fits": [{"transmission": i + 1, "coulomb_motor": c0[i], "viscous_motor": nu[i],
-                                          "coulomb_motor_std": 1e-4, "viscous_motor_std": 1e-5} for i in range(n)]}
-    path = tmp_path / "friction.json"
-    path.write_text(json.dumps(doc))
+    doc, path = _friction_document(dev, tmp_path / "friction.json")
     reads = []
     real = loss_model._read
     monkeypatch.setattr(loss_model, "_read", lambda f: reads.append(f) or real(f))
@@ -70,20 +76,12 @@ def test_a_calibrated_device_records_the_source_of_every_term(tmp_path):
     """``calibrate``: identified friction replaces every loss term of the file (one loss model) with its document
     named, an identified capstan stiffness replaces the file's per drive, and the compensator built from the
     calibrated device is the one built from the same friction directly."""
-    import json
-
     from tendyn.control import Compensator
     from tendyn.devices.generate import write_parallelogram_arm
     from tendyn.ident.calibrated import CalibrationError, calibrate
 
     dev = load_device(bundled("lexos"))
-    n = dev.n_transmissions
-    c0, nu = [0.02 + 0.01 * i for i in range(n)], [1e-3 * (i + 1) for i in range(n)]
-    doc = {"format": "tendyn.friction/1", "device": dev.name, "n_transmissions": n, "coulomb_motor": c0,
-           "viscous_motor": nu, "fits": [{"transmission": i + 1, "coulomb_motor": c0[i], "viscous_motor": nu[i],
-                                          "coulomb_motor_std": 1e-4, "viscous_motor_std": 1e-5} for i in range(n)]}
-    path = tmp_path / "FRICTION.json"
-    path.write_text(json.dumps(doc))
+    doc, path = _friction_document(dev, tmp_path / "FRICTION.json")
     plain = calibrate(dev)
     assert set(plain.sources.values()) == {"file"} and plain.losses is None
     cal = calibrate(dev, str(path))

@@ -119,13 +119,17 @@ def _tendon_lines(n: int, rng, rotor_inertia: float) -> list[str]:
     return lines
 
 
-def write_cable_device(folder, n: int, **kw) -> Path:
-    """Write :func:`cable_device_toml` to ``folder/<name>.toml`` and return the path."""
-    text = cable_device_toml(n, **kw)
+def _write_named(folder, text: str) -> Path:
+    """Write a generated device's TOML ``text`` to ``folder/<its [device] name>.toml``; return the path."""
     name = text.split('name = "', 1)[1].split('"', 1)[0]
     path = Path(folder) / f"{name}.toml"
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def write_cable_device(folder, n: int, **kw) -> Path:
+    """Write :func:`cable_device_toml` to ``folder/<name>.toml`` and return the path."""
+    return _write_named(folder, cable_device_toml(n, **kw))
 
 
 def coupled_wrist_toml(n: int = 4, *, name: str | None = None, seed: int = 0, motor_side: bool = True) -> str:
@@ -237,11 +241,7 @@ def parallelogram_arm_toml(*, seed: int = 0, name: str | None = None, gravity: b
 
 def write_parallelogram_arm(folder, **kw) -> Path:
     """Write :func:`parallelogram_arm_toml` to ``folder/<name>.toml`` and return the path."""
-    text = parallelogram_arm_toml(**kw)
-    name = text.split('name = "', 1)[1].split('"', 1)[0]
-    path = Path(folder) / f"{name}.toml"
-    path.write_text(text, encoding="utf-8")
-    return path
+    return _write_named(folder, parallelogram_arm_toml(**kw))
 
 
 def tendon_bench_toml(*, seed: int = 0, name: str | None = None, peak_force: bool = True) -> str:
@@ -283,8 +283,4 @@ def tendon_bench_toml(*, seed: int = 0, name: str | None = None, peak_force: boo
 
 def write_tendon_bench(folder, **kw) -> Path:
     """Write :func:`tendon_bench_toml` to ``folder/<name>.toml`` and return the path."""
-    text = tendon_bench_toml(**kw)
-    name = text.split('name = "', 1)[1].split('"', 1)[0]
-    path = Path(folder) / f"{name}.toml"
-    path.write_text(text, encoding="utf-8")
-    return path
+    return _write_named(folder, tendon_bench_toml(**kw))
