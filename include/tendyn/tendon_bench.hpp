@@ -81,7 +81,8 @@ namespace tendyn {
 // the bindings (properties that re-validate on every write), validate() and the test that compares
 // the defaults with Python's TendonBench (python/tendyn/device/tendon_bench.py) derive from this list.
 // The file fields of [bench] are the rows up to noise_position; dt and clamp_stiffness are simulator
-// settings, not device-file fields.
+// settings, not device-file fields. The optional file field peak_force (the actuators' limit) is no plant
+// parameter: Python's BENCH_OPTIONAL, read by the commands, not mirrored here.
 #define TENDYN_TENDON_BENCH_FIELDS(X)                                                                  \
   X(ratio, 15.0, "-", Positive, "pulley ratio r (informational: the values below are at the rim)")       \
   X(k1, 2.566e4, "N/m", Positive, "proximal stiffness of the channel (each tendon k1/2)")              \

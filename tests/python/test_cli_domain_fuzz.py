@@ -148,3 +148,61 @@ def test_the_domains_cover_the_options():
     for must in [(("plan",), "--amplitude"), (("plan",), "--iterations"), (("frf",), "--segment"),
                  (("simulate",), "--rate"), (("export",), "--timestep")]:
         assert must in opts, must
+
+
+# ---- relations with the device (args.DEVICE_LIMITS): read from the table, tried just outside and just inside -----
+
+def _limit_argv(command, option, value, dev, tmp_path, kind):
+    """A command line whose only questionable input is ``--option=value`` (``sweep`` inside its limit then stops at
+    a bad --param, after the limit check, so no Dask run starts)."""
+    flag = "--" + option.replace("_", "-")
+    if command == "plan":
+        extra = {"prbs": ["--duration", "0.01"], "multisine": ["--duration", "0.1", "--band", "1,10"],
+                 "stepped-sine": ["--frequencies", "50", "--cycles", "1", "--settle", "0"]}[kind]
+        return ["plan", kind, str(dev), f"{flag}={value}", *extra, "--out", str(tmp_path / "ref.csv")]
+    assert command == "sweep", command                  # a new DEVICE_LIMITS row needs its command line here
+    return ["sweep", str(dev), f"{flag}={value}", "--param", "no_such_field=1:2:2", "--out",
+            str(tmp_path / "s.parquet")]
+
+
+def _device_limit_cases():
+    from tendyn.commands.args import DEVICE_LIMITS
+
+    kinds = {"plan": ("prbs", "multisine", "stepped-sine"), "sweep": (None,)}
+    return [(c, o, f, k) for c, row in DEVICE_LIMITS.items() for o, f in row.items() for k in kinds[c]]
+
+
+@pytest.mark.parametrize("command, option, field, kind", _device_limit_cases())
+def test_device_limits_just_outside_and_inside(capsys, tmp_path, monkeypatch, command, option, field, kind):
+    """Each DEVICE_LIMITS row on a generated bench (seeded): the field's value read from the file itself (tomllib,
+    not tendyn's loader) is the limit; one ulp and 1e-6 above → exit 2, one line naming the option, the value, the
+    limit and the field; at the limit and a third of it → not refused for this option. A bench without the field
+    keeps only the fixed bound. (Plants seen failing: the relation dropped; compared with peak_force/ratio, with
+    peak_force + pretension, and in kN.)"""
+    import tomllib
+
+    from tendyn.devices.generate import write_tendon_bench
+
+    monkeypatch.chdir(tmp_path)
+    rng = random.Random(SEED)
+    dev = write_tendon_bench(tmp_path, seed=rng.randrange(1000))
+    limit = tomllib.loads(dev.read_text())["bench"][field]
+    flag = "--" + option.replace("_", "-")
+    for value in (np.nextafter(limit, np.inf), limit * (1 + 1e-6), limit * 10.0):
+        code = main(_limit_argv(command, option, repr(float(value)), dev, tmp_path, kind))
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(lines) == 1, (value, lines)
+        for part in (flag, repr(float(value)), repr(float(limit)), f"bench.{field}"):
+            assert part in lines[0], (part, lines[0])
+    for value in (limit, limit / 3.0):
+        code = main(_limit_argv(command, option, repr(float(value)), dev, tmp_path, kind))
+        err = capsys.readouterr().err
+        assert code != 3 and "Traceback" not in err and flag not in err, (value, err)
+        assert code == 0 if command == "plan" else "--param" in err, (value, code, err)
+    nolimit = write_tendon_bench(tmp_path, seed=1, name="nolimit", peak_force=False)
+    code = main(_limit_argv(command, option, repr(limit * 10.0), nolimit, tmp_path, kind))
+    err = capsys.readouterr().err
+    assert code != 3 and flag not in err, err
+    with capsys.disabled():
+        print(f"\ndevice limit {command} {kind or ''} {flag} ≤ bench.{field} = {limit:.6g}: 3 outside, 2 inside, "
+              f"seed {SEED}")

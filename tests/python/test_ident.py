@@ -383,7 +383,59 @@ def test_campaign_on_a_dask_scheduler(tx40):
                                   dashboard_address=None) as cluster:
         there = IDIM(tx40.device, cutoff_hz=20.0, decimate=10, scheduler=cluster.scheduler_address).fit(
             logs, crossval=False)
-    np.testing.assert_allclose(there.params_, here.params_, rtol=1e-12)
+    # the same per-log reduction (compact factors) on the worker as here, the same combination: the same bits
+    np.testing.assert_array_equal(there.params_, here.params_)
+    np.testing.assert_array_equal(there.stderr_, here.stderr_)
+    np.testing.assert_array_equal(there.result_.y_hat, here.result_.y_hat)
+    assert there.cond_ == here.cond_ and there.result_.n_rows == here.result_.n_rows
+
+
+@pytest.fixture(scope="module")
+def two_short_logs(tx40):
+    return [_synthetic_tx40(tx40, noise=0.01, seed=s, duration=3.0) for s in (5, 6)]
+
+
+@pytest.mark.parametrize("plant", [None, "a log's y column dropped"])
+@pytest.mark.parametrize("method", ["ols", "wls"])
+def test_compact_factors_equal_the_stacked_rows(tx40, two_short_logs, monkeypatch, plant, method):
+    """IDIM reduces each log to per-joint R factors of [W_base | y] (lsq.row_factor) and solves on their stack:
+    x, σ, the per-joint residuals (WLS weights) and cond equal those of lstsq on the stacked rows to 1e-10.
+    The plant drops the second log's y column from its factors (as if that log had y = 0): seen."""
+    import tendyn.ident.estimate as estimate
+    from tendyn.ident.lsq import least_squares
+
+    logs = two_short_logs
+    if plant:
+        calls = []
+
+        def dropped(W, y):
+            calls.append(1)
+            R = np.linalg.qr(np.column_stack([W, y]), mode="r")
+            if len(calls) > tx40.n_active:          # the second log's joints
+                R[:, -1] = 0.0
+            return R
+        monkeypatch.setattr(estimate, "row_factor", dropped)
+    est = IDIM(tx40.device, cutoff_hz=20.0, decimate=10, method=method)
+    C, S = est._system(logs, compact=True), est._system(logs, compact=False)
+    C.close()
+    S.close()
+    assert S.stats is None and C.stats[2] == S.Y.size and C.Y.size <= 2 * tx40.n_active * (C.Wb.shape[1] + 1)
+    na = tx40.n_active
+    xc, sec, wc = est._solve(C.Wb, C.Y, C.rows, na, stats=C.stats)
+    xs, ses, ws = est._solve(S.Wb, S.Y, S.rows, na)
+    ref = np.max(np.abs(xs))
+    per_c = [np.linalg.norm((C.Y - C.Wb @ xs)[C.rows == j]) for j in range(na)]
+    per_s = [np.linalg.norm((S.Y - S.Wb @ xs)[S.rows == j]) for j in range(na)]
+    sv_c = np.linalg.svd(C.Wb * wc[:, None], compute_uv=False)
+    sv_s = np.linalg.svd(S.Wb * ws[:, None], compute_uv=False)
+    errors = [np.max(np.abs(xc - xs)) / ref, np.max(np.abs(sec / ses - 1)), np.max(np.abs(np.divide(per_c, per_s) - 1)),
+              abs(sv_c[0] / sv_c[-1] / (sv_s[0] / sv_s[-1]) - 1)]
+    if plant:
+        assert max(errors) > 1e-3, errors
+    else:
+        assert max(errors) < 1e-10, errors
+        x_rows = least_squares(S.Wb, S.Y)[0]             # the one lstsq on the rows
+        np.testing.assert_allclose(least_squares(C.Wb, C.Y, n_obs=C.stats[2])[0], x_rows, rtol=0, atol=1e-10 * ref)
 
 
 def test_streaming_estimator_on_a_parquet_log(tx40, tmp_path):

@@ -13,7 +13,7 @@ from tendyn import _core
 from tendyn.device import load_device
 from tendyn.device.schema import (BEARING_FIELDS, BEARING_PREFIX, FRICTION_FIELDS, LOSS_FIELD_NAMES,
                                   TRANSMISSION_MODEL_FIELDS)
-from tendyn.device.tendon_bench import BENCH_FIELDS, TendonBench
+from tendyn.device.tendon_bench import BENCH_FIELDS, BENCH_MODEL_FIELDS, BENCH_OPTIONAL, TendonBench
 from tendyn.devices import bundled
 from tendyn.sim.model import sim_model
 from tendyn.sim.tendon_bench import bench_model
@@ -90,18 +90,23 @@ def test_docs_bench_table_matches_bench_fields_and_defaults():
     default = TendonBench()
     for name, unit, _allowed, dflt, _doc in rows:
         assert _norm_unit(unit) == _norm_unit(BENCH_FIELDS[name][0]), name
-        assert float(dflt) == getattr(default, name), name
+        if name in BENCH_OPTIONAL:                  # a limit a file may leave out: no default, None
+            assert dflt.strip() in ("—", "-") and getattr(default, name) is None, name
+        else:
+            assert float(dflt) == getattr(default, name), name
 
 
 # ---- defaults agree -----------------------------------------------------------------------------------
 
 def test_bench_defaults_cpp_equal_python():
     cpp, py = _core.TendonBenchModel(), TendonBench()
-    for name in BENCH_FIELDS:
+    for name in BENCH_MODEL_FIELDS:
         assert getattr(cpp, name) == getattr(py, name), name
     table = {name: (default, unit) for name, default, unit, _bound, _doc in _core.TendonBenchModel.fields()}
-    for name, (unit, *_rest) in BENCH_FIELDS.items():
-        assert table[name] == (getattr(py, name), unit), name
+    for name in BENCH_MODEL_FIELDS:
+        assert table[name] == (getattr(py, name), BENCH_FIELDS[name][0]), name
+    assert not set(BENCH_OPTIONAL) & set(table)     # the limits are no plant parameters of the core
+    assert list(BENCH_MODEL_FIELDS) == [n for n in BENCH_FIELDS if n not in BENCH_OPTIONAL]
 
 
 def test_transmission_defaults_cpp_equal_python(lexos):

@@ -350,6 +350,9 @@ def _variant(tmp_path, old: str, new: str, name: str = "bad_bench.toml"):
         ('kind = "tendon_bench_2n"', 'kind = "tendon_bench_2n"\ncolour = "red"', ["device.colour", "unknown field"]),
         ("[bench]", "[extra]\na = 1\n[bench]", ["extra", "unknown field"]),
         ("friction_mu_tension = 0.005", "friction_mu_tension = 0.005 0.1", ["TOML syntax error"]),
+        ("noise_position = 0.0 ", "peak_force = 0.0\nnoise_position = 0.0 ", ["bench.peak_force", "must be > 0"]),
+        ("noise_position = 0.0 ", "peak_force = nan\nnoise_position = 0.0 ", ["bench.peak_force", "finite"]),
+        ("noise_position = 0.0 ", 'peak_force = "50 N"\nnoise_position = 0.0 ', ["bench.peak_force", "number"]),
     ],
 )
 def test_malformed_bench_files(tmp_path, old, new, fragments):
@@ -360,6 +363,33 @@ def test_malformed_bench_files(tmp_path, old, new, fragments):
     assert msg.startswith("bad_bench.toml"), msg
     for frag in fragments:
         assert frag in msg, msg
+
+
+def test_peak_force_is_optional_and_read(tmp_path, bench):
+    """[bench].peak_force (the actuators' limit [N]) may be left out — the bundled McGill file does (S1 gives no
+    limit) and reads None — and is read when given; it is no parameter of the simulated plant."""
+    assert bench.peak_force is None and "peak_force" not in bundled("mcgill_bench").read_text()
+    b = load_tendon_bench(_variant(tmp_path, "noise_position = 0.0 ", "peak_force = 42.5\nnoise_position = 0.0 "))
+    assert b.peak_force == 42.5 and b.replace(peak_force=None) == bench.replace(source=b.source)
+    assert not hasattr(tb.bench_model(b), "peak_force")
+
+
+@pytest.mark.parametrize("seed", [0, 7, 21])
+def test_generated_bench_peak_force_from_its_motor(tmp_path, seed):
+    """A generated bench's limit from the motor it states (6 significant digits in its description):
+    peak_force = τ_pk/ρ − T_pre (motor A pulls F_pre + max(u, 0)) and mass_motor = 2 J/ρ²; without the field: None."""
+    import re
+
+    from tendyn.devices.generate import write_tendon_bench
+
+    b = load_device(write_tendon_bench(tmp_path, seed=seed))
+    J, rho, tau = (float(x) for x in re.search(r"J = (\S+) kg m2, rho = (\S+) m, peak torque (\S+) N m",
+                                                 b.description).groups())
+    assert b.peak_force == pytest.approx(tau / rho - b.pretension, rel=1e-4)
+    assert b.mass_motor == pytest.approx(2 * J / rho**2, rel=1e-4)
+    assert load_device(write_tendon_bench(tmp_path, seed=seed, name="nolimit", peak_force=False)).peak_force is None
+    run = tb.simulate(b, np.full(200, 0.5 * b.peak_force), rate_hz=RATE)   # the twin runs a generated bench
+    assert np.all(np.isfinite(run.force))
 
 
 def test_wrong_kind_and_missing_file(tmp_path):

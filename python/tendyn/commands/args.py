@@ -257,6 +257,39 @@ def check_plan_relations(args) -> None:
                          "frequencies")
 
 
+MAX_AMPLITUDE = 1e4
+"""Largest input amplitude a bench command takes (``plan --amplitude``, ``sweep --amplitudes``) [N, or the --unit
+of a generic input] when nothing tighter is known: no DEVICE, or a bench file without the optional ``peak_force``
+(a 1e308 N reference is refused, not written). A DEVICE that declares ``bench.peak_force`` bounds it by that
+(:data:`DEVICE_LIMITS`)."""
+
+DEVICE_LIMITS: dict[str, dict[str, str]] = {
+    "plan": {"amplitude": "peak_force"},
+    "sweep": {"amplitudes": "peak_force"},
+}
+"""command → {option: the bench field it must stay at or below}, in the field's unit (the option's [N] and the
+field's [N] are both the command force at the rim). Checked by :func:`check_device_limits` once the DEVICE is
+read; a device whose file leaves the field out (it is optional, :data:`tendyn.device.tendon_bench.BENCH_OPTIONAL`)
+keeps only the option's fixed range, since nothing bounds it: the bundled McGill bench, whose paper (S1) gives no
+actuator limit."""
+
+
+def check_device_limits(command: str, args, dev) -> None:
+    """The options of ``command`` against the device's limits (:data:`DEVICE_LIMITS`), before any work: the largest
+    value of the option (a list's largest entry) must be ≤ the device's field when the file declares it."""
+    from tendyn.errors import UsageError
+
+    for opt, field in DEVICE_LIMITS[command].items():
+        value = getattr(args, opt, None)
+        limit = getattr(dev, field, None)
+        if value is None or limit is None:
+            continue
+        top = max(value) if isinstance(value, (tuple, list)) else value
+        if top > limit:
+            raise UsageError(f"{float(top)!r} N: must be ≤ the device's peak force {float(limit)!r} N (bench.{field} "
+                             f"of {dev.name})", opt)
+
+
 def check_signals(command: str, args, logs, names, paths) -> None:
     """The logs and options of ``command`` against its :data:`SIGNAL_DOMAINS` row: ``logs`` read, ``names`` the
     (input, output) signals, ``paths`` the logs' files (for the message). Raises UsageError naming the option or

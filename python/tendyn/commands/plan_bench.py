@@ -24,16 +24,16 @@ from tendyn.commands import args as conv
 from tendyn.errors import UsageError
 
 KINDS = ("prbs", "multisine", "stepped-sine")
-MAX_AMPLITUDE = 1e4
-"""Largest reference level a bench plan writes [N, or the --unit of a generic input]: the force an amplifier of a
-tendon bench can be asked for (a 1e308 N reference is refused, not written)."""
+MAX_AMPLITUDE = conv.MAX_AMPLITUDE
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The options of the bench plans, on the `plan` parser."""
     g = p.add_argument_group("prbs, multisine, stepped-sine (a bench's identification references)")
     g.add_argument("--amplitude", type=conv.number(0.0, MAX_AMPLITUDE, lo_open=True, unit="N or --unit"), default=None,
-                   help="level ±A of the PRBS, peak of the multisine, amplitude of the sines [N, or --unit]")
+                   help="level ±A of the PRBS, peak of the multisine, amplitude of the sines [N, or --unit]; "
+                        "≤ the DEVICE's bench.peak_force when its file declares one, else ≤ 1e4 (no limit known: "
+                        "the field is optional, and the McGill bench's paper gives none)")
     g.add_argument("--duration", type=conv.number(0.0, 1e5, lo_open=True, unit="s"), default=None,
                    help="length of the PRBS or multisine [s]")
     g.add_argument("--clock", type=conv.number(0.0, None, lo_open=True, unit="Hz"), default=None,
@@ -94,6 +94,7 @@ def run(args, load_device) -> int:
         if dev.kind != "tendon_bench_2n":
             raise UsageError(f"{dev.name} is a {dev.kind} device: give a tendon bench, or no DEVICE and --name/--unit "
                              "for a generic input", "device")
+        conv.check_device_limits("plan", args, dev)
         column, signals, device = "force_cmd", None, dev.name
     else:
         _need(args, "name", "unit")

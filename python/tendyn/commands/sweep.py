@@ -8,7 +8,7 @@ import os
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import number, numbers, out_path
+from tendyn.commands.args import MAX_AMPLITUDE, check_device_limits, number, numbers, out_path
 from tendyn.errors import UsageError
 
 MAX_WORKERS = 4 * (os.cpu_count() or 1)
@@ -22,8 +22,10 @@ def register(subparsers) -> None:
     p.add_argument("device", help="device file or bundled twin (a tendon bench)")
     p.add_argument("--param", action="append", required=True, metavar="NAME=LO:HI:N",
                    help="a bench field and its grid (repeat for a grid of several fields)")
-    p.add_argument("--amplitudes", type=numbers(0.0, lo_open=True, unit="N"), default=(0.31, 0.38, 0.6, 2.0),
-                   metavar="A,…", help="stepped-sine input amplitudes [N] [default: 0.31,0.38,0.6,2]")
+    p.add_argument("--amplitudes", type=numbers(0.0, MAX_AMPLITUDE, lo_open=True, unit="N"),
+                   default=(0.31, 0.38, 0.6, 2.0), metavar="A,…",
+                   help="stepped-sine input amplitudes [N] [default: 0.31,0.38,0.6,2]; each ≤ the DEVICE's "
+                        "bench.peak_force when its file declares one, else ≤ 1e4")
     p.add_argument("--loop", choices=LOOPS, default="open",
                    help="open: the twin alone; closed: also S1's loop-shaping controller C = L/P̂ in the twin")
     p.add_argument("--metric", choices=METRICS, default=None,
@@ -40,6 +42,7 @@ def register(subparsers) -> None:
 
 def run(args) -> int:
     from tendyn.commands.shared import load as _load, print_json as _print_json
+    from tendyn.device.tendon_bench import BENCH_MODEL_FIELDS
     from tendyn.pipelines.sweep import MAX_DESIGNS, parse_param, run_sweep
     from tendyn.report import warn, write_beside
     from tendyn.sim.tendon_bench import bench_model
@@ -47,8 +50,9 @@ def run(args) -> int:
     dev = _load(args.device)
     if dev.kind != "tendon_bench_2n":
         raise UsageError(f"{dev.name} is a {dev.kind} device; sweep needs a tendon bench", "device")
+    check_device_limits("sweep", args, dev)
     params = {}
-    fields = set(dev.to_dict()) - {"name", "description", "source"}
+    fields = set(BENCH_MODEL_FIELDS)                # the plant's fields (not the limits: nothing to simulate)
     for text in args.param:
         try:
             name, grid = parse_param(text)

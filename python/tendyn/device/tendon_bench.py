@@ -5,7 +5,8 @@ The file (``kind = "tendon_bench_2n"``, see ``tendyn/devices/mcgill_bench.toml``
     schema = 1
     [device]   name, kind, description
     [bench]    ratio, k1, k2, mass_motor, damping_motor, mass_load, k_z, pretension,
-               friction_c0, friction_mu_tension, amplifier_lag, noise_force, noise_position
+               friction_c0, friction_mu_tension, amplifier_lag, noise_force, noise_position,
+               [peak_force]   (optional: the actuator's limit, read by the commands, not simulated)
 
 All values are SI, tendon-linear at the driven-pulley rim, channel-equivalent (the two-mass chain of S1
 eq. 2; the simulator splits them over the two motors and tendons). :func:`tendyn.device.load_device`
@@ -28,7 +29,7 @@ from ._toml import typename as _typename
 from .base import Device
 from .schema import DeviceError
 
-__all__ = ["BENCH_FIELDS", "KIND", "TendonBench", "load_tendon_bench"]
+__all__ = ["BENCH_FIELDS", "BENCH_MODEL_FIELDS", "BENCH_OPTIONAL", "KIND", "TendonBench", "load_tendon_bench"]
 
 KIND = "tendon_bench_2n"
 """The ``[device].kind`` of a 2N tendon bench file."""
@@ -52,7 +53,17 @@ BENCH_FIELDS: dict[str, tuple[str, float, bool, float | None, str]] = {
                       "first-order amplifier time constant (0 = ideal current source)"),
     "noise_force": ("N", 0.0, False, None, "sensor noise on F_m, rms"),
     "noise_position": ("m", 0.0, False, None, "sensor noise on X_t, rms"),
+    "peak_force": ("N", 0.0, True, None, "largest command force |u| the actuators give at the rim, over the "
+                   "pretension bias (optional: no limit declared when absent)"),
 }
+
+BENCH_OPTIONAL = ("peak_force",)
+"""Fields a file may leave out (``TendonBench`` holds None then). They are the device's limits, read by the
+commands (``plan --amplitude``, ``sweep --amplitudes``: :data:`tendyn.commands.args.DEVICE_LIMITS`), not
+parameters of the simulated plant, so the C++ ``TENDYN_TENDON_BENCH_FIELDS`` does not mirror them."""
+
+BENCH_MODEL_FIELDS = tuple(k for k in BENCH_FIELDS if k not in BENCH_OPTIONAL)
+"""The fields of the simulated plant, in order: the rows of ``TENDYN_TENDON_BENCH_FIELDS`` up to noise_position."""
 
 DEVICE_KEYS = ("name", "kind", "description")
 TOP_KEYS = ("schema", "device", "bench")
@@ -93,6 +104,9 @@ class TendonBench(Device):
         Sensor noise on F_m [N rms].
     noise_position : float
         Sensor noise on X_t [m rms].
+    peak_force : float or None
+        Largest command force |u| [N] the two actuators give at the rim, over the pretension bias (motor A
+        pulls F_pre + max(u, 0), S1's class-B split); None: the file declares no limit.
     description : str
     source : str or None
         The file it was read from.
@@ -112,6 +126,7 @@ class TendonBench(Device):
     amplifier_lag: float = 0.0
     noise_force: float = 0.0
     noise_position: float = 0.0
+    peak_force: float | None = None
     description: str = ""
     source: str | None = None
     kind: ClassVar[str] = KIND
@@ -216,6 +231,8 @@ def load_tendon_bench(path: str | os.PathLike, raw: dict | None = None) -> Tendo
     for key, (unit, lo, lo_open, hi, doc) in BENCH_FIELDS.items():
         field = f"bench.{key}"
         if key not in bench:
+            if key in BENCH_OPTIONAL:
+                continue
             raise DeviceError(f"missing required field: {doc} [{unit}]", file=fname, field=field)
         v = bench[key]
         if isinstance(v, bool) or not isinstance(v, (int, float)):

@@ -242,3 +242,49 @@ def write_parallelogram_arm(folder, **kw) -> Path:
     path = Path(folder) / f"{name}.toml"
     path.write_text(text, encoding="utf-8")
     return path
+
+
+def tendon_bench_toml(*, seed: int = 0, name: str | None = None, peak_force: bool = True) -> str:
+    """The TOML text of a 2N tendon bench (``kind = "tendon_bench_2n"``, docs/device-file.md ``[bench]``), built from
+    a drawn motor as a lab would: each of the two motors has rotor inertia J [kg m²] and peak torque τ_pk [N m],
+    and its shaft (radius ρ [m]) drives the tendon directly (S1's bench has no capstan), so at the tendon
+    mass_motor = 2 J/ρ² [kg] (the channel: two motors) and one motor pulls at most τ_pk/ρ [N]. Motor A pulls
+    F_pre + max(u, 0) (S1's class-B split), so the command's limit is ``peak_force = τ_pk/ρ − pretension`` [N]
+    (left out with ``peak_force=False``: a file that declares no limit). Stiffnesses, loads and friction are drawn
+    in plausible ranges; nothing is taken from a bundled device.
+
+    >>> 'peak_force = ' in tendon_bench_toml(seed=1)
+    True
+    """
+    rng = np.random.default_rng(seed)
+    inertia = float(10 ** rng.uniform(-5.7, -4.3))          # kg m², rotor
+    shaft = float(rng.uniform(3e-3, 8e-3))                   # m, shaft radius the tendon wraps
+    torque = float(rng.uniform(0.1, 0.6))                    # N m, peak
+    mass_motor = 2.0 * inertia / shaft**2
+    k1, k2 = (float(10 ** rng.uniform(3.7, 5.3)) for _ in range(2))
+    k_e = k1 * k2 / (k1 + k2)
+    zeta = float(rng.uniform(0.02, 0.1))
+    pretension = float(rng.uniform(1.0, 8.0))
+    lines = ["schema = 1", "", "[device]", f'name = "{name or f"genbench{seed}"}"', 'kind = "tendon_bench_2n"',
+             f'description = "generated 2N tendon bench (seed {seed}): J = {inertia:.6g} kg m2, rho = {shaft:.6g} m, '
+             f'peak torque {torque:.6g} N m"', "", "[bench]",
+             f"ratio = {float(rng.uniform(5.0, 20.0))!r}", f"k1 = {k1!r}", f"k2 = {k2!r}",
+             f"mass_motor = {mass_motor!r}", f"damping_motor = {2.0 * zeta * math.sqrt(k_e * mass_motor)!r}",
+             f"mass_load = {float(rng.uniform(0.02, 0.2))!r}",
+             f"k_z = {1e9 if rng.random() < 0.5 else float(10 ** rng.uniform(2.0, 6.0))!r}",
+             f"pretension = {pretension!r}", f"friction_c0 = {float(rng.uniform(0.05, 0.3))!r}",
+             f"friction_mu_tension = {float(rng.uniform(0.002, 0.01))!r}",
+             f"amplifier_lag = {0.0 if rng.random() < 0.5 else 1.0 / (2 * math.pi * float(rng.uniform(2e3, 5e3)))!r}",
+             "noise_force = 0.0", "noise_position = 0.0"]
+    if peak_force:
+        lines.append(f"peak_force = {torque / shaft - pretension!r}")
+    return "\n".join(lines) + "\n"
+
+
+def write_tendon_bench(folder, **kw) -> Path:
+    """Write :func:`tendon_bench_toml` to ``folder/<name>.toml`` and return the path."""
+    text = tendon_bench_toml(**kw)
+    name = text.split('name = "', 1)[1].split('"', 1)[0]
+    path = Path(folder) / f"{name}.toml"
+    path.write_text(text, encoding="utf-8")
+    return path

@@ -74,7 +74,7 @@ def worker_threads() -> int | None:
     Compiled kernels that would use every CPU of the machine use this many on a worker: two single-threaded
     workers on two cores each spawning two threads oversubscribe them."""
     try:
-        from distributed import get_worker
+        from dask.distributed import get_worker
 
         return int(get_worker().state.nthreads)
     except (ImportError, ValueError, AttributeError):

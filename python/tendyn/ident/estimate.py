@@ -17,7 +17,7 @@ import sys
 import numpy as np
 
 
-from .lsq import least_squares, rel_stderr_pct
+from .lsq import least_squares, rel_stderr_pct, row_factor
 from .model import IdentModel, cached_model, diagonal_coupling  # noqa: F401 — cached_model: its home is model.py
 from .result import IdentificationResult, implausible, not_physical  # noqa: F401 — their home is result.py
 from .treatment import (PRESETS, above_threshold, drop_stale, preset_treatment, stack_blocks, treat,
@@ -35,23 +35,181 @@ VELOCITIES = ("auto", "logged", "differentiate")
 ("auto"), always the log's ("logged"), or the filtered positions differentiated ("differentiate")."""
 
 
-def _treat_log(device, log, parts, settings):
-    """Treated joint blocks of one log (a Log or a path) on a Dask worker; one IdentModel per device per
-    worker process."""
-    return IDIM._treat_here(cached_model(device), log, parts, settings)
+@dataclasses.dataclass
+class TreatedLog:
+    """One treated log where it was treated (this process or a Dask worker).
+
+    ``y`` (r,) torques [N·m or N], ``W`` (r, n_standard) standard regressor (None in a light copy), ``rows`` (r,)
+    joint index (motor index in motor space), ``time`` (r,) [s], ``samples`` (r,) the sample number in the log,
+    joint-major (motor-major), the rows under the velocity threshold dropped; ``n_out`` samples per joint block,
+    ``treatment`` the log's. With ``factor``: ``factors`` the compact factor of each joint's rows of the base
+    regressor, R of a QR of [W_base | y] (:func:`tendyn.ident.lsq.row_factor`, ‖[W_j | y_j] v‖ = ‖R_j v‖),
+    ``counts`` (na,) rows per joint, ``lows``/``highs`` (na,) min/max of y per joint [N·m or N] (range weights).
+    """
+
+    y: np.ndarray
+    W: np.ndarray | None
+    rows: np.ndarray
+    time: np.ndarray
+    samples: np.ndarray
+    n_out: int
+    treatment: object
+    factors: list | None = None
+    counts: np.ndarray | None = None
+    lows: np.ndarray | None = None
+    highs: np.ndarray | None = None
+
+    def light(self) -> "TreatedLog":
+        """Without W: what the client of a Dask campaign needs (the factors and the row vectors)."""
+        return dataclasses.replace(self, W=None)
+
+    def predict(self, columns, x) -> np.ndarray:
+        """ŷ = W[:, columns] x of the kept rows (columns: standard indices)."""
+        return self.W[:, columns] @ x
 
 
-def _treat_logs(device, logs, parts, settings):
-    """:func:`_treat_log` of several logs in one Dask task (a campaign is split into one batch per worker: one
-    task, one model look-up and one round trip per batch, not per log)."""
+def treated_log(model, log, parts, settings, factor: bool = False) -> TreatedLog:
+    """Treat one log (a Log or a path) and keep its rows above the velocity threshold (each joint's threshold from
+    this log's peaks, :func:`velocity_thresholds`), in motor space when the treatment fits there; with ``factor``
+    also the per-joint compact factors (:class:`TreatedLog`). The one per-log step of IDIM, in process and on a
+    Dask worker alike (the same arithmetic: a campaign gives the same bits either way)."""
+    blocks, tr = IDIM._treat_here(model, log, parts, settings)
+    Y, W, rows = stack_blocks(blocks)
+    t = np.concatenate([b.time for b in blocks])
+    vel = np.concatenate([b.velocity for b in blocks])
+    thr = velocity_thresholds(tr.velocity_threshold, [np.max(np.abs(b.velocity)) for b in blocks])
+    keep = above_threshold(vel, np.repeat(thr, [b.y.size for b in blocks]))
+    tr = dataclasses.replace(tr, velocity_threshold=tuple(float(v) for v in thr))
+    n_out = blocks[0].y.size
+    samples = np.tile(np.arange(n_out), len(blocks))[keep]
+    Y, W, rows, t = Y[keep], W[keep], rows[keep], t[keep]
+    if tr.space == "motor":
+        Y, W = IDIM._to_motor_space(model, Y, W, rows)
+    out = TreatedLog(Y, W, rows, t, samples, n_out, tr)
+    if factor:
+        na = model.n_active
+        Wb = W[:, list(model.base.columns)]
+        out.factors = [row_factor(Wb[rows == j], Y[rows == j]) for j in range(na)]
+        out.counts = np.bincount(rows, minlength=na)
+        out.lows = np.array([Y[rows == j].min() if out.counts[j] else np.inf for j in range(na)])
+        out.highs = np.array([Y[rows == j].max() if out.counts[j] else -np.inf for j in range(na)])
+    return out
+
+
+def _treat_logs(device, logs, parts, settings, factor=False):
+    """:func:`treated_log` of several logs in one Dask task (a campaign is split into one batch per worker: one
+    task, one model look-up and one round trip per batch, not per log); BLAS on one thread as in
+    :meth:`IDIM.fit` (the same factors to the bit)."""
+    from threadpoolctl import threadpool_limits
+
     from tendyn.ident.cluster import worker_threads
 
     model = cached_model(device)
     before, model.threads = model.threads, worker_threads()   # the worker's threads, not every CPU (cluster.py)
     try:
-        return [IDIM._treat_here(model, log, parts, settings) for log in logs]
+        with threadpool_limits(limits=1, user_api="blas"):
+            return [treated_log(model, log, parts, settings, factor) for log in logs]
     finally:
         model.threads = before
+
+
+def _light_logs(pieces):
+    """The light copies (no W) of a batch's treated logs: what goes back to the client."""
+    return [p.light() for p in pieces]
+
+
+def _predict_logs(pieces, columns, x):
+    """ŷ of every treated log of a batch, where its W is (BLAS on one thread, as in :meth:`IDIM.fit`)."""
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=1, user_api="blas"):
+        return [p.predict(columns, x) for p in pieces]
+
+
+class _Here:
+    """Treated logs held in this process."""
+
+    def __init__(self, pieces):
+        self.pieces = pieces
+
+    def light(self):
+        return self.pieces
+
+    def full(self):
+        return self.pieces
+
+    def predict(self, columns, x):
+        return [p.predict(columns, x) for p in self.pieces]
+
+    def close(self):
+        pass
+
+
+class _OnDask:
+    """Treated logs held on Dask workers (one future per batch): the client fetches the light copies, asks the
+    workers for ŷ, and the whole rows only when a fit needs them (:meth:`full`)."""
+
+    def __init__(self, client, own, futures, batches, placements, progress):
+        self.client, self.own, self.futures, self.batches, self.kw = client, own, futures, batches, placements
+        self.progress = progress
+
+    def _gather(self, futures, counts=None):
+        from dask.distributed import as_completed
+
+        index = {f.key: k for k, f in enumerate(futures)}
+        done = [None] * len(futures)
+        bar = None
+        if self.progress and counts is not None:
+            from tqdm import tqdm
+            bar = tqdm(total=sum(counts), desc="treating logs (dask)", unit="log", file=sys.stderr)
+        for fut in as_completed(futures):
+            k = index[fut.key]
+            done[k] = fut.result()
+            if bar is not None:
+                bar.update(counts[k])
+        if bar is not None:
+            bar.close()
+        return [r for batch in done for r in batch]
+
+    def light(self):
+        return self._gather([self.client.submit(_light_logs, f, pure=False, **kw)
+                             for f, kw in zip(self.futures, self.kw)], [len(b) for b in self.batches])
+
+    def full(self):
+        return self._gather(self.futures, [len(b) for b in self.batches])
+
+    def predict(self, columns, x):
+        return self._gather([self.client.submit(_predict_logs, f, list(columns), np.asarray(x), pure=False, **kw)
+                             for f, kw in zip(self.futures, self.kw)])
+
+    def close(self):
+        try:
+            for f in self.futures:
+                f.release()
+        finally:
+            self.client.close()
+            if self.own is not None:
+                self.own.close()
+
+
+@dataclasses.dataclass
+class _System:
+    """The least squares of a set of treated logs: ``Wb`` (m, n_base), ``Y`` (m,), ``rows`` (m,) joint index of
+    each row — the rows themselves (stacked) or the logs' compact factors stacked joint by joint — with
+    ``stats`` (counts per joint, (lows, highs) per joint, rows r) for the compact one (None: from the rows);
+    the result's rows ``y``, ``row_joint``, ``time`` (joint-major over the logs); ``Wstd`` the standard
+    regressor's rows (stacked only); ``predict(cols, x)`` ŷ of the result's rows."""
+
+    Wb: np.ndarray
+    Y: np.ndarray
+    rows: np.ndarray
+    stats: tuple | None
+    y: np.ndarray
+    row_joint: np.ndarray
+    time: np.ndarray
+    Wstd: np.ndarray | None
+    predict: object
+    close: object
 
 
 def campaign_batches(n_logs: int, n_workers: int) -> list[list[int]]:
@@ -178,51 +336,73 @@ class IDIM:
         return self.model_
 
     def observations(self, logs, parts=None):
-        """Treated (Y, W_standard, rows, times) of the logs; ``parts`` (a, b) keeps the fraction [a, b) of each."""
+        """Treated (Y, W_standard, rows, times, n_active) of the logs (every kept row, joint-major over the logs;
+        motor-major in motor space); ``parts`` (a, b) keeps the fraction [a, b) of each."""
+        S = self._system(logs, parts, compact=False)
+        return S.y, S.Wstd, S.row_joint, S.time, self._model().n_active
+
+    def _treated(self, logs, parts, factor):
+        """The logs treated one by one (:func:`treated_log`) in this process or on Dask (``scheduler``)."""
         model = self._model()
-        logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
         settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
                     self.velocities, getattr(self, "_stretch", None))
         if self.scheduler is not None and len(logs) > 1:
-            out = self._distributed(logs, parts, settings)
-        else:
-            out = []
-            bar = None
-            if self.progress and len(logs) > 1:
-                from tqdm import tqdm
-                bar = tqdm(total=len(logs), desc="treating logs", unit="log", file=sys.stderr)
-            for log in logs:
-                out.append(self._treat_here(model, log, parts, settings))
-                if bar is not None:
-                    bar.update(1)
+            return self._distributed(logs, parts, settings, factor)
+        out = []
+        bar = None
+        if self.progress and len(logs) > 1:
+            from tqdm import tqdm
+            bar = tqdm(total=len(logs), desc="treating logs", unit="log", file=sys.stderr)
+        for log in logs:
+            out.append(treated_log(model, log, parts, settings, factor))
             if bar is not None:
-                bar.close()
-        allblocks = [b for b, _ in out]
-        self.treatment_ = dataclasses.replace(out[-1][1], stale_dropped=sum(tr.stale_dropped for _, tr in out),
-                                              retimed=any(tr.retimed for _, tr in out))
+                bar.update(1)
+        if bar is not None:
+            bar.close()
+        return _Here(out)
+
+    def _system(self, logs, parts=None, compact=False) -> _System:
+        """The least squares of the logs (:class:`_System`): their rows stacked, or (``compact``) each log reduced
+        to its joints' compact factors where it was treated and only those stacked here (the client of a Dask
+        campaign then never holds W: ŷ comes back from the workers); sets ``treatment_`` and ``samples_``. Call
+        ``close()`` on the result (a compact one keeps the logs on the workers for ``predict``)."""
+        model = self._model()
         na = model.n_active
-        Ys, Ws, Rs, Ts, Ss = [], [], [], [], []
-        offset = 0
-        for blocks in allblocks:
-            Y, W, rows = stack_blocks(blocks)
-            t = np.concatenate([b.time for b in blocks])
-            vel = np.concatenate([b.velocity for b in blocks])
-            thr = self._thresholds(blocks)
-            keep = above_threshold(vel, np.repeat(thr, [b.y.size for b in blocks]))
-            self.treatment_ = dataclasses.replace(self.treatment_, velocity_threshold=tuple(float(v) for v in thr))
-            Ys.append(Y[keep]); Ws.append(W[keep]); Rs.append(rows[keep]); Ts.append(t[keep])
-            n_out = blocks[0].y.size                # the sample of every row, numbered over all the logs
-            Ss.append((offset + np.tile(np.arange(n_out), len(blocks)))[keep])
-            offset += n_out
-        Y, W, rows, t = np.concatenate(Ys), np.vstack(Ws), np.concatenate(Rs), np.concatenate(Ts)
+        logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
+        T = self._treated(logs, parts, compact)
+        try:
+            pieces = T.light() if compact else T.full()
+        except BaseException:
+            T.close()
+            raise
+        self.treatment_ = dataclasses.replace(pieces[-1].treatment,
+                                              stale_dropped=sum(p.treatment.stale_dropped for p in pieces),
+                                              retimed=any(p.treatment.retimed for p in pieces))
+        offsets = np.concatenate([[0], np.cumsum([p.n_out for p in pieces])[:-1]])
+        y = np.concatenate([p.y for p in pieces])
+        rows = np.concatenate([p.rows for p in pieces])
+        t = np.concatenate([p.time for p in pieces])
         order = np.argsort(rows, kind="stable")   # joint-major over all logs
-        self.samples_ = np.concatenate(Ss)[order]
-        Y, W, rows, t = Y[order], W[order], rows[order], t[order]
-        if self.treatment_.space == "motor":
-            Y, W = self._to_motor_space(model, Y, W, rows)
-        return Y, W, rows, t, na
+        self.samples_ = np.concatenate([p.samples + o for p, o in zip(pieces, offsets)])[order]
+        y, rows, t = y[order], rows[order], t[order]
+        base_cols = list(model.base.columns)
+        if compact:
+            F = np.vstack([p.factors[j] for j in range(na) for p in pieces])     # joint by joint, log by log
+            rc = np.repeat(np.arange(na), [sum(p.factors[j].shape[0] for p in pieces) for j in range(na)])
+            counts = np.sum([p.counts for p in pieces], axis=0)
+            ranges = np.max([p.highs for p in pieces], axis=0) - np.min([p.lows for p in pieces], axis=0)
+
+            def predict(cols, x):
+                return np.concatenate(T.predict([base_cols[c] for c in cols], x))[order]
+
+            return _System(F[:, :-1], F[:, -1], rc, (counts, ranges, int(counts.sum())), y, rows, t, None,
+                           predict, T.close)
+        T.close()
+        W = np.vstack([p.W for p in pieces])[order]
+        Wb = W[:, base_cols]
+        return _System(Wb, y, rows, None, y, rows, t, W, lambda cols, x: Wb[:, cols] @ x, lambda: None)
 
     @staticmethod
     def _to_motor_space(model, Y, W, rows):
@@ -279,9 +459,10 @@ class IDIM:
                                  retimed=retimed)
         return treat(model, time, q, tau, tr, qd=qd), tr
 
-    def _distributed(self, logs, parts, settings):
-        """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``)."""
-        from dask.distributed import Client, as_completed
+    def _distributed(self, logs, parts, settings, factor=False) -> _OnDask:
+        """Treat the logs on Dask workers (a local cluster, or the scheduler at ``self.scheduler``): one task per
+        worker, whose treated logs stay there (:class:`_OnDask`)."""
+        from dask.distributed import Client
 
         from tendyn.progress import quiet_dask
 
@@ -303,48 +484,41 @@ class IDIM:
             batches = campaign_batches(len(logs), workers)
             from tendyn.ident.cluster import placement
 
-            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, pure=False, **kw)
-                       for b, kw in zip(batches, placement(client, len(batches)))]
-            index = {f.key: k for k, f in enumerate(futures)}
-            done = [None] * len(futures)
-            bar = None
-            if self.progress:
-                from tqdm import tqdm
-                bar = tqdm(total=len(logs), desc="treating logs (dask)", unit="log", file=sys.stderr)
-            for fut in as_completed(futures):
-                k = index[fut.key]
-                done[k] = fut.result()
-                if bar is not None:
-                    bar.update(len(batches[k]))
-            if bar is not None:
-                bar.close()
-            results = [r for batch in done for r in batch]
-            return results
-        finally:
+            kws = placement(client, len(batches))
+            futures = [client.submit(_treat_logs, shipped, [logs[i] for i in b], parts, settings, factor,
+                                     pure=False, **kw) for b, kw in zip(batches, kws)]
+        except BaseException:
             client.close()
             if own is not None:
                 own.close()
+            raise
+        return _OnDask(client, own, futures, batches, kws, self.progress)
 
     # -- fit -------------------------------------------------------------------------------------------
-    def _solve(self, Wb, Y, rows, na, method=None):
+    def _solve(self, Wb, Y, rows, na, method=None, stats=None):
+        """OLS / WLS on rows (``stats`` None) or on stacked compact factors (``stats`` = rows per joint, range of
+        y per joint, rows r: what the factors do not say); returns (x, stderr, weights of Wb's rows)."""
         method = self.method if method is None else method
-        x, se, s2, cov = least_squares(Wb, Y)
+        n_obs = None if stats is None else stats[2]
+        x, se, s2, cov = least_squares(Wb, Y, n_obs=n_obs)
         weights = np.ones_like(Y)
         if method == "wls" and getattr(self, "treatment_", None) is not None \
                 and self.treatment_.weighting == "range":        # a peer's weights: 1 / range of each block
             for j in range(na):
                 sel = rows == j
-                weights[sel] = 1.0 / max(float(np.ptp(Y[sel])), 1e-300)
-            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
+                rng = float(np.ptp(Y[sel])) if stats is None else float(stats[1][j])
+                weights[sel] = 1.0 / max(rng, 1e-300)
+            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights, n_obs=n_obs)
         elif method == "wls":
             r, b = Wb.shape
+            r = r if stats is None else stats[2]
             res = Y - Wb @ x
             for j in range(na):
                 sel = rows == j
-                rj = int(sel.sum())
+                rj = int(sel.sum()) if stats is None else int(stats[0][j])
                 sj2 = float(res[sel] @ res[sel]) / max(rj - b * rj / r, 1.0)
                 weights[sel] = 1.0 / np.sqrt(sj2)
-            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights)
+            x, se, s2, cov = least_squares(Wb * weights[:, None], Y * weights, n_obs=n_obs)
         elif method != "ols":
             raise ValueError(f"method must be one of {', '.join(METHODS)} (got {method!r})")
         return x, se, weights
@@ -382,7 +556,7 @@ class IDIM:
             raise ValueError(f"method must be one of {', '.join(METHODS)} (got {self.method!r})")
         model = self._model()
         base = model.base
-        Y, Wstd, rows, t, na = self.observations(logs)
+        na = model.n_active
         cols = list(range(len(base.names)))
         if self.parameters is not None:
             unknown = [n for n in self.parameters if n not in base.names]
@@ -390,37 +564,45 @@ class IDIM:
                 raise ValueError(f"not base parameters of {model.device.name}: {', '.join(unknown)} "
                                  f"(base: {', '.join(base.names)})")
             cols = [base.names.index(n) for n in self.parameters]
-        Wb = Wstd[:, list(base.columns)]
-        x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
-        if self.drive_stretch and model.elastic_drives and (self.treatment or "tendyn") == "tendyn":
-            # second pass on the link positions: the cable stretch from the motor equation with this fit's friction
-            val = dict(zip([base.names[i] for i in cols], x))
-            N = np.array([d.ratio for d in model.device.drives], float)
-            num = [d.joint for d in model.device.drives]
-            self._stretch = (np.array([max(val.get(f"FS{j}", 0.0), 0.0) for j in num]) / N,
-                             np.array([max(val.get(f"FV{j}", 0.0), 0.0) for j in num]) / N ** 2)
-            try:
-                Y, Wstd, rows, t, na = self.observations(logs)
-            finally:
-                self._stretch_used, self._stretch = self._stretch, None
-            Wb = Wstd[:, list(base.columns)]
-            x, se, weights = self._solve(Wb[:, cols], Y, rows, na)
-        if self.essential:
-            cols, x, se, weights = self._essential(Wb, Y, rows, na)
-        Wsel = Wb[:, cols]
-        if self.consistent:
-            from .consistent import consistent_fit
+        # each log reduced to compact factors where it is treated (lsq.row_factor; the same arithmetic in process
+        # and on Dask); the consistent fit needs the standard regressor's rows: stacked
+        compact = not self.consistent
+        S = self._system(logs, compact=compact)
+        try:
+            x, se, weights = self._solve(S.Wb[:, cols], S.Y, S.rows, na, stats=S.stats)
+            if self.drive_stretch and model.elastic_drives and (self.treatment or "tendyn") == "tendyn":
+                # second pass on the link positions: the cable stretch from the motor equation with this fit's
+                # friction
+                val = dict(zip([base.names[i] for i in cols], x))
+                N = np.array([d.ratio for d in model.device.drives], float)
+                num = [d.joint for d in model.device.drives]
+                self._stretch = (np.array([max(val.get(f"FS{j}", 0.0), 0.0) for j in num]) / N,
+                                 np.array([max(val.get(f"FV{j}", 0.0), 0.0) for j in num]) / N ** 2)
+                S.close()
+                try:
+                    S = self._system(logs, compact=compact)
+                finally:
+                    self._stretch_used, self._stretch = self._stretch, None
+                x, se, weights = self._solve(S.Wb[:, cols], S.Y, S.rows, na, stats=S.stats)
+            if self.essential:
+                cols, x, se, weights = self._essential(S.Wb, S.Y, S.rows, na, S.stats)
+            Wsel = S.Wb[:, cols]
+            if self.consistent:
+                from .consistent import consistent_fit
 
-            xs = consistent_fit(model, Wstd * weights[:, None], Y * weights, bounds=self.bounds)
-            self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
-            x = (base.combination @ xs)[cols]
-            _, se, _, _ = least_squares(Wsel * weights[:, None], Y * weights, at=x)
-        y_hat = Wsel @ x
+                xs = consistent_fit(model, S.Wstd * weights[:, None], S.Y * weights, bounds=self.bounds)
+                self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
+                x = (base.combination @ xs)[cols]
+                _, se, _, _ = least_squares(Wsel * weights[:, None], S.Y * weights, at=x)
+            y_hat = S.predict(cols, x)
+        finally:
+            S.close()
+        Y, rows, t = S.y, S.row_joint, S.time
         self.names_ = [base.names[i] for i in cols]
         self.expressions_ = [base.expression(i, model.standard_names) for i in cols]
         self.params_, self.stderr_ = x, se
         self.rel_stderr_ = rel_stderr_pct(se, x)
-        Ww = Wsel * weights[:, None]
+        Ww = Wsel * weights[:, None]           # the weighted rows, or their compact factors: the same R
         # cond(W) and cond(W D) (D: unit columns) from one QR: W = Q R, the same singular values as R, half the
         # CPU of two SVDs of the tall W (the client's serial share of a Dask campaign, docs/design.md)
         R = np.linalg.qr(Ww, mode="r")
@@ -471,15 +653,17 @@ class IDIM:
                               "(--plain: the plain one)")
         return self
 
-    def _essential(self, Wb, Y, rows, na):
+    def _essential(self, Wb, Y, rows, na, stats=None):
+        """Drop the worst-%σ parameter while the relative residual grows by less than ``essential_tol`` (rows or
+        compact factors: ‖Y − W x‖ and ‖Y‖ are the same on both)."""
         cols = list(range(Wb.shape[1]))
-        x, se, w = self._solve(Wb, Y, rows, na)
+        x, se, w = self._solve(Wb, Y, rows, na, stats=stats)
         r0 = np.linalg.norm(Y - Wb @ x) / np.linalg.norm(Y)
         while len(cols) > 1:
             rel = rel_stderr_pct(se, x)
             worst = int(np.argmax(rel))
             trial = cols[:worst] + cols[worst + 1:]
-            xt, st, wt = self._solve(Wb[:, trial], Y, rows, na)
+            xt, st, wt = self._solve(Wb[:, trial], Y, rows, na, stats=stats)
             rt = np.linalg.norm(Y - Wb[:, trial] @ xt) / np.linalg.norm(Y)
             if rt > (1 + self.essential_tol) * r0 or rel[worst] < 1.0:
                 break
@@ -494,16 +678,20 @@ class IDIM:
             fitp, valp, desc = (logs[:-1], None), (logs[-1:], None), ("all logs but the last", "the last log")
         else:
             fitp, valp, desc = (logs, (0.0, 0.5)), (logs, (0.5, 1.0)), ("first half", "second half")
-        Y, W, rows, _, na = self.observations(*fitp)
-        Wb = W[:, list(base.columns)][:, cols]
-        x, _, w = self._solve(Wb, Y, rows, na)
+        na = self._model().n_active
+        compact = not self.consistent           # as in _fit: the consistent fit needs the rows
+        S = self._system(*fitp, compact=compact)
+        S.close()
+        x, _, w = self._solve(S.Wb[:, cols], S.Y, S.rows, na, stats=S.stats)
         if self.consistent:        # the same estimator on the first part
             from .consistent import consistent_fit
 
-            x = (base.combination @ consistent_fit(self._model(), W * w[:, None], Y * w, bounds=self.bounds))[cols]
-        Yv, Wv, rv, _, _ = self.observations(*valp)
-        Wvb = Wv[:, list(base.columns)][:, cols]
-        res = Yv - Wvb @ x
+            x = (base.combination @ consistent_fit(self._model(), S.Wstd * w[:, None], S.Y * w,
+                                                   bounds=self.bounds))[cols]
+        V = self._system(*valp, compact=compact)
+        V.close()
+        Yv, rv = V.Y, V.rows                    # per joint ‖y − W x‖ and ‖y‖: the same on rows and factors
+        res = Yv - V.Wb[:, cols] @ x
         per = [float(np.linalg.norm(res[rv == j]) / max(np.linalg.norm(Yv[rv == j]), 1e-300)) for j in range(na)]
         return {"fit": desc[0], "validate": desc[1], "residual_rel": float(np.linalg.norm(res) / np.linalg.norm(Yv)),
                 "per_joint_residual_rel": per, "params": [float(v) for v in x]}

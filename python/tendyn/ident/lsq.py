@@ -5,20 +5,32 @@ X̂ = argmin ‖√w (Y − W X)‖ (w = 1: OLS), σ̂² = ‖√w (Y − W X̂)
 estimator uses these: the IDIM in memory (W given), the streaming IDIM (only the
 normal equations WᵀW, WᵀY, YᵀY and r are held: :func:`least_squares` takes them as ``normal=``), the S0
 transmission friction (weighted bins) and the capstan stiffness of S2 §V-B.
+
+Compact factors (:func:`row_factor`): the R of a QR of [W | y] stands for the rows W, y in every least squares,
+‖[W | y] v‖ = ‖R v‖ for every v, so x̂, ‖y − W x̂‖, WᵀW = RᵀR, the singular values and the column norms of W are
+R's; the rows of several logs reduce log by log where they are treated and their R's stack (``n_obs``: the number
+of rows they stand for, for σ̂²). Orthogonal, so no squared condition number (the normal equations' is).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["IdentificationError", "instrumental_variables", "least_squares", "rel_stderr_pct"]
+__all__ = ["IdentificationError", "instrumental_variables", "least_squares", "rel_stderr_pct", "row_factor"]
 
 
 class IdentificationError(ValueError):
     """The data do not allow the fit (too few observations, no plateau, no pair); the message says which."""
 
 
-def least_squares(W=None, y=None, weights=None, *, normal=None, at=None):
+def row_factor(W, y) -> np.ndarray:
+    """The triangular factor R ((min(r, b + 1), b + 1)) of a QR of [W | y] (W (r, b), y (r,)): the compact stand-in
+    of the rows in :func:`least_squares` (module docstring); ``R[-1, -1]`` is ± the residual norm of the rows'
+    own least squares when r > b."""
+    return np.linalg.qr(np.column_stack([np.asarray(W, float), np.asarray(y, float)]), mode="r")
+
+
+def least_squares(W=None, y=None, weights=None, *, normal=None, at=None, n_obs=None):
     """Least squares with statistics: (x, stderr, sigma2, cov).
 
     Parameters
@@ -29,6 +41,8 @@ def least_squares(W=None, y=None, weights=None, *, normal=None, at=None):
     normal : (A, B, C, r) instead of W, y: A = WᵀW (b, b), B = WᵀY (b,), C = YᵀY, r rows (already weighted):
         the sums a streaming pass keeps; x solves A x = B and ‖Y − W x‖² = C − 2 Bᵀx + xᵀA x.
     at : (b,) optional: no solve, the statistics of this estimate (a constrained one: ``--consistent``).
+    n_obs : int, optional: the number of observations W, y stand for when they are stacked compact factors
+        (:func:`row_factor`) rather than the rows themselves: σ̂² = ‖y − W x̂‖² / (n_obs − b).
 
     Raises :class:`IdentificationError` when r ≤ b.
     """
@@ -47,6 +61,7 @@ def least_squares(W=None, y=None, weights=None, *, normal=None, at=None):
             sw = np.sqrt(np.asarray(weights, float))
             W, y = W * sw[:, None], y * sw
         r, b = W.shape
+        r = r if n_obs is None else int(n_obs)
         if r <= b:
             raise IdentificationError(f"{r} rows for {b} parameters: not enough samples")
         x = np.linalg.lstsq(W, y, rcond=None)[0] if at is None else np.asarray(at, float)

@@ -28,7 +28,7 @@ import numpy as np
 
 from .. import _core
 from ..device import CompiledDevice, compile_device
-from ..device.tendon_bench import BENCH_FIELDS, TendonBench
+from ..device.tendon_bench import BENCH_MODEL_FIELDS, TendonBench
 from ..io.logs import make_log
 from ..results import FrequencyResponse, Result, format_table
 
@@ -63,7 +63,7 @@ def bench_model(bench: TendonBench | CompiledDevice, rate_hz: float = 20000.0) -
     if not (isinstance(rate_hz, (int, float)) and math.isfinite(rate_hz) and rate_hz > 0):
         raise ValueError(f"rate_hz must be a positive number (got {rate_hz!r})")
     m = _core.TendonBenchModel()
-    for name in BENCH_FIELDS:  # every file field; each write is validated by the core (ValueError names it)
+    for name in BENCH_MODEL_FIELDS:  # every plant field of the file; each write is validated by the core (ValueError names it)
         value = getattr(bench, name)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise TypeError(f"TendonBench.{name} must be a number (got {type(value).__name__} {value!r})")
