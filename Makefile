@@ -34,7 +34,7 @@ test:
 	echo "[test] make test: $$(( $$(date +%s) - start )) s wall, $(NPROC) pytest workers, exit $$rc"; exit $$rc
 
 test-steps: install tools test-cpp
-	@start=$$(date +%s); TENDYN_REQUIRE_EXAMPLES=1 TENDYN_CPP_BUILD=$(abspath build/cpp) $(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadgroup \
+	@start=$$(date +%s); TENDYN_REQUIRE_EXAMPLES=1 TENDYN_CPP_BUILD=$(abspath build/cpp) $(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope \
 	  --durations=15 $(PYTEST_ARGS); rc=$$?; \
 	echo "[test] Python suite: $$(( $$(date +%s) - start )) s wall"; exit $$rc
 
@@ -49,7 +49,7 @@ tools:
 	  || echo "[tools] chromium is missing and cannot be installed without root: the report browser tests skip"
 
 test-python: install
-	$(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadgroup $(PYTEST_ARGS)
+	$(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope $(PYTEST_ARGS)
 
 # C++ test executables (no allocation in the real-time calls, C ABI), through CTest.
 test-cpp: install

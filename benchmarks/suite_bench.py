@@ -28,7 +28,7 @@ def _suite(extra: list[str]) -> float:
 def bench_test_suite(results: list) -> None:
     workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     print(f"[bench] python_suite_wall: the suite on {workers} workers, then serially …", file=sys.stderr)
-    parallel = _suite(["-n", str(workers), "--dist", "loadgroup"])
+    parallel = _suite(["-n", str(workers), "--dist", "loadscope"])
     serial = _suite(["-p", "no:xdist"])
     results.append(dict(name="python_suite_wall", value=parallel, unit="s",
                         baseline="the same suite serially in one process", baseline_value=serial,

@@ -198,7 +198,9 @@ def pytest_collection_modifyitems(session, config, items):
     """After every other reordering (pytest-randomly's shuffle too, a wrapper itself): the HEAVY_FIRST modules
     first, each module's items together, and inside a module the items of one parameter of a module-scoped
     fixture together (a shuffle interleaving them rebuilt test_any_device's device chains up to four times each);
-    any other order (pytest's, or the shuffled one) is kept."""
+    any other order (pytest's, or the shuffled one) is kept. (`--dist loadgroup` would spread a module's
+    parameters over the workers, but pytest-xdist 3.8 renames node ids through an attribute pytest 9 no longer
+    reads: every test became its own group and module fixtures were built on each worker.)"""
     result = yield
     rank = {name: k for k, name in enumerate(HEAVY_FIRST)}
     first_module: dict = {}

@@ -22,14 +22,9 @@ def _case_id(c) -> str:
     return f"n{c[0]}-{'planar' if c[1] else 'spatial'}{'-bearings' if c[2] else ''}"
 
 
-@pytest.fixture(scope="module", params=[pytest.param(c, id=_case_id(c),
-                                                     marks=pytest.mark.xdist_group(f"any_device-{_case_id(c)}"))
-                                        for c in CASES])
+@pytest.fixture(scope="module", params=CASES, ids=_case_id)
 def chain(request, tmp_path_factory):
-    """The S0 chain run through the command line on one generated device: the paths of every stage's file.
-
-    Each device is its own xdist group (`--dist loadgroup`): its tests run on one worker, which builds this
-    chain once, and the five devices (~80 s of work on 2 idle cores) spread over the workers."""
+    """The S0 chain run through the command line on one generated device: the paths of every stage's file."""
     n, planar, bearings = request.param
     d = tmp_path_factory.mktemp(f"dev{n}")
     dev = write_cable_device(d, n, planar=planar, bearings=bearings, seed=10 + n)

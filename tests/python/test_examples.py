@@ -92,12 +92,10 @@ def models(tmp_path_factory):
             "planar2.model": d / "planar2.model", "planar2.comp": d / "planar2.comp"}
 
 
-@pytest.fixture(scope="module", params=[pytest.param(r, marks=pytest.mark.xdist_group(f"examples-{r}"))
-                                        for r in ROUTES])
+@pytest.fixture(scope="module", params=ROUTES)
 def programs(request, tmp_path_factory):
     """The four native examples built against the installed package by one route (CMake, pkg-config,
-    `tendyn config --cflags --libs`). Each route is its own xdist group (`--dist loadgroup`): built once, on
-    one worker, the three builds spread over the workers."""
+    `tendyn config --cflags --libs`)."""
     installed_package()
     return build(request.param, tmp_path_factory.mktemp(request.param))
 
