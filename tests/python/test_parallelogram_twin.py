@@ -206,7 +206,7 @@ def test_identify_recovers_coulomb_and_viscous_of_elastic_capstan_drives(tmp_pat
     current noise) whose cruise speeds sweep [0.2, 1] × the design's (``speed_span=0.8``: Coulomb and viscous
     columns apart), reversal rows dropped (|q̇| < 0.2 rad/s: the motor sticks behind the cable there, S2 Fig. 4):
     Coulomb N C_m0 and viscous N² ν_m of every drive, base included, within 10 % of the file's (measured: FS
-    within 0.3 %, FV within 3.7 %, base FV within 2.9 %, σ(FV) 1.3–4.8 %). Before speed_span the base drive's FV
+    within 0.1 %, FV within 4.5 %, base FV within 2.9 %, σ(FV) 1.3–4.9 %). Before speed_span the base drive's FV
     was only held to 25 % on 20 s logs (σ 4–12 %, errors to −20 %); without speed_span this 60 s log gives base
     FV −11.7 % on arm 2 (fails). The cable stretch: the rigid model on the motor encoders (q_m / N) misses it;
     `drive_stretch` refits on the link positions. Planted: drive_stretch=False gives FV2 +12…+19 %, FV5 up to
