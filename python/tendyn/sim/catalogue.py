@@ -83,10 +83,6 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "from its limits and gravity model (default 2: the load-dependent friction needs two)", lo=1, hi=10),
     Option("duration", "float", "s", "length of an exciting trajectory or a swept sine (default 20 s)",
            lo=0.0, lo_open=True, hi=86_400.0),
-    Option("speed_span", "float", "-", "exciting: spread each mode's cruise speeds over [1 − span, 1] × the "
-           "design's (a time warp; the path and the speed bound are unchanged) so that identify tells viscous from "
-           "Coulomb friction (0.8 on a desktop capstan arm: base drive FV within 3 %); uses the band design "
-           "(docs/device-file.md; default: off)", lo=0.0, hi=0.9),
     Option("torque", "float", "N·m or N", "input amplitude: motor torque [N·m] on chains (≤ the motor's peak "
            "torque), force command [N] on a tendon bench (default 0.1)", lo=0.0, lo_open=True, hi=1_000.0),
     Option("period", "float", "s", "triangle period of blocked-link (default 2 s)", lo=0.0, lo_open=True,
@@ -121,7 +117,7 @@ _TWIN_RATES = ("rate", "control_rate", "log_rate", "seed")
 EXPERIMENTS: dict[tuple[str, str], Experiment] = {(e.kind, e.name): e for e in (
     Experiment("constant-velocity", _CHAIN, ("transmission", "strategy", "speeds", "loads", "q0") + _TWIN_RATES,
                "back-and-forth moves of one transmission at constant motor speeds (S0 §III-A)"),
-    Experiment("exciting", _CHAIN, ("duration", "q0", "speed_span") + _TWIN_RATES,
+    Experiment("exciting", _CHAIN, ("duration", "q0") + _TWIN_RATES,
                "triangular + sinusoidal joint trajectories (S2 §VI)"),
     Experiment("blocked-link", _CHAIN, ("joint", "torque", "period", "cycles", "q0") + _TWIN_RATES,
                "links blocked, triangular torque on one motor (S2 §V-C)"),
@@ -452,8 +448,7 @@ def run(device, experiment: str, o: dict, progress: Callable[[int, int], None] |
         return [ex.constant_velocity(device, o["transmission"], o["speeds"] or DEFAULT_SPEEDS,
                                      strategy=o["strategy"], q0=q0, **twin)]
     if experiment == "exciting":
-        return [ex.exciting_trajectory(device, duration=o["duration"], q0=q0, speed_span=o.get("speed_span"),
-                                       **twin)]
+        return [ex.exciting_trajectory(device, duration=o["duration"], q0=q0, **twin)]
     if experiment == "blocked-link":
         return [ex.blocked_link(device, o["joint"], o["torque"], period=o["period"], cycles=o["cycles"], q0=q0,
                                 **twin)]

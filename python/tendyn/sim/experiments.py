@@ -556,7 +556,7 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
                         f_sin=(0.5, 1.1, 1.7), a_sin: float = 0.05, rate_hz: float = 5_000.0,
                         control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
                         bandwidth_hz: float = 8.0, design: "ExcitingDesign | str | None" = None,
-                        progress=None, friction: bool = True, speed_span: float | None = None) -> SimRun:
+                        progress=None, friction: bool = True) -> SimRun:
     """Triangular + sinusoidal joint trajectories (S2 §VI) tracked by a joint-space PID.
 
     design : ExcitingDesign, FourierDesign (:func:`tendyn.ident.exciting.plan_exciting`), "band", "classic" or None
@@ -569,21 +569,15 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
         drove a desktop arm's elbow into its end stops for 0.6 s of 20, the stop forces in the log, σ(FV) 1.4–3.6×
         FV), else "classic".
     friction : False runs the twin without its friction sources (a rigid-body-plus-terms truth).
-    speed_span : ρ of :func:`design_exciting` (cruise speeds spread over [1 − ρ, 1] × the design's); given, the
-        design is "band" (None or "band" only; an explicit design carries its own).
     """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
     m = sim_model(device, rate_hz=rate_hz, control_hz=control_hz, friction=friction, stops=True)
     na = m.na
     dev_bw = getattr(device.device, "bandwidth_hz", None)
-    if speed_span is not None and not (design is None or (isinstance(design, str) and design == "band")):
-        raise ValueError("speed_span is an option of the band design (design_exciting): give it there, or "
-                         "design=None / 'band'")
     if design is None:      # "classic" clips the active limits only: passive tree joints would ride their stops
-        band = dev_bw or tree_limits(device)[2].shape[0] > na or speed_span is not None
-        design = "band" if band else "classic"
+        design = "band" if dev_bw or tree_limits(device)[2].shape[0] > na else "classic"
     if isinstance(design, str) and design == "band":
-        design = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed, speed_span=speed_span)
+        design = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
     if not isinstance(design, str) and hasattr(design, "references"):   # ExcitingDesign, ident.exciting.FourierDesign
         ref_q, ref_qd, _ = design.references(duration, m.dt)
         q0 = design.center
