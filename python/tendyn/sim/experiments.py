@@ -496,7 +496,9 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     [1 − ρ, 1] × the design's, once every 1 / f_w,k s, f_w,k = f_tri,k / SPAN_PERIODS (:class:`ExcitingDesign`).
     With one cruise speed per joint the Coulomb column F_C sign(q̇) and the viscous column F_V q̇ of the
     regressor are nearly proportional on the cruise rows (only the sines tell them apart); spread speeds
-    separate them (docs/device-file.md, the numbers). Positions, limits and the speed bound are unchanged.
+    separate them (docs/device-file.md, the numbers). Positions, limits and the speed bound are unchanged; the
+    frequencies slow to (1 − ρ)× at the slow end (below band_lo when the triangles sit near it, as in the default
+    design). It pays only when the cruise speeds are high (the fast design of the docs) and the log long (≥ 60 s).
     """
     from scipy.optimize import linprog
 
