@@ -178,7 +178,7 @@ def _reducer_from_load(c_l: np.ndarray, source) -> np.ndarray:
     return 1.0 / (1.0 + c_l)
 
 
-def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
+def identified_losses(device, friction, shares=None, origin: str | None = None) -> IdentifiedLosses:
     """The loss model of ``device`` from identified friction, replacing every loss term of its file.
 
     Parameters
@@ -191,6 +191,7 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
         or an :class:`IdentifiedLosses` already built for this device, returned as it is (built once)
     shares : (p, p') (n, n) arrays, or a ``tendyn.shares/1`` file, for the decomposition of FRICTION.json
         (default :func:`tendyn.ident.decomposition.default_shares`)
+    origin : the name of the document a mapping was read from (default: ``mapping``, a path's own name)
 
     Raises
     ------
@@ -209,7 +210,8 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
         if friction.device != dev.name or np.shape(friction.tau0) != (n, n):
             raise LossModelError(f"the loss model is about {friction.device!r}, not {dev.name!r}", field="device")
         return friction
-    doc, origin = _read(friction)
+    doc, read_origin = _read(friction)
+    origin = origin or read_origin
     name = doc.get("device")
     if name is not None and name != dev.name:
         raise LossModelError(f"the friction is about {name!r}, not {dev.name!r}", source=origin, field="device")
