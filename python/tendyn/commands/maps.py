@@ -101,7 +101,7 @@ def _run_handle(args, dev) -> int:
         raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
     # the device with its identified values, each document read once; on a differential FRICTION.json holds the
     # motors' values, which the maps take as they are (no per-branch split needed)
-    cal = calibrated(dev, friction=args.friction, params=args.params, force=args.force)
+    cal = calibrated(dev, friction=args.friction, params=args.params, force=args.force, physical=True)
     kw, sources = {}, {}
     if args.friction is not None:
         if cal.friction is None:

@@ -131,8 +131,8 @@ def _read(doc, what: str):
         raise CalibrationError(f"{exc} ({what})") from None
 
 
-def calibrate(device, friction=None, params=None, stiffness=None, shares=None, *, force: bool | None = None
-              ) -> CalibratedDevice:
+def calibrate(device, friction=None, params=None, stiffness=None, shares=None, *, force: bool | None = None,
+              physical: bool = False) -> CalibratedDevice:
     """The device file with the identified documents laid over it, per term, with each value's source.
 
     Parameters
@@ -148,6 +148,9 @@ def calibrate(device, friction=None, params=None, stiffness=None, shares=None, *
     shares : (p, p') or a ``tendyn.shares/1`` file for decomposing FRICTION.json (default: the device's)
     force : take documents that name another device, or parameters identified on another version of its file
         (False: a command with ``--force``, whose refusals name it; None: without)
+    physical : check FRICTION.json as a reader of its motor-side values does (``decompose``, ``maps``:
+        :func:`tendyn.ident.friction_file.validate_friction` with ``physical``, negative values named as not
+        physical) before the loss model's own checks (which name them as injecting energy)
 
     Raises
     ------
@@ -179,7 +182,7 @@ def calibrate(device, friction=None, params=None, stiffness=None, shares=None, *
     losses, motor, problem = None, None, None
     sources["friction"] = FILE
     if friction is not None:
-        losses, motor, problem, origin = _friction(compiled, friction, shares, force)
+        losses, motor, problem, origin = _friction(compiled, friction, shares, force, physical)
         sources["friction"] = f"identified: {origin}"
         if losses is not None:
             sources.update({t: (f"identified: {losses.origin}" if s == "identified" else s)
@@ -192,7 +195,7 @@ def calibrate(device, friction=None, params=None, stiffness=None, shares=None, *
                             None if motor is None else MappingProxyType(motor), problem, bool(force))
 
 
-def _friction(compiled, friction, shares, force):
+def _friction(compiled, friction, shares, force, physical):
     """(losses, motor-side values, problem, origin) of identified friction, its document read once."""
     from tendyn.device.routing_checks import NotSeparable
 
@@ -206,15 +209,17 @@ def _friction(compiled, friction, shares, force):
     doc, origin = _read(friction, "friction")
     motor = None
     if isinstance(doc, Mapping) and doc.get("format") == FORMAT:
-        try:
-            validate_friction(doc, device=compiled.device, source=None if origin == "mapping" else origin,
-                              physical=True, force=force)
-        except FrictionFileError as exc:
-            raise CalibrationError(str(exc)) from None
+        if physical:
+            try:
+                validate_friction(doc, device=compiled.device, source=None if origin == "mapping" else origin,
+                                  physical=True, force=force)
+            except FrictionFileError as exc:
+                raise CalibrationError(str(exc)) from None
         if force:
             doc = {**doc, "device": compiled.name}
-        motor = {k: doc[k] for k in ("coulomb_motor", "viscous_motor", "load_coefficient") if doc.get(k) is not None}
-        motor["format"], motor["origin"] = doc["format"], origin
+        motor = {k: doc.get(k) for k in ("coulomb_motor", "viscous_motor", "load_coefficient")
+                 if doc.get(k) is not None}
+        motor["format"], motor["origin"] = FORMAT, origin
     try:
         losses = identified_losses(compiled, doc, shares, origin=origin)
     except NotSeparable as exc:

@@ -68,6 +68,8 @@ class IdentifiedLosses(Result):
     load_coefficient : (n,) c_L [-], the identified load-dependent loss (0 when not identified)
     sources : {term: "identified" | "none" | "device"} for LOSS_TERMS
     origin : where the friction came from (file name or "mapping")
+    decomposition : the :class:`tendyn.ident.decomposition.LossDecomposition` these per-branch values come from
+        (FRICTION.json of cable transmissions), or None
     """
 
     device: str
@@ -78,6 +80,7 @@ class IdentifiedLosses(Result):
     load_coefficient: np.ndarray
     sources: dict = field(default_factory=dict)
     origin: str = "mapping"
+    decomposition: object = None
 
     @property
     def n(self) -> int:
@@ -229,7 +232,7 @@ def identified_losses(device, friction, shares=None, origin: str | None = None) 
     else:
         raise LossModelError(f"unknown friction format {fmt!r} (expected {FORMAT!r}, {DECOMPOSITION_FORMAT!r} "
                              "or per-branch arrays 'tau0', 'nu')", source=origin, field="format")
-    tau0_b, nu_b, beta, eta, load, given = parts
+    tau0_b, nu_b, beta, eta, load, given, *decomposition = parts
     sources = {"tau0": "identified", "nu": "identified", "beta": "none", "bearings": "none",
                "reducer_efficiency": "none"}
     sources.update(given)
@@ -240,7 +243,7 @@ def identified_losses(device, friction, shares=None, origin: str | None = None) 
         eta, load = np.ones(n), np.zeros(n)
     elif load is None:
         load = 1.0 / eta - 1.0
-    return _finish(dev, tau0_b, nu_b, beta, eta, load, sources, origin)
+    return _finish(dev, tau0_b, nu_b, beta, eta, load, sources, origin, *decomposition)
 
 
 def _from_friction_file(dev, doc, shares, src):
@@ -270,8 +273,8 @@ def _from_friction_file(dev, doc, shares, src):
             raise LossModelError(str(exc)) from None
     elif shares is not None:
         p, pp = (np.asarray(a, float) for a in shares)
-    dec = decompose(dev, c0, nu, p, pp)
-    return dec.tau0_branch, dec.nu_branch, np.zeros((n, n)), None, load, {}
+    dec = decompose(dev, c0, nu, p, pp, load)      # S0 eqs. 20–21; c_L carried as it is (to the reducer below)
+    return dec.tau0_branch, dec.nu_branch, np.zeros((n, n)), None, load, {}, dec
 
 
 def _from_decomposition(dev, doc, src):
@@ -318,11 +321,11 @@ def _from_branch_arrays(dev, inner, src):
     return tau0_b, nu_b, beta, eta, load, given
 
 
-def _finish(dev, tau0, nu, beta, eta, load, sources, origin) -> IdentifiedLosses:
+def _finish(dev, tau0, nu, beta, eta, load, sources, origin, decomposition=None) -> IdentifiedLosses:
     n = _count(dev)
     low = np.tril(np.ones((n, n)))
     for key, a in (("tau0", tau0), ("nu", nu), ("beta", beta)):
         if np.any(a * (1 - low) != 0):
             raise LossModelError("values past the driven joint (a cable has i branches)", source=origin, field=key)
     return IdentifiedLosses(dev.name, tau0, nu, beta, np.asarray(eta, float), np.asarray(load, float),
-                            sources, origin)
+                            sources, origin, decomposition)
