@@ -240,6 +240,8 @@ def _params(compiled, params, force):
         doc, origin = params.to_dict(), "model"
     else:
         doc, origin = _read(params, "params")
+    if isinstance(doc, list):           # the list of parameters alone (read_params takes it too)
+        doc = {"params": doc}
     if not isinstance(doc, Mapping) or "params" not in doc:
         raise CalibrationError(f"{origin}: params: missing (expected the document of `tendyn identify --out`)")
     named = doc.get("device")
