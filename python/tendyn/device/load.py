@@ -18,42 +18,14 @@ from typing import Any
 import numpy as np
 
 from . import routing_checks
-from .schema import (
-    ACTUATOR_FIELDS,
-    Actuator,
-    BEARING_FIELDS,
-    CONSTRAINT_FIELDS,
-    DEVICE_FIELDS,
-    DRIVE_FIELDS,
-    DH_JOINT_FIELDS,
-    FRICTION_FIELDS,
-    GRAVITY_MAX_NORM,
-    INERTIA_TOL,
-    KINEMATICS_FIELDS,
-    MDH_JOINT_FIELDS,
-    MOTOR_FIELDS,
-    SCHEMA_VERSION,
-    SENSOR_FIELDS,
-    TERM_FIELDS,
-    TOP_FIELDS,
-    TRANSMISSION_FIELDS,
-    Term,
-    Bearing,
-    BranchFriction,
-    Constraint,
-    DeviceError,
-    Drive,
-    FieldSpec,
-    JointSpec,
-    Kinematics,
-    Motor,
-    Sensors,
-    SerialDevice,
-    TransmissionSpec,
-    _frozen_array,
-    _num,
-    inertia_matrix,
-)
+from .base import DeviceError
+from .schema_fields import (ACTUATOR_FIELDS, BEARING_FIELDS, CONSTRAINT_FIELDS, DEVICE_FIELDS, DH_JOINT_FIELDS,
+                            DRIVE_FIELDS, FRICTION_FIELDS, GRAVITY_MAX_NORM, INERTIA_TOL, KINEMATICS_FIELDS,
+                            MDH_JOINT_FIELDS, MOTOR_FIELDS, SCHEMA_VERSION, SENSOR_FIELDS, TERM_FIELDS, TOP_FIELDS,
+                            TRANSMISSION_FIELDS, FieldSpec, _num)
+from .schema_parts import (Actuator, Bearing, BranchFriction, Constraint, Drive, JointSpec, Kinematics, Motor,
+                           Sensors, Term, TransmissionSpec, _frozen_array, inertia_matrix)
+from .serial_device import SerialDevice
 from tendyn.text import name_problem, text_problem
 
 from ._toml import read_toml, typename as _typename
