@@ -9,30 +9,54 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["consistent_fit"]
+__all__ = ["BoundsInfeasible", "check_bounds", "consistent_fit"]
 
 
 COM_BOUND = ("CX", "CY", "CZ")
 """Bound names ``CX<j>``, ``CY<j>``, ``CZ<j>``: link j's centre of mass [m] in its frame (first moment / mass)."""
 
 
-def check_bounds(model, bounds) -> dict:
+NON_NEGATIVE = ("M", "IA", "FV", "FS")
+"""Stems the consistent fit keeps ≥ 0 (the mass through J ⪰ 0; rotor inertias and friction coefficients, motor
+side too, by constraint): a box whose upper bound is below 0 admits nothing."""
+
+
+class BoundsInfeasible(ValueError):
+    """Boxes that, with the pseudo-inertia LMIs and the non-negative friction and rotor inertias, admit no
+    parameters."""
+
+
+def _stem(name: str) -> str:
+    stem = name.rstrip("0123456789")
+    return stem[:-1] if stem.endswith("m") and stem[:-1] in ("IA", "FV", "FS") else stem
+
+
+def check_bounds(model, bounds, units=None) -> dict:
     """``bounds`` {name: (lower, upper)} validated against the device's standard parameters: a name is a standard
     parameter (``M2``, ``FS1``, ``OFFSET3``, ``IAm6``, a term's ``wrist_spring_k``; its unit) or ``CX<j>``/``CY<j>``/
     ``CZ<j>``, link j's centre of mass [m] (linear: lower·M_j ≤ MX_j ≤ upper·M_j, with M_j ≥ 0); None: no bound on
-    that side. Raises ValueError naming an unknown name or lower > upper."""
+    that side. ``units`` {name: unit} stated by a file: each must be the parameter's unit (``model.unit``, "m" for a
+    centre of mass; "(motor side)" need not be written). Raises ValueError naming an unknown name, lower > upper,
+    a unit that differs, or an upper bound < 0 on a parameter the fit keeps ≥ 0 (:data:`NON_NEGATIVE`)."""
     names = set(model.standard_names)
     out = {}
     for name, pair in dict(bounds or {}).items():
         lo, hi = pair
-        ok = name in names or (name[:2] in COM_BOUND and f"M{name[2:]}" in names)
-        if not ok:
+        com = name not in names and name[:2] in COM_BOUND and f"M{name[2:]}" in names
+        if not (name in names or com):
             raise ValueError(f"bounds: {name!r} is not a standard parameter of {model.device.name} nor CX/CY/CZ<link> "
                              f"(standard: {', '.join(model.standard_names)})")
         lo = None if lo is None else float(lo)
         hi = None if hi is None else float(hi)
         if lo is not None and hi is not None and lo > hi:
             raise ValueError(f"bounds: {name} lower {lo} > upper {hi}")
+        if hi is not None and hi < 0 and not com and _stem(name) in NON_NEGATIVE:
+            raise ValueError(f"bounds: {name} upper {hi!r} < 0: the consistent fit keeps {name} ≥ 0, the box admits "
+                             "nothing")
+        if units and name in units:
+            unit = "m" if com else model.unit(name).replace(" (motor side)", "")
+            if units[name].replace(" (motor side)", "").strip() != unit:
+                raise ValueError(f"bounds: {name} is in {unit or 'its own unit'}, not {units[name]!r}")
         out[name] = (lo, hi)
     return out
 
@@ -76,6 +100,9 @@ def consistent_fit(model, W, Y, eps: float = 0.0, bounds=None) -> np.ndarray:
     reg = 1e-8 * scale * cp.sum_squares(x - prior)
     prob = cp.Problem(cp.Minimize(cp.sum_squares(R @ x - z) / scale + reg), cons)
     prob.solve(solver=cp.CLARABEL)
+    if bounds and prob.status in (cp.INFEASIBLE, cp.INFEASIBLE_INACCURATE):
+        raise BoundsInfeasible(f"the boxes ({len(bounds)}) and physical consistency admit no parameters (solver: "
+                               f"{prob.status}): widen the boxes")
     if x.value is None:
         raise RuntimeError(f"the consistent identification failed: solver status {prob.status}")
     return np.asarray(x.value, float)
