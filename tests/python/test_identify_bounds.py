@@ -211,3 +211,40 @@ def test_the_declared_domain_and_relation(tmp_path):
     sub = [a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)][0]
     act = [a for a in sub.choices["identify"]._actions if a.dest == "bounds"][0]
     assert act.type is boxes_file and act.default is None
+
+
+def test_wpi_boxes_in_the_docs_are_wpi_bounds(tmp_path):
+    """docs/realdata.md's `wpi_boxes.toml` block (WPI's 63 SDP boxes, typed from their published settings) is read
+    by the option's converter as ``mtm.wpi_bounds()`` maps them (1e-12) and every name and stated unit is one of
+    tendyn's MTM device (generated from the public DH table: no MTM data read)."""
+    import importlib.util
+    import re
+    import sys
+    from pathlib import Path
+
+    from tendyn.commands.args import boxes_file
+    from tendyn.device import load_device
+    from tendyn.ident.consistent import check_bounds
+    from tendyn.ident.estimate import cached_model
+
+    repo = Path(__file__).resolve().parents[2]
+    text = (repo / "docs" / "realdata.md").read_text(encoding="utf-8")
+    block = re.search(r"<!-- wpi_boxes.toml -->\n```toml\n(.*?)```", text, re.S).group(1)
+    boxes = boxes_file(str(_write(tmp_path, block, "wpi_boxes.toml")))
+    folder = str(repo / "benchmarks" / "realdata")
+    sys.path.insert(0, folder)
+    try:
+        spec = importlib.util.spec_from_file_location("mtm_for_boxes", Path(folder) / "mtm.py")
+        mtm = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mtm)
+        from mtm_device import write_mtm_device
+    finally:
+        sys.path.remove(folder)
+    want = mtm.wpi_bounds()
+    assert len(boxes.bounds) == len(want) == 63 and set(boxes.bounds) == set(want)
+    for name, (lo, hi) in want.items():
+        got = boxes.bounds[name]
+        for g, w in zip(got, (lo, hi)):
+            assert (g is None and w is None) or g == pytest.approx(w, rel=1e-12, abs=1e-15), (name, got, (lo, hi))
+    model = cached_model(load_device(write_mtm_device(tmp_path)))
+    assert check_bounds(model, boxes.bounds, boxes.units) == boxes.bounds
