@@ -242,11 +242,12 @@ problem's size (122 parameters + the epigraph variable; 39193 rows + 2 in the se
 rows; 9 PSD blocks of 4 × 4)."""
 
 
-def scs126_solver(python: Path = SCS126, log: dict | None = None, settings: dict | None = None):
+def scs126_solver(python: Path = SCS126, log: dict | None = None, settings: dict | None = None, stream=None):
     """A ``solve`` for :func:`tendyn.ident.consistent.consistent_fit`: the cvxpy problem's SCS standard form
     (``get_problem_data``) solved by SCS 1.2.6 in its own environment (_scs126_solve.py, WPI's settings, or
     ``settings`` over them), the raw solution unpacked by cvxpy into the variables. ``log`` (a dict) receives
-    SCS's info (status, iterations, primal residual, seconds) and the problem's size."""
+    SCS's info (status, iterations, primal residual, seconds) and the problem's size; ``stream``: a file that
+    receives SCS's iteration log while it runs (else it is kept in ``log["output"]``)."""
     import subprocess
 
     import cvxpy as cp
@@ -261,8 +262,13 @@ def scs126_solver(python: Path = SCS126, log: dict | None = None, settings: dict
             np.savez(src, A_data=A.data, A_indices=A.indices, A_indptr=A.indptr, A_shape=np.array(A.shape),
                      b=data["b"], c=data["c"], zero=dims.zero, nonneg=dims.nonneg, soc=np.array(size["soc"]),
                      psd=np.array(size["psd"]), settings=json.dumps(settings or {}))
-            run = subprocess.run([str(python), str(Path(__file__).with_name("_scs126_solve.py")), str(src),
-                                  str(dst)], capture_output=True, text=True)
+            out = open(stream, "w", encoding="utf-8") if stream else subprocess.PIPE   # SCS's log, as it runs
+            try:
+                run = subprocess.run([str(python), "-u", str(Path(__file__).with_name("_scs126_solve.py")), str(src),
+                                      str(dst)], stdout=out, stderr=subprocess.PIPE, text=True)
+            finally:
+                if stream:
+                    out.close()
             if run.returncode != 0:
                 raise RuntimeError(f"SCS 1.2.6 failed: {run.stderr.strip()[-500:]}")
             sol = np.load(dst)
@@ -270,7 +276,7 @@ def scs126_solver(python: Path = SCS126, log: dict | None = None, settings: dict
             raw = {"x": sol["x"], "y": sol["y"], "s": sol["s"], "info": info}
         prob.unpack_results(raw, chain, inverse)
         if log is not None:
-            log.update(info, size=size, output=run.stdout)
+            log.update(info, size=size, output=run.stdout or "")
     return solve
 
 
@@ -311,7 +317,7 @@ def wpi_sdp_shape(shared: Path) -> dict:
     return size
 
 
-def wpi_solver_errors(shared: Path, python: Path = SCS126) -> dict:
+def wpi_solver_errors(shared: Path, python: Path = SCS126, stream=None) -> dict:
     """The ``wpi`` preset on ``one`` with WPI's boxes, WPI's form and WPI's solver (SCS 1.2.6, WPI's settings) and
     WPI's cable: WPI's metric on ``two`` (``errors``, (7,)), the base parameters against WPI's published ones
     through tendyn (``base_rel_diff``: ‖x − x_WPI‖ / ‖x_WPI‖ over the base parameters, ``base_max_rel``: the
@@ -330,7 +336,7 @@ def wpi_solver_errors(shared: Path, python: Path = SCS126) -> dict:
         model = cached_model(dev)
         c = _wpi_cable_motor(model, np.loadtxt(csv, delimiter=","))
         est = IDIM(dev, method="wls", consistent=True, treatment="wpi", bounds=wpi_bounds(),
-                   sdp=wpi_sdp(scs126_solver(python, log))).fit(one, crossval=False)
+                   sdp=wpi_sdp(scs126_solver(python, log, stream=stream))).fit(one, crossval=False)
         e = wpi_metric(csv, est.predict(two, filter_prediction=False).motor, c)
         d = est.result_.to_dict()
         mine = np.array([p["value"] for p in d["params"]])
