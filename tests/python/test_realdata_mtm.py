@@ -8,7 +8,9 @@
   parameters (params.json) through tendyn's model, `wpi` treatment and metric within 5 % of WPI's per-joint errors
   (measured within 3.2 %: the treatment, model and metric are WPI's; plants: the frames' rotations left out or
   transposed, 33-9 700 % off, -m slow); the `wpi` preset's own fit within 5 % (not reached: xfail, strict, with
-  the measured numbers — WPI's published point is an unconverged SCS iterate outside WPI's own boxes).
+  the measured numbers — WPI's published point is an unconverged SCS iterate outside WPI's own boxes); WPI's own
+  problem shape (test_wpi_sdp_is_wpi_problem_shape) and, with WPI's solver built (`make scs126`) and `-m slow`,
+  the preset with WPI's boxes, form and SCS 1.2.6 within 5 % (test_wpi_preset_with_wpi_solver_within_5_percent).
 Two real fits (6000 samples, consistent SDP) take about 7 s together, once per module: the reason this module
 is over 5 s.
 """
