@@ -295,6 +295,10 @@ class IDIM:
         With ``consistent=True``: box constraints {name: (lower, upper)} on standard parameters (their units) and
         centres of mass ``CX<j>``/``CY<j>``/``CZ<j>`` [m] (:func:`tendyn.ident.consistent.check_bounds`), e.g. a
         peer's hand-chosen boxes; None: the LMIs and non-negative friction and rotor inertias only.
+    sdp : dict or None
+        With ``consistent=True``: how the consistent problem is posed and solved, the keywords ``form``, ``fixed``,
+        ``eps``, ``solve`` of :func:`tendyn.ident.consistent.consistent_fit` (None: tendyn's form, Clarabel), e.g.
+        WPI's dVRK SDP solved by WPI's SCS 1.2.6 (benchmarks/realdata/mtm.py).
     drive_stretch : bool
         Elastic capstan ``[[drives]]`` (``stiffness_motor`` > 0, tendyn's treatment, positions differentiated): a
         second least squares on the link positions, the cable stretch taken out of the motor encoders with the
@@ -305,9 +309,10 @@ class IDIM:
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
                  parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
-                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None, drive_stretch=True):
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None, drive_stretch=True, sdp=None):
         self.device = device
         self.bounds = bounds
+        self.sdp = sdp
         self.drive_stretch = drive_stretch
         self.treatment = treatment
         self.controller = controller
@@ -591,7 +596,8 @@ class IDIM:
             if self.consistent:
                 from .consistent import consistent_fit
 
-                xs = consistent_fit(model, S.Wstd * weights[:, None], S.Y * weights, bounds=self.bounds)
+                xs = consistent_fit(model, S.Wstd * weights[:, None], S.Y * weights, bounds=self.bounds,
+                                    **(self.sdp or {}))
                 self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
                 x = (base.combination @ xs)[cols]
                 _, se, _, _ = least_squares(Wsel * weights[:, None], S.Y * weights, at=x)
@@ -686,7 +692,7 @@ class IDIM:
             from .consistent import consistent_fit
 
             x = (base.combination @ consistent_fit(self._model(), S.Wstd * w[:, None], S.Y * w,
-                                                   bounds=self.bounds))[cols]
+                                                   bounds=self.bounds, **(self.sdp or {})))[cols]
         V = self._system(*valp, compact=compact, stretch=stretch)
         V.close()
         Yv, rv = V.Y, V.rows                    # per joint ‖y − W x‖ and ‖y‖: the same on rows and factors
