@@ -683,7 +683,8 @@ class IDIM:
             self.consistent = "auto"
         res = self.result_
         res.plain = plain
-        res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(plain.warnings)[:400]
+        why = [w for w in plain.warnings if "σ exceeds" not in w and "to 10 %" not in w] or plain.warnings
+        res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(why)[:400]
                             + "): the physically consistent estimate (pseudo-inertia LMIs) is reported instead "
                               "(--plain: the plain one)")
         return self
