@@ -77,7 +77,8 @@ def treated_log(model, log, parts, settings, factor: bool = False) -> TreatedLog
     Y, W, rows = stack_blocks(blocks)
     t = np.concatenate([b.time for b in blocks])
     vel = np.concatenate([b.velocity for b in blocks])
-    thr = velocity_thresholds(tr.velocity_threshold, [np.max(np.abs(b.velocity)) for b in blocks])
+    thr = velocity_thresholds(tr.velocity_threshold, [np.max(np.abs(b.velocity)) for b in blocks],
+                              elastic=model.elastic_drives)
     keep = above_threshold(vel, np.repeat(thr, [b.y.size for b in blocks]))
     tr = dataclasses.replace(tr, velocity_threshold=tuple(float(v) for v in thr))
     n_out = blocks[0].y.size
@@ -247,6 +248,37 @@ def motor_space_residual(G, Y, y_hat, rows, samples, n_active, fitted_space: str
     y = tau @ to_other.T                           # motor torques y = G⁻ᵀ τ (or joint τ = Gᵀ y)
     y_h = tau_hat @ to_other.T
     return [float(v) for v in np.linalg.norm(y - y_h, axis=0) / np.maximum(np.linalg.norm(y, axis=0), 1e-300)]
+
+
+FRICTION_CORRELATION_WARN = 0.95
+"""|ρ| of a joint's Coulomb and viscous estimates (FSj, FVj) above which the report warns that the data do not tell
+them apart: the two columns are then nearly proportional (one cruise speed per joint), σ only measures the noise,
+and any model error (a friction that is not F_C sign(q̇) + F_V q̇ at reversals) moves the split between them."""
+
+
+def friction_correlation(names, R) -> dict[str, float]:
+    """Correlation ρ(FSj, FVj) of each joint's Coulomb and viscous estimates, from the R of the weighted regressor's
+    QR (cov ∝ (RᵀR)⁻¹). Keys: the joint's FV name."""
+    idx = {n: i for i, n in enumerate(names)}
+    pairs = [(idx["FS" + n[2:]], i) for n, i in idx.items() if n.startswith("FV") and "FS" + n[2:] in idx
+             and n[2:].isdigit()]
+    if not pairs:
+        return {}
+    try:
+        Rinv = np.linalg.inv(np.asarray(R, float))
+    except np.linalg.LinAlgError:
+        return {}
+    C = Rinv @ Rinv.T
+    return {names[v]: float(C[s, v] / np.sqrt(C[s, s] * C[v, v])) for s, v in pairs}
+
+
+def entangled_friction(corr: dict, names, values, stderr, limit: float = FRICTION_CORRELATION_WARN) -> list[str]:
+    """One warning line per joint whose Coulomb and viscous estimates are correlated beyond ``limit`` (|ρ|)."""
+    val = dict(zip(names, values))
+    sig = dict(zip(names, stderr))
+    return [f"{fv} = {val[fv]:.4g} ± {sig[fv]:.2g} and FS{fv[2:]}: their estimates are {100 * abs(r):.1f} % "
+            f"correlated, so the data do not tell viscous from Coulomb friction on that joint (σ does not show "
+            f"it: excite it over a wider range of speeds)" for fv, r in corr.items() if abs(r) > limit]
 
 
 class IDIM:
@@ -427,10 +459,11 @@ class IDIM:
 
     def _thresholds(self, blocks) -> np.ndarray:
         """Per-joint velocity threshold [rad/s]: the given one, or by default (None) the
-        ``DEFAULT_VELOCITY_FRACTION`` of each joint's peak |q̇| in the log."""
+        ``DEFAULT_VELOCITY_FRACTION`` (elastic drives: ``ELASTIC_VELOCITY_FRACTION``) of each joint's peak |q̇|."""
         tr = getattr(self, "treatment_", None)      # the option given, else the preset's (None: the default rule)
         vt = self.velocity_threshold if tr is None else tr.velocity_threshold
-        return velocity_thresholds(vt, [np.max(np.abs(b.velocity)) for b in blocks])
+        return velocity_thresholds(vt, [np.max(np.abs(b.velocity)) for b in blocks],
+                                   elastic=self._model().elastic_drives)
 
     @staticmethod
     def _treat_here(model, log, parts, settings):
@@ -635,6 +668,8 @@ class IDIM:
         self.result_.coupled = not diagonal_coupling(model.G)
         self.result_.omitted = [n for i, n in enumerate(base.names) if i not in set(cols)]
         self.result_.flag_pseudo_inertia(model)
+        self.result_.friction_correlation = friction_correlation(self.names_, R)
+        self.result_.warnings += entangled_friction(self.result_.friction_correlation, self.names_, x, se)
         self._cols = cols
         return self
 
@@ -652,7 +687,8 @@ class IDIM:
             self.consistent = "auto"
         res = self.result_
         res.plain = plain
-        res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(plain.warnings)[:400]
+        why = [w for w in plain.warnings if "σ exceeds" not in w and "to 10 %" not in w] or plain.warnings
+        res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(why)[:400]
                             + "): the physically consistent estimate (pseudo-inertia LMIs) is reported instead "
                               "(--plain: the plain one)")
         return self

@@ -19,10 +19,20 @@ _MUST_BE_POSITIVE = {"IA": "a rotor inertia", "IAm": "a rotor inertia", "FV": "a
 """Stems of the parameters that are physically ≥ 0 on their own (not regrouped: a name without the R)."""
 
 
+FRICTION_REL_SIGMA_WARN = 0.05
+"""σ / |value| of a friction coefficient (FV, FS and their motor-side FVm, FSm) above which the report warns: 2σ
+then exceeds 10 % of the value, the data do not pin it to 10 %. Measured (generated parallelogram arms, 20 s
+default exciting logs): viscous σ 7-33 % with errors to +60 %; the fast spread-speed design: σ 1.3-4.9 %, errors
+within 4.5 % (docs/device-file.md)."""
+
+_FRICTION = ("FV", "FVm", "FS", "FSm")
+
+
 def implausible(names, values, stderr=None, units=None) -> list[str]:
     """Warnings for identified values that cannot be physical: a negative rotor inertia, viscous coefficient or
     Coulomb friction (a base parameter that is one standard parameter alone, ``IA6``, ``FVm6``), named with its
-    value, σ, and the fix (the physically consistent estimate)."""
+    value, σ, and the fix (the physically consistent estimate); a friction coefficient whose σ exceeds
+    :data:`FRICTION_REL_SIGMA_WARN` of its value."""
     out = []
     for i, (n, v) in enumerate(zip(names, values)):
         stem = n.rstrip("0123456789")
@@ -36,6 +46,11 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
             unit = units[i] if units else unit_of(n)
             out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: its σ exceeds its value, so the data do not "
                        f"determine {_MUST_BE_POSITIVE[stem]} (excite that joint faster or longer)")
+        elif stem in _FRICTION and stderr is not None and abs(stderr[i]) > FRICTION_REL_SIGMA_WARN * abs(v):
+            unit = units[i] if units else unit_of(n)
+            out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: σ is {100 * abs(stderr[i] / v):.0f} % of it, so "
+                       f"the data do not pin {_MUST_BE_POSITIVE[stem]} to 10 % (excite that joint faster, over a "
+                       "wider range of speeds, or longer)")
     return out
 
 

@@ -449,7 +449,7 @@ class StreamingIDIM:
 
         n_out = _core.decimated_length(n, parallel_filter_taps(tr.decimate).size, tr.decimate)
         thr = velocity_thresholds(self.velocity_threshold, peak if self.velocity_threshold is None
-                                  else np.zeros(model.n_active))
+                                  else np.zeros(model.n_active), elastic=model.elastic_drives)
         tr = dataclasses.replace(tr, velocity_threshold=tuple(float(v) for v in thr))
         (ne_a, ne_b), _ = accumulate(model, self._chunks(model, path), rate, tr, split_at=n_out // 2,
                                      velocity_threshold=thr)

@@ -32,7 +32,7 @@ from tendyn.ident.filters import butter_lowpass_sos, firwin_lowpass, sosfiltfilt
 
 __all__ = ["Treatment", "Block", "AlignmentError", "butter_zero_phase", "parallel_filter_taps",
            "central_differences", "stack_blocks", "default_treatment", "drop_stale", "DEFAULT_VELOCITY_FRACTION",
-           "velocity_thresholds", "above_threshold",
+           "velocity_thresholds", "above_threshold", "ELASTIC_VELOCITY_FRACTION",
            "PRESETS", "Preset", "preset_treatment", "zero_phase_cutoff_of_design"]
 
 DEFAULT_BANDWIDTH_HZ = 10.0
@@ -43,13 +43,23 @@ its peak |q̇| in the log are dropped from its rows. 0.25 %, chosen on the real 
 (docs/realdata.md, "The default velocity threshold"): EMPS every value within 1 % of Janot's only below 0.5 %,
 the MTM 7/7 at or below WPI from 0.25 % to 2 %, the TX40 halves 5 % worse than at 2 %, the twins' tests unchanged."""
 
-def velocity_thresholds(rule, peaks) -> np.ndarray:
+ELASTIC_VELOCITY_FRACTION = 0.10
+"""Default velocity threshold on a device whose capstan ``[[drives]]`` are elastic (finite cable stiffness): 10 %
+of each joint's peak |q̇|. There the dry friction sits at the motor, behind the cable spring: at each reversal the
+motor sticks while the spring winds up by 2 C_m / K (S2 Fig. 4), so the joint-side friction passes through zero
+over a band of speeds, not as F_C sign(q̇); least squares fits that ramp with a larger viscous slope and a smaller
+Coulomb term. Measured on generated parallelogram arms 0-4 (the default exciting design, 20 s): at 0.25 % FV
++32 … +406 % (σ 13-30 %, no warning) and FS −2 … −4 %; at 10 % FV −18 … +60 % (σ 7-33 %) and FS within 0.3 %
+(docs/device-file.md, "Identification defaults")."""
+
+def velocity_thresholds(rule, peaks, elastic: bool = False) -> np.ndarray:
     """Per-joint velocity threshold [rad/s] (the one rule, in memory and ``--stream``): ``rule`` None gives the
-    :data:`DEFAULT_VELOCITY_FRACTION` of each joint's peak |q̇| ``peaks`` [rad/s] in the log; a tuple, one value
+    :data:`DEFAULT_VELOCITY_FRACTION` of each joint's peak |q̇| ``peaks`` [rad/s] in the log
+    (:data:`ELASTIC_VELOCITY_FRACTION` when ``elastic``: a device with elastic capstan drives); a tuple, one value
     per joint; a number, the same for every joint (0 keeps every row)."""
     peaks = np.asarray(peaks, float)
     if rule is None:
-        return DEFAULT_VELOCITY_FRACTION * peaks
+        return (ELASTIC_VELOCITY_FRACTION if elastic else DEFAULT_VELOCITY_FRACTION) * peaks
     if isinstance(rule, tuple):
         return np.asarray(rule, float)
     return np.full(peaks.shape, float(rule))
