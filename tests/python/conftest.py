@@ -182,6 +182,23 @@ other workers idle at the end of a parallel run (longest-first scheduling). Name
 is still run, in its place."""
 
 
+def slow_asked(config) -> bool:
+    """True when the run's ``-m`` expression names the ``slow`` marker (``-m slow``, ``-m "slow or not slow"``)."""
+    return "slow" in (config.getoption("markexpr", "") or "")
+
+
+def _deselect_slow(config, items) -> None:
+    """Tests marked ``slow`` (a long variant of a fast test of the same code path, docs/testing.md) are deselected
+    unless ``-m`` names the marker: `make test` runs the fast twin, `pytest -m slow` the long one. Deselected, not
+    skipped: the summary counts them as deselected, and no test body decides it by itself."""
+    if slow_asked(config):
+        return
+    slow = [item for item in items if item.get_closest_marker("slow") is not None]
+    if slow:
+        config.hook.pytest_deselected(items=slow)
+        items[:] = [item for item in items if item.get_closest_marker("slow") is None]
+
+
 def _wide_params(item) -> tuple:
     """(argname, index) of the parameters of item's module-, class- or session-scoped fixtures (test_any_device's
     devices, test_examples' build routes): the items sharing them share one set-up."""
@@ -202,6 +219,7 @@ def pytest_collection_modifyitems(session, config, items):
     parameters over the workers, but pytest-xdist 3.8 renames node ids through an attribute pytest 9 no longer
     reads: every test became its own group and module fixtures were built on each worker.)"""
     result = yield
+    _deselect_slow(config, items)
     rank = {name: k for k, name in enumerate(HEAVY_FIRST)}
     first_module: dict = {}
     first_param: dict = {}
