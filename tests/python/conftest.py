@@ -38,9 +38,8 @@ def s1_quick_report(claims_ctx):
     """``run_s1(mcgill_bench, quick=True)``: the S1Report of `tendyn pipeline s1 --quick`, once per session, for
     the HTML report of test_reports.py (the JSON of the claims is tendyn.claims.twins.s1_json)."""
     from tendyn.claims import twins
-    from tendyn.pipelines.s1 import run_s1
 
-    return claims_ctx.get("s1_report", lambda: run_s1(twins.mcgill(claims_ctx), quick=True))
+    return twins.s1_report(claims_ctx)
 
 
 @pytest.fixture(scope="session")
