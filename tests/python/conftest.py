@@ -24,13 +24,56 @@ def count(request):
     return request.config.getoption("--count")
 
 
-@pytest.fixture(scope="session")
-def claims_ctx(request):
-    """The twins and expensive runs of the claims' checks (tendyn.claims), shared by every test file of a session:
-    the tests and `tendyn claims` run the same definitions."""
+SHARED_RUNS = ("s1_report", "s2_report")
+"""Runs of the claims' context computed once per parallel run, not once per worker (tens of seconds of CPU each,
+picklable, seeded: the same object whichever worker makes it); the others are cheap or hold compiled models."""
+
+
+def _shared_context(folder: Path | None, **kw):
+    """A :class:`tendyn.claims.Context` whose :data:`SHARED_RUNS` go through ``folder`` (the run's temporary
+    folder, common to the workers): the first worker to need one computes it under a file lock and pickles it, the
+    others wait for the lock and read it. ``folder=None`` (one process): a plain context."""
+    import fcntl
+    import pickle
+
     from tendyn.claims import Context
 
-    return Context(quick=False, seed=request.config.getoption("--seed"), count=request.config.getoption("--count"))
+    class WorkersContext(Context):
+        def get(self, name, make):
+            if folder is None or name in self._cache or name not in SHARED_RUNS:
+                return super().get(name, make)
+            path = folder / f"{name}.pickle"
+            with open(folder / f"{name}.lock", "w") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)          # released when the file closes, even on an error
+                if path.is_file():
+                    value = pickle.loads(path.read_bytes())
+                else:
+                    value = make()
+                    try:
+                        data = pickle.dumps(value)
+                    except (pickle.PicklingError, TypeError, AttributeError):
+                        data = None                        # not picklable: each worker makes its own
+                    if data is not None:
+                        part = path.with_suffix(f".part{os.getpid()}")
+                        part.write_bytes(data)
+                        part.replace(path)
+            self._cache[name] = value
+            return value
+
+    return WorkersContext(**kw)
+
+
+@pytest.fixture(scope="session")
+def claims_ctx(request, tmp_path_factory):
+    """The twins and expensive runs of the claims' checks (tendyn.claims), shared by every test file of a session:
+    the tests and `tendyn claims` run the same definitions. In a parallel run the :data:`SHARED_RUNS` are computed
+    by one worker for all (through the run's temporary folder, which pytest-xdist's workers have in common)."""
+    folder = None
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        folder = tmp_path_factory.getbasetemp().parent / "claims-context"
+        folder.mkdir(exist_ok=True)
+    return _shared_context(folder, quick=False, seed=request.config.getoption("--seed"),
+                           count=request.config.getoption("--count"))
 
 
 @pytest.fixture(scope="session")
