@@ -7,7 +7,7 @@ STAMP    := $(VENV)/.tendyn-installed
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-steps test-python test-cpp test-asan tools demo bench realdata mutants docs clean
+.PHONY: install test test-steps test-python test-cpp test-asan tools demo bench realdata scs126 mutants docs clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -97,9 +97,15 @@ bench: install
 	TENDYN_COMPENSATOR_TIMER=$(abspath build/bench/benchmarks/compensator_timer) $(VPY) benchmarks/run.py $(BENCH_ARGS)
 
 # Every real data set of ../shared/external-data against its peers' published numbers (docs/realdata.md):
-# benchmarks/realdata.json, the page in build/realdata/report.html and the table on stdout.
-realdata: install
+# benchmarks/realdata.json, the page in build/realdata/report.html and the table on stdout. The MTM row
+# tendyn_preset_wpi_solver needs WPI's solver (SCS 1.2.6, `make scs126`, ~1 min; left empty without it).
+realdata: install scs126
 	$(VPY) benchmarks/realdata/run.py $(REALDATA_ARGS)
+
+# SCS 1.2.6 (WPI's dVRK solver) from its source package in its own environment build/scs126/venv
+# (needs libblas-dev and liblapack-dev); nothing of it enters tendyn's environment.
+scs126:
+	-bash benchmarks/realdata/build_scs126.sh
 
 clean:
 	rm -rf build $(VENV) out

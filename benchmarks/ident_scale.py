@@ -29,7 +29,8 @@ def _write_synthetic(path: Path, model, seconds: float, rate_hz: float = 5000.0,
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from tendyn.io.logs import make_log, _parquet_bytes  # noqa: F401  (schema via a one-row log)
+    from tendyn.io.log_formats import _parquet_bytes
+    from tendyn.io.logs import make_log  # noqa: F401  (schema via a one-row log)
 
     rng = np.random.default_rng(seed)
     amp, freq, ph = rng.uniform(0.2, 0.6, (3, 6)), rng.uniform(0.1, 1.2, (3, 6)), rng.uniform(0, 6.3, (3, 6))

@@ -227,18 +227,143 @@ def bounded_errors(shared: Path) -> dict:
     return out
 
 
+REPO = Path(__file__).resolve().parents[2]
+SCS126 = REPO / "build" / "scs126" / "venv" / "bin" / "python"
+"""WPI's solver, SCS 1.2.6, in its own environment (``make scs126``: benchmarks/realdata/build_scs126.sh)."""
+
+WPI_NO_ROTOR = ("IA1", "IA2", "IAm3", "IA7", "IA8", "IA9")
+"""tendyn's rotor inertias WPI's model does not have (it has motor 4's only, tendyn's IAm6): held at 0."""
+
+WPI_SOLVER_INFO = {"eps": 1e-3, "alpha": 1.5, "max_iters": 10000, "lin_sys": "sparse-indirect",
+                   "residual": 4.8984e-2, "iterations": 10000, "variables": 123, "constraints": 39421,
+                   "linear": 136, "soc": 39195, "psd_blocks": 9, "psd_vars": 90}
+"""WPI's SCS run (main_mtm.ipynb cell 95's log): settings, final primal residual |Ax + s − b| / (1 + |b|), and the
+problem's size (122 parameters + the epigraph variable; 39193 rows + 2 in the second-order cone; 136 linear
+rows; 9 PSD blocks of 4 × 4)."""
+
+
+def scs126_solver(python: Path = SCS126, log: dict | None = None, settings: dict | None = None, stream=None):
+    """A ``solve`` for :func:`tendyn.ident.consistent.consistent_fit`: the cvxpy problem's SCS standard form
+    (``get_problem_data``) solved by SCS 1.2.6 in its own environment (_scs126_solve.py, WPI's settings, or
+    ``settings`` over them), the raw solution unpacked by cvxpy into the variables. ``log`` (a dict) receives
+    SCS's info (status, iterations, primal residual, seconds) and the problem's size; ``stream``: a file that
+    receives SCS's iteration log while it runs (else it is kept in ``log["output"]``)."""
+    import subprocess
+
+    import cvxpy as cp
+
+    def solve(prob):
+        data, chain, inverse = prob.get_problem_data(cp.SCS)
+        A, dims = data["A"].tocsc(), data["dims"]
+        size = {"variables": A.shape[1], "constraints": A.shape[0], "zero": dims.zero, "linear": dims.nonneg,
+                "soc": [int(v) for v in dims.soc], "psd": [int(v) for v in dims.psd]}
+        with tempfile.TemporaryDirectory() as tmp:
+            src, dst = Path(tmp) / "problem.npz", Path(tmp) / "solution.npz"
+            np.savez(src, A_data=A.data, A_indices=A.indices, A_indptr=A.indptr, A_shape=np.array(A.shape),
+                     b=data["b"], c=data["c"], zero=dims.zero, nonneg=dims.nonneg, soc=np.array(size["soc"]),
+                     psd=np.array(size["psd"]), settings=json.dumps(settings or {}))
+            out = open(stream, "w", encoding="utf-8") if stream else subprocess.PIPE   # SCS's log, as it runs
+            try:
+                run = subprocess.run([str(python), "-u", str(Path(__file__).with_name("_scs126_solve.py")), str(src),
+                                      str(dst)], stdout=out, stderr=subprocess.PIPE, text=True)
+            finally:
+                if stream:
+                    out.close()
+            if run.returncode != 0:
+                raise RuntimeError(f"SCS 1.2.6 failed: {run.stderr.strip()[-500:]}")
+            sol = np.load(dst)
+            info = json.loads(str(sol["info"]))
+            raw = {"x": sol["x"], "y": sol["y"], "s": sol["s"], "info": info}
+        prob.unpack_results(raw, chain, inverse)
+        if log is not None:
+            log.update(info, size=size, output=run.stdout or "")
+    return solve
+
+
+def wpi_sdp(solve=None) -> dict:
+    """``IDIM(sdp=...)`` for WPI's problem: WPI's form (:data:`tendyn.ident.consistent.FORMS`), the rotor inertias
+    WPI does not have held at 0, solved by ``solve`` (None: Clarabel)."""
+    return {"form": "wpi", "fixed": dict.fromkeys(WPI_NO_ROTOR, 0.0), **({"solve": solve} if solve else {})}
+
+
+class _Shape(Exception):
+    pass
+
+
+def wpi_sdp_shape(shared: Path) -> dict:
+    """The size of the SDP tendyn builds for WPI's problem (the ``wpi`` preset on ``one``, WPI's boxes, WPI's
+    form), as SCS sees it: variables, constraints, linear rows, second-order cone, PSD blocks; not solved."""
+    import cvxpy as cp
+
+    from tendyn.ident import IDIM
+
+    size = {}
+
+    def stop(prob):
+        data, _, _ = prob.get_problem_data(cp.SCS)
+        d = data["dims"]
+        size.update(variables=data["A"].shape[1], constraints=data["A"].shape[0], zero=d.zero, linear=d.nonneg,
+                    soc=[int(v) for v in d.soc], psd=[int(v) for v in d.psd], boxes=len(wpi_bounds()))
+        raise _Shape
+
+    with tempfile.TemporaryDirectory() as tmp:
+        dev = device(shared, Path(tmp) / "w", cable="wpi")
+        one = mtm_log(data(shared) / "one_results.csv")
+        try:
+            IDIM(dev, method="wls", consistent=True, treatment="wpi", bounds=wpi_bounds(),
+                 sdp=wpi_sdp(stop)).fit(one, crossval=False)
+        except _Shape:
+            pass
+    return size
+
+
+def wpi_solver_errors(shared: Path, python: Path = SCS126, stream=None) -> dict:
+    """The ``wpi`` preset on ``one`` with WPI's boxes, WPI's form and WPI's solver (SCS 1.2.6, WPI's settings) and
+    WPI's cable: WPI's metric on ``two`` (``errors``, (7,)), the base parameters against WPI's published ones
+    through tendyn (``base_rel_diff``: ‖x − x_WPI‖ / ‖x_WPI‖ over the base parameters, ``base_max_rel``: the
+    largest |x_i − x_WPI,i| / max|x_WPI|), SCS's info (``scs``) and the wall time (``seconds``)."""
+    import time
+
+    from tendyn.ident import IDIM
+    from tendyn.ident.estimate import cached_model
+
+    log = {}
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        dev = device(shared, Path(tmp) / "w", cable="wpi")
+        one, two = mtm_log(data(shared) / "one_results.csv"), mtm_log(data(shared) / "two_results.csv")
+        csv = data(shared) / "two_results.csv"
+        model = cached_model(dev)
+        c = _wpi_cable_motor(model, np.loadtxt(csv, delimiter=","))
+        est = IDIM(dev, method="wls", consistent=True, treatment="wpi", bounds=wpi_bounds(),
+                   sdp=wpi_sdp(scs126_solver(python, log, stream=stream))).fit(one, crossval=False)
+        e = wpi_metric(csv, est.predict(two, filter_prediction=False).motor, c)
+        d = est.result_.to_dict()
+        mine = np.array([p["value"] for p in d["params"]])
+        wpi_base = dict(zip(model.base.names, model.base.combination @ wpi_published_standard(shared, model)))
+        theirs = np.array([wpi_base[p["name"]] for p in d["params"]])
+    diff = mine - theirs
+    return {"errors": e, "base_rel_diff": float(np.linalg.norm(diff) / np.linalg.norm(theirs)),
+            "base_max_rel": float(np.max(np.abs(diff)) / np.max(np.abs(theirs))), "names": [p["name"] for p in d["params"]],
+            "base": mine, "wpi_base": theirs, "scs": {k: v for k, v in log.items() if k != "output"},
+            "seconds": time.perf_counter() - t0}
+
+
 def rows(shared: Path, bounded: bool = True) -> list[dict]:
     """One row per joint; extra keys: WPI's parameters through tendyn and, ``bounded``, the preset with WPI's
-    boxes (with tendyn's and with WPI's cable; None when not ``bounded``)."""
+    boxes (with tendyn's and with WPI's cable; None when not ``bounded``) and the preset with WPI's boxes, form and
+    solver (``tendyn_preset_wpi_solver``: SCS 1.2.6, None when not ``bounded`` or not built, ``make scs126``)."""
     e = errors(Path(shared))
     b = bounded_errors(Path(shared)) if bounded else {"tendyn": [None] * 7, "wpi": [None] * 7}
+    s = wpi_solver_errors(Path(shared))["errors"] if bounded and SCS126.is_file() else [None] * 7
     f = lambda v: None if v is None else float(v)
     return [{"dataset": "dvrk_mtm", "peer": "WPI (main_mtm.ipynb)", "metric": "relative error on two",
              "item": f"joint {j + 1}", "peer_value": float(e["wpi"][j]), "tendyn_preset": float(e["preset"][j]),
              "tendyn_default": float(e["default"][j]), "unit": "-",
              "wpi_params_through_tendyn": float(e["wpi_params"][j]),
              "tendyn_preset_wpi_bounds": f(b["tendyn"][j]),
-             "tendyn_preset_wpi_bounds_wpi_cable": f(b["wpi"][j])} for j in range(7)]
+             "tendyn_preset_wpi_bounds_wpi_cable": f(b["wpi"][j]),
+             "tendyn_preset_wpi_solver": f(s[j])} for j in range(7)]
 
 
 if __name__ == "__main__":
@@ -246,4 +371,5 @@ if __name__ == "__main__":
     for r in rows(shared):
         print(f"{r['item']}: WPI {r['peer_value']:.3f}  preset {r['tendyn_preset']:.4f}  "
               f"default {r['tendyn_default']:.4f}  WPI's parameters {r['wpi_params_through_tendyn']:.4f}  "
-              f"preset + WPI's boxes {r['tendyn_preset_wpi_bounds']:.4f} / {r['tendyn_preset_wpi_bounds_wpi_cable']:.4f}")
+              f"preset + WPI's boxes {r['tendyn_preset_wpi_bounds']:.4f} / {r['tendyn_preset_wpi_bounds_wpi_cable']:.4f}  "
+              f"+ WPI's solver {r['tendyn_preset_wpi_solver']}")

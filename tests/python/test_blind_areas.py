@@ -79,7 +79,7 @@ def test_lure_stuck_state_breaks_away_at_the_static_dead_band():
     away beyond, at the first sample: the stuck state's net input is y*/G(1) (the static balance). Oracle: the
     dead-band |u − y/G(1)| ≤ F, from G(1) computed here from b, a. Plant seen failing: the rest state's net input
     taken as y* G(1) instead of y*/G(1) (inv_g0 inverted)."""
-    from tendyn.ident.blockmodel import _lure_simulate
+    from tendyn.ident.block_simulation import _lure_simulate
 
     b, a, F = [0.3, 0.2], [-0.9, 0.1], 0.4
     g1 = sum(b) / (1.0 + sum(a))

@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from tendyn.cli import build_parser, main
+from tendyn.commands.args import Domain
 
 SEED = int(os.environ.get("TENDYN_FUZZ_SEED", "34"))
 FAST_CASES = 160
@@ -80,6 +81,8 @@ def inside(dom) -> list[str]:
 
 
 def cases(far: int):
+    """(words, flag, value, where) of every declared domain; a file's domain (it has ``outside()``/``inside()``:
+    BoxesDomain) gives (suffix, content) pairs, written to a file by :func:`_run`."""
     rng = random.Random(SEED)
     out = []
     for words, parser in sorted(commands(build_parser()), key=lambda c: c[0]):
@@ -88,12 +91,22 @@ def cases(far: int):
             if dom is None or not action.option_strings:
                 continue
             flag = max(action.option_strings, key=len)
+            if not isinstance(dom, Domain):
+                out += [(words, flag, v, "outside") for v in dom.outside()]
+                out += [(words, flag, v, "inside") for v in dom.inside()]
+                continue
             out += [(words, flag, v, "outside") for v in outside(dom, rng, far)]
             out += [(words, flag, v, "inside") for v in inside(dom)]
     return out
 
 
 def _run(capsys, words, flag, value, where, converter):
+    if isinstance(value, tuple):                # a file's content: written in the case's folder (the cwd)
+        suffix, text = value
+        path = f"domain_case{abs(hash(value)) % 10**8}{suffix}"
+        with open(path, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        value = path
     code = main([*words, f"{flag}={value}"])
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
@@ -128,11 +141,22 @@ def _fuzz(capsys, tmp_path, monkeypatch, n_cases, far):
     with capsys.disabled():
         print(f"\ndomain fuzz: {len(picked)} of {len(every)} cases ({counts['outside']} outside, {counts['inside']} "
               f"inside), {len({(w, f) for w, f, _, _ in every})} options, seed {SEED}")
-    assert not list(tmp_path.glob("*.csv")) and not list(tmp_path.glob("*.json"))
+    written = [p for p in tmp_path.glob("*.*") if p.suffix in (".csv", ".json") and not p.name.startswith("domain_case")]
+    assert not written, written
 
 
 def test_every_declared_domain_is_fuzzed(capsys, tmp_path, monkeypatch):
     _fuzz(capsys, tmp_path, monkeypatch, FAST_CASES, far=1)
+
+
+def test_every_file_domain_is_fuzzed(capsys, tmp_path, monkeypatch):
+    """The file domains (``identify --bounds``: BoxesDomain) every case, in the fast run too (few, quick)."""
+    monkeypatch.chdir(tmp_path)
+    conv = _converters()
+    picked = [c for c in cases(far=0) if isinstance(c[2], tuple)]
+    assert {(w, f) for w, f, _, _ in picked} >= {(("identify",), "--bounds")}
+    for words, flag, value, where in picked:
+        _run(capsys, words, flag, value, where, conv[(words, flag)])
 
 
 @pytest.mark.slow
@@ -146,7 +170,7 @@ def test_the_domains_cover_the_options():
             if getattr(a.type, "domain", None) is not None and a.option_strings}
     assert len(opts) >= 60, len(opts)
     for must in [(("plan",), "--amplitude"), (("plan",), "--iterations"), (("frf",), "--segment"),
-                 (("simulate",), "--rate"), (("export",), "--timestep")]:
+                 (("simulate",), "--rate"), (("export",), "--timestep"), (("identify",), "--bounds")]:
         assert must in opts, must
 
 
@@ -206,3 +230,32 @@ def test_device_limits_just_outside_and_inside(capsys, tmp_path, monkeypatch, co
     with capsys.disabled():
         print(f"\ndevice limit {command} {kind or ''} {flag} ≤ bench.{field} = {limit:.6g}: 3 outside, 2 inside, "
               f"seed {SEED}")
+
+
+# ---- options that need a flag (args.OPTION_NEEDS): read from the table, given without and with the flag ---------
+
+def _needs_cases():
+    from tendyn.commands.args import OPTION_NEEDS
+
+    return [(c, o, f) for c, row in OPTION_NEEDS.items() for o, (f, _) in row.items()]
+
+
+@pytest.mark.parametrize("command, option, needed", _needs_cases())
+def test_option_needs_its_flag(capsys, tmp_path, monkeypatch, command, option, needed):
+    """Each OPTION_NEEDS row: the option given with a value inside its domain but without the flag → exit 2, one
+    line naming the option and the flag, before the DEVICE is read (a device that does not exist); with the flag,
+    the same line is no longer about the option (the missing device is)."""
+    monkeypatch.chdir(tmp_path)
+    action = [a for w, p in commands(build_parser()) if w == (command,) for a in p._actions if a.dest == option][0]
+    flag = max(action.option_strings, key=len)
+    value = action.type.domain.inside()[0]
+    path = tmp_path / f"v{value[0]}"
+    path.write_text(value[1], encoding="utf-8")
+    argv = {"identify": ["identify", "no_such_device", str(path)]}[command]   # a new row needs its command line here
+    code = main([*argv, flag, str(path)])
+    lines = capsys.readouterr().err.strip().splitlines()
+    need = "--" + needed.replace("_", "-")
+    assert code == 2 and len(lines) == 1 and flag in lines[0] and need in lines[0], lines
+    code = main([*argv, flag, str(path), need])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and "no_such_device" in lines[0] and flag not in lines[0], lines

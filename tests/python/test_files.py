@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from tendyn.io import files as files_mod
+from tendyn.io import log_runs as runs_mod
 from tendyn.io import logs as logs_mod
 from tendyn.io.files import all_or_none, atomic_write_bytes, atomic_write_text, save_png
 from tendyn.io.logs import (
@@ -236,8 +237,8 @@ def test_write_run_pairs_log_and_truth(tmp_path, suffix):
 
 def test_write_run_writes_the_truth_first(tmp_path, monkeypatch):
     order = []
-    real = logs_mod.atomic_write_bytes
-    monkeypatch.setattr(logs_mod, "atomic_write_bytes", lambda p, d: order.append(Path(p).name) or real(p, d))
+    real = runs_mod.atomic_write_bytes
+    monkeypatch.setattr(runs_mod, "atomic_write_bytes", lambda p, d: order.append(Path(p).name) or real(p, d))
     write_run(small_log(), {"k": 1}, tmp_path / "run.csv")
     assert order == ["run.truth.json", "run.csv"]
 
@@ -251,14 +252,15 @@ def test_interrupted_run_is_detected(tmp_path, suffix):
     old_log = read_log(path)
     child = Child(f"""
         import numpy as np
+        import tendyn.io.log_runs as R
         import tendyn.io.logs as L
-        real, calls = L.atomic_write_bytes, []
+        real, calls = R.atomic_write_bytes, []
         def hold_second(p, data):
             calls.append(p)
             if len(calls) == 2:
                 HOLD()
             return real(p, data)
-        L.atomic_write_bytes = hold_second
+        R.atomic_write_bytes = hold_second
         t = np.arange(9) * 1e-3
         log = L.make_log({{"time": t, "q_motor_1": t}}, device="lexos", rate_hz=1000.0, seed=2, experiment="static")
         L.write_run(log, {{"k": 2.0}}, {str(path)!r})
@@ -281,14 +283,14 @@ def test_interrupted_run_is_detected(tmp_path, suffix):
 def test_failed_log_write_after_truth_is_detected(tmp_path, monkeypatch, suffix):
     path = tmp_path / f"run{suffix}"
     write_run(small_log(5), {"k": 1.0}, path)
-    real = logs_mod.atomic_write_bytes
+    real = runs_mod.atomic_write_bytes
 
     def disk_full_on_log(p, data):
         if Path(p) == path:
             raise OSError(28, "No space left on device (simulated)")
         return real(p, data)
 
-    monkeypatch.setattr(logs_mod, "atomic_write_bytes", disk_full_on_log)
+    monkeypatch.setattr(runs_mod, "atomic_write_bytes", disk_full_on_log)
     with pytest.raises(OSError, match="simulated"):
         write_run(small_log(9), {"k": 2.0}, path)
     monkeypatch.undo()

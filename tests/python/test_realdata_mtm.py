@@ -8,7 +8,9 @@
   parameters (params.json) through tendyn's model, `wpi` treatment and metric within 5 % of WPI's per-joint errors
   (measured within 3.2 %: the treatment, model and metric are WPI's; plants: the frames' rotations left out or
   transposed, 33-9 700 % off, -m slow); the `wpi` preset's own fit within 5 % (not reached: xfail, strict, with
-  the measured numbers — WPI's published point is an unconverged SCS iterate outside WPI's own boxes).
+  the measured numbers — WPI's published point is an unconverged SCS iterate outside WPI's own boxes); WPI's own
+  problem shape (test_wpi_sdp_is_wpi_problem_shape) and, with WPI's solver built (`make scs126`) and `-m slow`,
+  the preset with WPI's boxes, form and SCS 1.2.6 within 5 % (test_wpi_preset_with_wpi_solver_within_5_percent).
 Two real fits (6000 samples, consistent SDP) take about 7 s together, once per module: the reason this module
 is over 5 s.
 """
@@ -186,6 +188,44 @@ def test_wpi_preset_within_5_percent(mtm_errors):
     assert np.all(np.abs(e / w - 1) <= 0.05), f"preset {np.round(e, 4)} vs WPI {w}"
 
 
+SCS126 = REPO / "build" / "scs126" / "venv" / "bin" / "python"
+
+
+@needs_data
+def test_wpi_sdp_is_wpi_problem_shape():
+    """The SDP tendyn builds for WPI's problem (the wpi preset on `one`, WPI's 63 boxes, WPI's form) has the shape
+    of WPI's as SCS logged it (cell 95): the same 39 195-entry second-order cone (39 193 weighted rows + 2: the
+    rows of the treatment are WPI's), the same 9 PSD blocks of 4 × 4; 118 variables where WPI has 123 (5 friction
+    parameters fewer: frames with one velocity share theirs in tendyn, 2 Fc/Fv, 3 offsets) and one linear row per
+    bound side, 125 (WPI 136, 10 of them on those 5 parameters)."""
+    mtm = _bench("mtm")
+    size = mtm.wpi_sdp_shape(SHARED)
+    w = mtm.WPI_SOLVER_INFO
+    assert size["soc"] == [w["soc"]] and size["psd"] == [4] * w["psd_blocks"], size
+    assert size["variables"] == w["variables"] - 5 and size["boxes"] == 63, size
+    assert size["linear"] == 2 * 63 - 1 and size["zero"] == 0, size
+    assert size["constraints"] == size["linear"] + w["soc"] + w["psd_vars"], size
+
+
+@needs_data
+@pytest.mark.slow
+@pytest.mark.skipif(not SCS126.is_file(), reason="WPI's solver is not built: `make scs126` (SCS 1.2.6 in "
+                    "build/scs126, benchmarks/realdata/build_scs126.sh)")
+def test_wpi_preset_with_wpi_solver_within_5_percent(request):
+    """The wpi preset with WPI's boxes, WPI's form and WPI's solver (SCS 1.2.6: CG, eps 1e-3, alpha 1.5, 10 000
+    iterations) reproduces WPI's run: SCS's final primal residual within 2 % of WPI's logged 4.898e-2 and WPI's
+    per-joint errors within 5 % each (the issue's target, which the converged fits miss: see
+    test_wpi_preset_within_5_percent). 10 000 SCS iterations with CG on 39 410 rows: 872 s to 24 min on a shared
+    core, so it runs only when asked (`pytest -m slow`), like the long fuzz."""
+    if "slow" not in (request.config.getoption("markexpr") or ""):
+        pytest.skip("WPI's solver runs 10 000 iterations (15-25 min): run with -m slow")
+    mtm = _bench("mtm")
+    r = mtm.wpi_solver_errors(SHARED, SCS126)
+    w = np.array(mtm.WPI_ERRORS)
+    assert r["scs"]["iter"] == 10000 and abs(r["scs"]["res_pri"] / mtm.WPI_SOLVER_INFO["residual"] - 1) < 0.02, r["scs"]
+    assert np.all(np.abs(r["errors"] / w - 1) <= 0.05), f"WPI's solver {np.round(r['errors'], 4)} vs WPI {w}"
+
+
 @needs_data
 def test_wpi_preset_close_to_wpi(mtm_errors):
     """What the preset reaches today: within 10 % on every joint (a wrong cut-off unit fails it)."""
@@ -199,7 +239,7 @@ def test_rows_contract(mtm_errors):
     assert len(rows) == 7
     assert set(rows[0]) == {"dataset", "peer", "metric", "item", "peer_value", "tendyn_preset", "tendyn_default",
                             "unit", "wpi_params_through_tendyn", "tendyn_preset_wpi_bounds",
-                            "tendyn_preset_wpi_bounds_wpi_cable"}
+                            "tendyn_preset_wpi_bounds_wpi_cable", "tendyn_preset_wpi_solver"}
     assert rows[0]["metric"] == "relative error on two"
 
 

@@ -168,6 +168,114 @@ def treatment_option(parser) -> None:
                              + " (default tendyn; given --cutoff-hz, --decimate, --velocity-threshold win)")
 
 
+@dataclass(frozen=True)
+class Boxes:
+    """A parsed ``--bounds`` file: ``bounds`` {name: (lower, upper)} (None: no bound on that side), ``units``
+    {name: unit} where the file states one, ``path`` the file."""
+
+    path: Path
+    bounds: dict
+    units: dict
+
+
+@dataclass(frozen=True)
+class BoxesDomain:
+    """The declared domain of a file of per-parameter boxes (``identify --bounds``): a TOML or JSON table
+    ``NAME = [lower, upper]`` or ``NAME = {lower = .., upper = .., unit = ".."}`` (one side may be left out), with
+    finite numbers, lower ≤ upper, at most ``max_entries`` names and ``max_bytes`` bytes. Names are a device's
+    standard parameters (``M2``, ``FV1``, ``IAm6``, a term's name) or ``CX<j>``/``CY<j>``/``CZ<j>``, link j's centre
+    of mass [m]; each in its parameter's unit (kg, kg·m, kg·m², N·m, N·m·s/rad, N/m, m), a stated ``unit`` must be
+    it. Which names exist is checked against the DEVICE (:func:`tendyn.ident.consistent.check_bounds`)."""
+
+    suffixes: tuple = (".toml", ".json")
+    max_entries: int = 10000
+    max_bytes: int = 1_000_000
+
+    def text(self) -> str:
+        return (f"a {' or '.join(self.suffixes)} table NAME = [lower, upper] or {{lower, upper, unit}}: finite, "
+                f"lower ≤ upper, ≤ {self.max_entries} names")
+
+    def parse(self, text: str) -> Boxes:
+        """The boxes of the file at ``text``; argparse.ArgumentTypeError (one line) otherwise."""
+        import json
+        import re
+        import tomllib
+
+        bad = argparse.ArgumentTypeError
+        p = Path(text)
+        if p.suffix.lower() not in self.suffixes:
+            raise bad(f"must end in {' or '.join(self.suffixes)} (got {text!r})")
+        if not p.is_file():
+            raise bad(f"{text}: file not found" if not p.exists() else f"{text}: not a regular file")
+        if p.stat().st_size > self.max_bytes:
+            raise bad(f"{text}: larger than {self.max_bytes} bytes")
+
+        def no_constant(c):
+            raise ValueError(f"{c} is not a finite number")
+        try:
+            raw = p.read_text(encoding="utf-8")
+            doc = json.loads(raw, parse_constant=no_constant) if p.suffix.lower() == ".json" else tomllib.loads(raw)
+        except (ValueError, UnicodeDecodeError, RecursionError) as exc:
+            raise bad(f"{text}: not {p.suffix.lower()[1:].upper()} ({str(exc).splitlines()[0][:200]})") from None
+        if not isinstance(doc, dict) or not doc:
+            raise bad(f"{text}: must be a non-empty table of NAME = [lower, upper]")
+        if len(doc) > self.max_entries:
+            raise bad(f"{text}: {len(doc)} names, more than {self.max_entries}")
+
+        def num(name, side, v):
+            if v is None:
+                return None
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise bad(f"{text}: {name} {side} must be a finite number (got {v!r:.40})")
+            return float(v)
+        bounds, units = {}, {}
+        for name, v in doc.items():
+            if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,63}", name):
+                raise bad(f"{text}: {name[:40]!r} is not a parameter name")
+            if isinstance(v, list):
+                if len(v) != 2:
+                    raise bad(f"{text}: {name} must be [lower, upper] (got {len(v)} values)")
+                lo, hi = num(name, "lower", v[0]), num(name, "upper", v[1])
+            elif isinstance(v, dict):
+                extra = set(v) - {"lower", "upper", "unit"}
+                if extra or not ({"lower", "upper"} & set(v)):
+                    raise bad(f"{text}: {name} takes lower, upper (one at least) and unit (got "
+                              f"{', '.join(sorted(map(str, v))) or 'nothing'})")
+                lo, hi = num(name, "lower", v.get("lower")), num(name, "upper", v.get("upper"))
+                if "unit" in v:
+                    if not isinstance(v["unit"], str):
+                        raise bad(f"{text}: {name} unit must be a string")
+                    units[name] = v["unit"]
+            else:
+                raise bad(f"{text}: {name} must be [lower, upper] or {{lower, upper, unit}}")
+            if lo is not None and hi is not None and lo > hi:
+                raise bad(f"{text}: {name} lower {lo!r} > upper {hi!r}")
+            bounds[name] = (lo, hi)
+        return Boxes(p, bounds, units)
+
+    def outside(self) -> list[tuple[str, str]]:
+        """(suffix, content) of files just outside the domain (the fuzz writes and gives them)."""
+        return [(".toml", "M1 = [2.0, 1.0]\n"), (".toml", "M1 = [0.0, inf]\n"), (".toml", "M1 = [0.0, nan]\n"),
+                (".json", '{"M1": [0, Infinity]}'), (".json", '{"M1": [1, 2, 3]}'), (".toml", "M1 = [0, 1]\n[[[\n"),
+                (".toml", ""), (".json", "[]"), (".toml", 'M1 = {lower = 0, above = 1}\n'), (".csv", "M1,0,1\n"),
+                (".toml", 'M1 = ["0", 1]\n'), (".toml", "M1 = [true, 1]\n"),
+                (".json", '{"M1": ' * 50_000 + "1" + "}" * 50_000)]
+
+    def inside(self) -> list[tuple[str, str]]:
+        """(suffix, content) of files the domain accepts."""
+        return [(".toml", "M1 = [0.5, 2.0]\n"), (".toml", "M1 = [1.0, 1.0]\n"),
+                (".toml", 'FV1 = {upper = 0.1, unit = "N·m·s/rad"}\nCX2 = [-0.1, 0.1]\n'),
+                (".json", '{"M1": [0.5, 2.0], "IAm1": {"lower": 0.001}}')]
+
+
+def boxes_file(text: str) -> Boxes:
+    """``--bounds FILE``: per-parameter boxes, checked as by :class:`BoxesDomain`."""
+    return boxes_file.domain.parse(text)
+
+
+boxes_file.domain = BoxesDomain()
+
+
 # ---- kinds an option applies to, and relations between options and the data ---------------------------------
 # One table per command, read by the commands (check_applies, check_signals) and by the fuzz
 # (tests/python/test_cli_domain_fuzz.py). Add a row here, not a check in a command.
@@ -213,6 +321,23 @@ def check_applies(args) -> None:
     for dest, kinds in table.items():
         if kind not in kinds and getattr(args, dest, None) != defaults[dest]:
             raise UsageError(f"means nothing for `{command} {kind}` (it applies to {', '.join(kinds)})", dest)
+
+
+OPTION_NEEDS: dict[str, dict[str, tuple[str, str]]] = {
+    "identify": {"bounds": ("consistent", "the boxes constrain the physically consistent fit")},
+}
+"""command → {option: (the flag it needs, why)}: ``identify --bounds`` without ``--consistent`` is refused (the
+plain least squares has no constraints to add boxes to). Checked by :func:`check_needs` before any work; the fuzz
+(tests/python/test_cli_domain_fuzz.py) reads this table."""
+
+
+def check_needs(command: str, args) -> None:
+    """Refuse an option of :data:`OPTION_NEEDS` given without the flag it needs (before any work)."""
+    from tendyn.errors import UsageError
+
+    for dest, (flag, why) in OPTION_NEEDS.get(command, {}).items():
+        if getattr(args, dest, None) is not None and not getattr(args, flag, False):
+            raise UsageError(f"needs --{flag.replace('_', '-')} ({why})", dest)
 
 
 @dataclass(frozen=True)

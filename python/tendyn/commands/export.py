@@ -84,8 +84,9 @@ def run_export(args) -> int:
                          "out")
     if args.kind in ("mjcf", "ros2-control"):
         return _export_other(args)
+    from tendyn.commands.shared import calibrated
     from tendyn.control import Compensator
-    from tendyn.ident.calibrated import CalibrationError, calibrate
+    from tendyn.ident.calibrated import CalibrationError
 
     dev = cable_device(args.device, "to export", drives=True)
     if args.kind == "compensator":        # before any file is read: the name must fit the .comp's device line
@@ -100,11 +101,12 @@ def run_export(args) -> int:
                          "nominal losses", "friction")
     if args.shares is not None and args.friction is None:
         raise UsageError("shares split identified friction: give --friction too", "shares")
-    try:            # the device file with the identified friction laid over it: one loss model, read once
-        cal = calibrate(dev, args.friction, shares=args.shares)
+    # the device file with the identified friction laid over it: one loss model, read once
+    cal = calibrated(dev, args.friction, shares=args.shares)
+    try:
+        losses = cal.loss_model()        # a differential's motor-side friction: refused, not mis-decomposed
     except CalibrationError as exc:
         raise UsageError(str(exc)) from None
-    losses = cal.losses
     if args.kind == "compensator":
         comp = Compensator.from_device(cal, underestimation=args.k,
                                        velocity_band=args.velocity_band, velocity_cutoff_hz=args.velocity_cutoff,

@@ -6,7 +6,8 @@ import json
 import sys
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number, out_path, refuse_other_device, treatment_option
+from tendyn.commands.args import (boxes_file, check_needs, existing_file, number, out_path, refuse_other_device,
+                                  treatment_option)
 from tendyn.commands.history import add_record_arguments, check_record, record_result
 from tendyn.errors import UsageError
 
@@ -40,6 +41,10 @@ def register(subparsers) -> None:
     p.add_argument("--consistent", action="store_true",
                    help="physically consistent (pseudo-inertia LMIs) always [default: only when the plain least "
                         "squares is not physical, with a warning saying so]")
+    p.add_argument("--bounds", type=boxes_file, default=None, metavar="FILE.toml|FILE.json",
+                   help="with --consistent: per-parameter boxes the fit respects, NAME = [lower, upper] in the "
+                        "parameter's unit (standard names: M2, FV1, IAm6, a term's name; CX2/CY2/CZ2: link 2's "
+                        "centre of mass [m]); docs/cli.md")
     p.add_argument("--plain", action="store_true",
                    help="the plain least squares even when it is not physical (its warnings say so)")
     p.add_argument("--cutoff-hz", type=number(0.0, None, lo_open=True, unit="Hz"), default=None,
@@ -102,6 +107,7 @@ def cmd_identify(args) -> int:
     from tendyn.ident import IDIM
     from tendyn.io import atomic_write_text, read_log
 
+    check_needs("identify", args)
     dev = _device(args.device)
     if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a {dev.kind}: identification needs a rigid serial device", "device")
@@ -153,6 +159,14 @@ def cmd_identify(args) -> int:
             model.joint_signals(log)
         except LogError as exc:
             raise LogError(exc.problem, file=path.name, column=exc.column) from None
+    bounds = None
+    if args.bounds is not None:                 # the names and units against the device, before the fit
+        from tendyn.ident.consistent import check_bounds
+
+        try:
+            bounds = check_bounds(model, args.bounds.bounds, args.bounds.units)
+        except ValueError as exc:
+            raise UsageError(f"{args.bounds.path}: {str(exc).removeprefix('bounds: ')}", "bounds") from None
     rate = logs[0].meta["rate_hz"]
     if args.cutoff_hz is not None and args.cutoff_hz >= rate / 2:
         raise UsageError(f"must be below half the log rate {rate / 2:g} Hz (got {args.cutoff_hz:g})", "cutoff_hz")
@@ -163,8 +177,9 @@ def cmd_identify(args) -> int:
                scheduler=_scheduler(args.scheduler, len(logs)), progress=not args.quiet,
                parameters=_parameters(args.parameters, model), velocities=args.velocities or "auto",
                treatment=args.treatment, controller=controller, output=args.output, jacobian=args.jacobian,
-               max_iter=args.max_iter, tol=args.tol)
+               max_iter=args.max_iter, tol=args.tol, bounds=bounds)
     from tendyn.ident.closed_loop import ClosedLoopError
+    from tendyn.ident.consistent import BoundsInfeasible
 
     try:
         est.fit(logs if len(logs) > 1 else logs[0])
@@ -172,12 +187,16 @@ def cmd_identify(args) -> int:
         raise UsageError(str(exc), "scheduler") from None
     except ClosedLoopError as exc:
         raise UsageError(str(exc), "method") from None
+    except BoundsInfeasible as exc:
+        raise UsageError(f"{args.bounds.path}: {exc}", "bounds") from None
     except ValueError as exc:
         if type(exc).__name__ in ("LogError",):
             raise
         raise UsageError(str(exc)) from None
     res = est.result_
     doc = _document(res, dev, args.logs)
+    if bounds:
+        doc["bounds"] = _bounds_document(args.bounds.path, bounds, est.standard_params_)
     record_result(args, dev, "identify", doc, source=", ".join(doc["logs"]))
     if args.out:
         atomic_write_text(args.out, json.dumps(doc, indent=2) + "\n")
@@ -189,7 +208,32 @@ def cmd_identify(args) -> int:
     else:
         print(res.table())
     print(res.treatment.describe() if res.treatment else "", file=sys.stderr)
+    if bounds:
+        b = doc["bounds"]
+        print(f"bounds: {len(b['boxes'])} boxes from {b['file']}, {len(b['active'])} at a bound"
+              + (f" ({', '.join(b['active'][:12])}{', …' if len(b['active']) > 12 else ''})" if b["active"] else ""),
+              file=sys.stderr)
     return 0
+
+
+def _bounds_document(path, bounds, standard) -> dict:
+    """The boxes of ``--bounds`` as the parameters file records them, the estimate's value of each boxed quantity
+    (standard parameter, or centre of mass MX_j / M_j [m]) and which boxes it sits on (within 1e-5 of the box's
+    width, or of the bound's magnitude for a one-sided box)."""
+    active, values = [], {}
+    for name, (lo, hi) in bounds.items():
+        com = name not in standard
+        v = standard[f"M{name[1]}{name[2:]}"] / standard[f"M{name[2:]}"] if com and standard.get(
+            f"M{name[2:]}") else standard.get(name)
+        if v is None:
+            continue
+        values[name] = float(v)
+        scale = 1e-5 * max(abs(hi - lo) if lo is not None and hi is not None else 0.0, abs(lo or 0.0), abs(hi or 0.0),
+                           1e-12)
+        if (lo is not None and v <= lo + scale) or (hi is not None and v >= hi - scale):
+            active.append(name)
+    return {"file": str(path), "boxes": {n: [lo, hi] for n, (lo, hi) in bounds.items()}, "values": values,
+            "active": active}
 
 
 def _write_report(args, dev, res, doc) -> None:

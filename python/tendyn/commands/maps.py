@@ -42,7 +42,7 @@ def register(subparsers) -> None:
 def run(args) -> int:
     from tendyn.analysis.operational import (DEFAULT_HALF_WIDTH, DEFAULT_POINTS, OperationalModel, ParamsError,
                                              operational_maps)
-    from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load
+    from tendyn.commands.shared import calibrated, check_out_folder as _check_out_folder, load as _load
     from tendyn.report import publish
 
     dev = _load(args.device)
@@ -65,8 +65,11 @@ def run(args) -> int:
         raise UsageError(f"needs one value per drive of {dev.name}: {len(dev.drives)} values (got "
                          f"{len(args.stiffness)})", "stiffness")
     out = _check_out_folder(args.report, "report") if args.report else None
+    # the device with its identified values: PARAMS.json read once (device and file version checked unless
+    # --force), the capstan stiffness laid over the file's per drive
+    cal = calibrated(dev, params=args.params, stiffness=args.stiffness, force=args.force)
     try:
-        model = OperationalModel(dev, str(args.params), stiffness_motor=args.stiffness, force=args.force)
+        model = OperationalModel(cal.compiled, cal.params, force=args.force)
         refuse_impossible_inertia(model.mass_matrix, model.handle, args.params)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(args.params), exc.field) if p)
@@ -77,6 +80,7 @@ def run(args) -> int:
                             points=points, progress=Ticker("maps"))
     doc = maps.to_dict()
     doc["params_file"] = str(args.params)
+    doc["sources"] = dict(cal.sources)
     return publish(args, doc, maps.table(), maps.figures, out, "maps.json", "maps.txt", command="maps", device=dev,
                    logs=[p for p in (args.params, args.friction) if p is not None],
                    title=f"Maps of {dev.name} at the handle")
@@ -85,7 +89,7 @@ def run(args) -> int:
 def _run_handle(args, dev) -> int:
     """Cable transmissions or geared actuators: the maps of :mod:`tendyn.analysis.handle_maps`."""
     from tendyn.analysis.handle_maps import handle_maps
-    from tendyn.commands.shared import check_out_folder as _check_out_folder
+    from tendyn.commands.shared import calibrated, check_out_folder as _check_out_folder
     from tendyn.report import publish
 
     for opt in ("stiffness", "half_width"):
@@ -93,20 +97,20 @@ def _run_handle(args, dev) -> int:
             raise UsageError(f"applies to capstan drives only; {dev.name} has "
                              f"{'cable transmissions' if dev.transmissions else 'geared actuators'}", opt)
     out = _check_out_folder(args.report, "report") if args.report else None
+    if args.friction is not None and not dev.transmissions:
+        raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
+    # the device with its identified values, each document read once; on a differential FRICTION.json holds the
+    # motors' values, which the maps take as they are (no per-branch split needed)
+    cal = calibrated(dev, friction=args.friction, params=args.params, force=args.force, physical=True)
     kw, sources = {}, {}
     if args.friction is not None:
-        from tendyn.ident.friction_file import FrictionFileError, read_friction
-
-        if not dev.transmissions:
-            raise UsageError(f"FRICTION.json gives friction per cable transmission; {dev.name} has none", "friction")
-        try:
-            doc = read_friction(args.friction, device=dev, physical=True, force=args.force)
-        except FrictionFileError as exc:
-            raise UsageError(str(exc)) from None
-        kw.update(coulomb_motor=doc["coulomb_motor"], viscous_motor=doc["viscous_motor"])
-        sources["friction"] = f"identified: {args.friction} ({doc['format']})"
+        if cal.friction is None:
+            raise UsageError(f"{args.friction}: the maps take identify-friction's FRICTION.json (tendyn.friction/1)",
+                             "friction")
+        kw.update(coulomb_motor=cal.friction["coulomb_motor"], viscous_motor=cal.friction["viscous_motor"])
+        sources["friction"] = f"identified: {args.friction} ({cal.friction['format']})"
     if args.params is not None:
-        kw["mass_matrix"] = _identified_mass_matrix(dev, args.params, args.force)
+        kw["mass_matrix"] = _identified_mass_matrix(cal, args.params)
         sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
     try:
         from tendyn.progress import Ticker
@@ -122,16 +126,18 @@ def _run_handle(args, dev) -> int:
                    title=f"Maps of {dev.name} at the handle")
 
 
-def _identified_mass_matrix(dev, path, force=False):
-    """q ↦ A(q) [kg·m²] from the base parameters of PARAMS.json, through the identification model's regressor."""
+def _identified_mass_matrix(cal, path):
+    """q ↦ A(q) [kg·m²] from the base parameters of the calibrated device (PARAMS.json at ``path``, read once),
+    through the identification model's regressor."""
     from tendyn.analysis.handle_point import HandlePoint
     from tendyn.analysis.operational import ParamsError, read_params
-    from tendyn.device import compile_device
     from tendyn.ident import IdentModel
 
+    dev = cal.device
     model = IdentModel(dev)
     try:
-        params = read_params(str(path), dev, force, standard_names=model.standard_names, base_names=model.base.names)
+        params = read_params(cal.params, dev, cal.force, standard_names=model.standard_names,
+                             base_names=model.base.names)
     except ParamsError as exc:
         where = ": ".join(p for p in (exc.file or str(path), exc.field) if p)
         raise UsageError(f"{where}: {exc.problem}") from None
@@ -139,7 +145,7 @@ def _identified_mass_matrix(dev, path, force=False):
         x = model.parameter_vector(params)
     except ValueError as exc:
         raise UsageError(f"{path}: {exc}") from None
-    refuse_impossible_inertia(lambda q: model.mass_matrix(q, x), HandlePoint(compile_device(dev)), path)
+    refuse_impossible_inertia(lambda q: model.mass_matrix(q, x), HandlePoint(cal.compiled), path)
     return lambda q: model.mass_matrix(q, x)
 
 

@@ -272,49 +272,35 @@ def add_decompose_arguments(subparsers) -> argparse.ArgumentParser:
 
 
 def run_decompose(args) -> int:
-    from tendyn.ident.decomposition import SharesError, decompose, read_shares
-    from tendyn.ident.friction_file import FrictionFileError, read_friction
+    from tendyn.commands.shared import calibrated
+    from tendyn.ident.decomposition import decompose_friction
 
     dev = cable_device(args.device, "to decompose friction into", drives=True)
-    if not dev.n_transmissions:
-        return _decompose_drives(dev, args)
-    _separable(dev, "the loss decomposition")
-    try:
-        doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
-        p = pp = None
-        if args.shares is not None:
-            p, pp = read_shares(args.shares, dev)
-    except (FrictionFileError, SharesError) as exc:
-        raise UsageError(str(exc)) from None
-    dec = decompose(dev, doc["coulomb_motor"], doc["viscous_motor"], p, pp, doc.get("load_coefficient"))
+    if not dev.n_transmissions and args.shares is not None:
+        raise UsageError(f"{dev.name} has capstan drives: one cable stretch each, no branches to share", "shares")
+    if dev.n_transmissions:
+        _separable(dev, "the loss decomposition")
+    cal = calibrated(dev, args.friction, shares=args.shares, force=getattr(args, "force", False), physical=True)
+    if cal.friction is None:
+        raise UsageError(f"{args.friction}: format: decompose splits identify-friction's FRICTION.json "
+                         "(tendyn.friction/1)")
+    out = decompose_friction(cal)
     if args.json:
-        _print_json(dec.to_dict())
+        _print_json(out if isinstance(out, dict) else out.to_dict())
+    elif isinstance(out, dict):
+        _print_drives(out)
     else:
-        print(dec.table())
+        print(out.table())
     return 0
 
 
-def _decompose_drives(dev, args) -> int:
-    from tendyn.ident.decomposition import drive_split
-    from tendyn.ident.friction_file import FrictionFileError, read_friction
-
-    if args.shares is not None:
-        raise UsageError(f"{dev.name} has capstan drives: one cable stretch each, no branches to share", "shares")
-    try:
-        doc = read_friction(args.friction, device=dev, physical=True, force=getattr(args, "force", False))
-    except FrictionFileError as exc:
-        raise UsageError(str(exc)) from None
-    out = drive_split(dev, doc)
-    if args.json:
-        _print_json(out)
-        return 0
-    print(f"{dev.name}: {out['note']}")
+def _print_drives(out) -> None:
+    print(f"{out['device']}: {out['note']}")
     print(f"{'drive':<7}{'joint':>6}{'N':>8}{'C_m0 [N·m]':>13}{'ν [N·m·s/rad]':>15}{'N·C_m0 [N·m]':>14}"
           f"{'N²ν [N·m·s/rad]':>17}")
     for r in out["drives"]:
         print(f"{r['name']:<7}{r['joint']:>6}{r['ratio']:>8.3g}{r['coulomb_motor']:>13.4g}{r['viscous_motor']:>15.4g}"
               f"{r['coulomb_joint']:>14.4g}{r['viscous_joint']:>17.4g}")
-    return 0
 
 
 def register(subparsers) -> None:

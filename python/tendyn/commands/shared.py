@@ -49,3 +49,20 @@ def check_out_folder(text: str, option: str = "out") -> Path:
     if problem:
         raise UsageError(f"cannot write into {parent} (permission denied)", option)
     return out
+
+
+def calibrated(device, friction=None, params=None, stiffness=None, shares=None, force: bool | None = None,
+               physical: bool = False):
+    """The one place a command calibrates a device (:func:`tendyn.ident.calibrated.calibrate`): the device file
+    (or a loaded device) with FRICTION.json, PARAMS.json, a capstan stiffness [N·m/rad] per drive and loss shares
+    laid over it, each document read once; a document that cannot calibrate it is refused in one line (exit 2).
+    ``force``: the command's ``--force`` (True takes another device's documents; False: refusals name the option;
+    None: a command without it); ``physical``: FRICTION.json checked as a reader of its motor-side values
+    (``decompose``, ``maps``)."""
+    from tendyn.ident.calibrated import CalibrationError, calibrate
+
+    dev = load(device) if isinstance(device, str) else device
+    try:
+        return calibrate(dev, friction, params, stiffness, shares, force=force, physical=physical)
+    except CalibrationError as exc:
+        raise UsageError(str(exc)) from None

@@ -41,8 +41,7 @@ def metrics(results) -> dict:
 
 def cmd_validate(args) -> int:
     from tendyn.io.params import ParamsError
-    from tendyn.commands.shared import check_out_folder as _check_out_folder, load as _load
-    from tendyn.ident.identified import IdentifiedModel
+    from tendyn.commands.shared import calibrated, check_out_folder as _check_out_folder, load as _load
     from tendyn.io import read_log
     from tendyn.io.logs import LogError
 
@@ -51,8 +50,11 @@ def cmd_validate(args) -> int:
     if dev.kind != "serial":
         raise UsageError(f"{dev.name} is a {dev.kind}: validation needs a rigid serial device", "device")
     out = _check_out_folder(args.report) if args.report else None
+    # the device with its identified parameters: PARAMS.json read once (device and file version checked unless
+    # --force), the model built from that document
+    cal = calibrated(dev, params=args.params, force=args.force)
     try:
-        model = IdentifiedModel.load(args.params, device=dev, force=args.force)
+        model = cal.identified_model()
     except ParamsError as exc:
         raise UsageError(str(exc)) from None
     from tendyn.commands.args import refuse_other_device

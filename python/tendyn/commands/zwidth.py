@@ -1,4 +1,4 @@
-"""`tendyn zwidth DEVICE [--compensator X.comp] [--stiffness LO:HI:N] [--damping LO:HI:N] [--modes M,…]
+"""`tendyn zwidth DEVICE [--compensator X.comp | --friction FRICTION.json [--shares SHARES.json]] [--stiffness LO:HI:N] [--damping LO:HI:N] [--modes M,…]
 [--scheduler ADDRESS] [--out TABLE.parquet] [--json]`: the Z-width of the rendered wall on the twin, on Dask
 (:mod:`tendyn.pipelines.zwidth`)."""
 
@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tendyn.commands.args import number, out_path
+from tendyn.commands.args import existing_file, number, out_path
 from tendyn.errors import UsageError
 
 
@@ -17,6 +17,13 @@ def register(subparsers) -> None:
     p.add_argument("device", help="device file or bundled twin (a serial device with cable transmissions or capstan drives)")
     p.add_argument("--compensator", default=None, metavar="X.comp",
                    help="compensator model file [default: the device's own, k = 0.9]")
+    p.add_argument("--friction", type=existing_file, default=None, metavar="FRICTION.json",
+                   help="identified friction (identify-friction's FRICTION.json or decompose --json): the compensator "
+                        "of every mode uses it instead of the device file's losses (the twin keeps the file's); not "
+                        "with --compensator")
+    p.add_argument("--shares", type=existing_file, default=None, metavar="SHARES.json",
+                   help="loss shares p, p' per branch (tendyn.shares/1) for splitting --friction [default: from the "
+                        "construction]")
     k, b = DEFAULT_STIFFNESS, DEFAULT_DAMPING
     p.add_argument("--stiffness", default=f"{k[0]:g}:{k[1]:g}:{k[2]}", metavar="LO:HI:N",
                    help=f"wall stiffness grid K [N/m], log-spaced over a decade or more [default: {k[0]:g}:{k[1]:g}:{k[2]}]")
@@ -58,12 +65,18 @@ def _grid(text: str, option: str, lo_min: float):
 
 def run(args) -> int:
     from tendyn import _core
-    from tendyn.commands.shared import load as _load, print_json as _print_json
+    from tendyn.commands.shared import calibrated, load as _load, print_json as _print_json
+    from tendyn.ident.calibrated import CalibrationError
     from tendyn.pipelines.zwidth import MODES, run_zwidth
 
     dev = _load(args.device)
     if dev.kind != "serial" or not (getattr(dev, "transmissions", None) or getattr(dev, "drives", None)):
         raise UsageError(f"{dev.name} is not a serial device with cable transmissions or capstan drives", "device")
+    if args.friction is not None and args.compensator is not None:
+        raise UsageError("a compensator model file carries its own friction: give --friction or --compensator, "
+                         "not both", "friction")
+    if args.shares is not None and args.friction is None:
+        raise UsageError("shares split identified friction: give --friction too", "shares")
     stiffness = _grid(args.stiffness, "stiffness", 0.0)
     damping = _grid(args.damping, "damping", 0.0)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
@@ -80,6 +93,12 @@ def run(args) -> int:
                              "compensator") from None
         except ValueError as exc:
             raise UsageError(str(exc), "compensator") from None
+    # the device with its identified friction laid over it, FRICTION.json read once (file's losses without it)
+    cal = calibrated(dev, args.friction, shares=args.shares)
+    try:
+        cal.loss_model()            # a differential's motor-side friction: refused, not mis-decomposed
+    except CalibrationError as exc:
+        raise UsageError(str(exc), "friction") from None
     out = Path(args.out) if args.out else None     # suffix, folder and writable checked by out_path
     from tendyn.pipelines.sweep import MAX_DESIGNS
 
@@ -104,7 +123,7 @@ def run(args) -> int:
                   "at their peak torques): the wall cannot hold it and every point may come out unstable",
                   file=sys.stderr)
     try:
-        res = run_zwidth(dev, stiffness=stiffness, damping=damping, modes=modes, compensator_text=text,
+        res = run_zwidth(cal, stiffness=stiffness, damping=damping, modes=modes, compensator_text=text,
                          scheduler=scheduler, n_workers=args.workers, progress=not args.quiet, push=push,
                          horizon=args.horizon, tolerance=args.tolerance)
     except ConnectionError as exc:

@@ -249,3 +249,23 @@ def drive_split(dev, doc) -> dict:
                      "file_viscous_motor": d.viscous_motor})
     return {"format": "tendyn.decomposition/1", "device": dev.name, "kind": "drives",
             "note": "capstan drives: one cable stretch per drive, nothing to split", "drives": rows}
+
+
+def decompose_friction(calibrated):
+    """The decomposition of a calibrated device's identified friction (``tendyn decompose``), the document read
+    once by :func:`tendyn.ident.calibrated.calibrate` with its shares: cable transmissions, the per-branch
+    :class:`LossDecomposition` its loss model was built from (S0 eqs. 18–21, corrected: ERRATA; c_L carried);
+    capstan drives, :func:`drive_split` of the motor-side values (one cable stretch each, nothing to split).
+
+    Raises
+    ------
+    ValueError
+        a device calibrated without FRICTION.json (``tendyn.friction/1``);
+        :class:`tendyn.ident.calibrated.CalibrationError` for a routing S0 cannot separate (a differential).
+    """
+    if calibrated.friction is None:
+        raise ValueError(f"{calibrated.name}: no identified friction (FRICTION.json, tendyn.friction/1) to decompose")
+    dev = calibrated.device
+    if not dev.transmissions:
+        return drive_split(dev, calibrated.friction)
+    return calibrated.loss_model().decomposition

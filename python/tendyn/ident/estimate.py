@@ -295,6 +295,10 @@ class IDIM:
         With ``consistent=True``: box constraints {name: (lower, upper)} on standard parameters (their units) and
         centres of mass ``CX<j>``/``CY<j>``/``CZ<j>`` [m] (:func:`tendyn.ident.consistent.check_bounds`), e.g. a
         peer's hand-chosen boxes; None: the LMIs and non-negative friction and rotor inertias only.
+    sdp : dict or None
+        With ``consistent=True``: how the consistent problem is posed and solved, the keywords ``form``, ``fixed``,
+        ``eps``, ``solve`` of :func:`tendyn.ident.consistent.consistent_fit` (None: tendyn's form, Clarabel), e.g.
+        WPI's dVRK SDP solved by WPI's SCS 1.2.6 (benchmarks/realdata/mtm.py).
     drive_stretch : bool
         Elastic capstan ``[[drives]]`` (``stiffness_motor`` > 0, tendyn's treatment, positions differentiated): a
         second least squares on the link positions, the cable stretch taken out of the motor encoders with the
@@ -305,9 +309,10 @@ class IDIM:
     def __init__(self, device, method="ols", cutoff_hz=None, decimate=None, order=4, velocity_threshold=None,
                  essential=False, essential_tol=0.02, consistent=False, scheduler=None, progress=False,
                  parameters=None, velocities="auto", treatment="tendyn", controller=None, output="torque",
-                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None, drive_stretch=True):
+                 jacobian="idm", max_iter=20, tol=1e-3, substeps=1, bounds=None, drive_stretch=True, sdp=None):
         self.device = device
         self.bounds = bounds
+        self.sdp = sdp
         self.drive_stretch = drive_stretch
         self.treatment = treatment
         self.controller = controller
@@ -341,13 +346,15 @@ class IDIM:
         S = self._system(logs, parts, compact=False)
         return S.y, S.Wstd, S.row_joint, S.time, self._model().n_active
 
-    def _treated(self, logs, parts, factor):
-        """The logs treated one by one (:func:`treated_log`) in this process or on Dask (``scheduler``)."""
+    def _treated(self, logs, parts, factor, stretch=None):
+        """The logs treated one by one (:func:`treated_log`) in this process or on Dask (``scheduler``);
+        ``stretch`` (Coulomb, viscous per drive, motor side) takes the capstan cable's stretch out of the motor
+        encoders (elastic drives, second pass of :meth:`fit`), None: not."""
         model = self._model()
         if self.velocities not in VELOCITIES:
             raise ValueError(f"velocities must be one of {', '.join(VELOCITIES)} (got {self.velocities!r})")
         settings = (self.cutoff_hz, self.decimate, self.order, self.velocity_threshold, self.treatment,
-                    self.velocities, getattr(self, "_stretch", None))
+                    self.velocities, stretch)
         if self.scheduler is not None and len(logs) > 1:
             return self._distributed(logs, parts, settings, factor)
         out = []
@@ -363,15 +370,16 @@ class IDIM:
             bar.close()
         return _Here(out)
 
-    def _system(self, logs, parts=None, compact=False) -> _System:
+    def _system(self, logs, parts=None, compact=False, stretch=None) -> _System:
         """The least squares of the logs (:class:`_System`): their rows stacked, or (``compact``) each log reduced
         to its joints' compact factors where it was treated and only those stacked here (the client of a Dask
         campaign then never holds W: ŷ comes back from the workers); sets ``treatment_`` and ``samples_``. Call
-        ``close()`` on the result (a compact one keeps the logs on the workers for ``predict``)."""
+        ``close()`` on the result (a compact one keeps the logs on the workers for ``predict``). ``stretch``: as
+        :meth:`_treated`."""
         model = self._model()
         na = model.n_active
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
-        T = self._treated(logs, parts, compact)
+        T = self._treated(logs, parts, compact, stretch)
         try:
             pieces = T.light() if compact else T.full()
         except BaseException:
@@ -568,6 +576,7 @@ class IDIM:
         # and on Dask); the consistent fit needs the standard regressor's rows: stacked
         compact = not self.consistent
         S = self._system(logs, compact=compact)
+        stretch = None                      # the drives' friction the second pass takes the cable stretch with
         try:
             x, se, weights = self._solve(S.Wb[:, cols], S.Y, S.rows, na, stats=S.stats)
             if self.drive_stretch and model.elastic_drives and (self.treatment or "tendyn") == "tendyn":
@@ -576,13 +585,10 @@ class IDIM:
                 val = dict(zip([base.names[i] for i in cols], x))
                 N = np.array([d.ratio for d in model.device.drives], float)
                 num = [d.joint for d in model.device.drives]
-                self._stretch = (np.array([max(val.get(f"FS{j}", 0.0), 0.0) for j in num]) / N,
-                                 np.array([max(val.get(f"FV{j}", 0.0), 0.0) for j in num]) / N ** 2)
+                stretch = (np.array([max(val.get(f"FS{j}", 0.0), 0.0) for j in num]) / N,
+                           np.array([max(val.get(f"FV{j}", 0.0), 0.0) for j in num]) / N ** 2)
                 S.close()
-                try:
-                    S = self._system(logs, compact=compact)
-                finally:
-                    self._stretch_used, self._stretch = self._stretch, None
+                S = self._system(logs, compact=compact, stretch=stretch)
                 x, se, weights = self._solve(S.Wb[:, cols], S.Y, S.rows, na, stats=S.stats)
             if self.essential:
                 cols, x, se, weights = self._essential(S.Wb, S.Y, S.rows, na, S.stats)
@@ -590,7 +596,8 @@ class IDIM:
             if self.consistent:
                 from .consistent import consistent_fit
 
-                xs = consistent_fit(model, S.Wstd * weights[:, None], S.Y * weights, bounds=self.bounds)
+                xs = consistent_fit(model, S.Wstd * weights[:, None], S.Y * weights, bounds=self.bounds,
+                                    **(self.sdp or {}))
                 self.standard_params_ = dict(zip(model.standard_names, map(float, xs)))
                 x = (base.combination @ xs)[cols]
                 _, se, _, _ = least_squares(Wsel * weights[:, None], S.Y * weights, at=x)
@@ -616,11 +623,8 @@ class IDIM:
         space = self.treatment_.space
         other = motor_space_residual(model.G, Y, y_hat, rows, self.samples_, na, space)
         per, per_motor = (per, other) if space == "joint" else (other, per)
-        self._stretch = getattr(self, "_stretch_used", None) if self.drive_stretch and model.elastic_drives else None
-        try:                              # cross-validation on the same (link) positions as the fit
-            cv = self._crossval(logs, cols) if crossval else None
-        finally:
-            self._stretch = None
+        # cross-validation on the same (link) positions as the fit
+        cv = self._crossval(logs, cols, stretch) if crossval else None
         method = self.method + ("+consistent" if self.consistent else "") + ("+essential" if self.essential else "")
         self.result_ = IdentificationResult(model.device.name, method, self.names_, self.expressions_, x, se,
                                             self.cond_, Y.size, resid, per, self.treatment_, t, Y, y_hat, rows,
@@ -670,8 +674,9 @@ class IDIM:
             cols, x, se, w = trial, xt, st, wt
         return cols, x, se, w
 
-    def _crossval(self, logs, cols):
-        """Fit on the first half (or all logs but the last), predict the other part: relative residual."""
+    def _crossval(self, logs, cols, stretch=None):
+        """Fit on the first half (or all logs but the last), predict the other part: relative residual (on the
+        link positions of the fit's ``stretch``, :meth:`_treated`)."""
         logs = [logs] if not isinstance(logs, (list, tuple)) else list(logs)
         base = self._model().base
         if len(logs) >= 2:
@@ -680,15 +685,15 @@ class IDIM:
             fitp, valp, desc = (logs, (0.0, 0.5)), (logs, (0.5, 1.0)), ("first half", "second half")
         na = self._model().n_active
         compact = not self.consistent           # as in _fit: the consistent fit needs the rows
-        S = self._system(*fitp, compact=compact)
+        S = self._system(*fitp, compact=compact, stretch=stretch)
         S.close()
         x, _, w = self._solve(S.Wb[:, cols], S.Y, S.rows, na, stats=S.stats)
         if self.consistent:        # the same estimator on the first part
             from .consistent import consistent_fit
 
             x = (base.combination @ consistent_fit(self._model(), S.Wstd * w[:, None], S.Y * w,
-                                                   bounds=self.bounds))[cols]
-        V = self._system(*valp, compact=compact)
+                                                   bounds=self.bounds, **(self.sdp or {})))[cols]
+        V = self._system(*valp, compact=compact, stretch=stretch)
         V.close()
         Yv, rv = V.Y, V.rows                    # per joint ‖y − W x‖ and ‖y‖: the same on rows and factors
         res = Yv - V.Wb[:, cols] @ x

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FourierDesign", "ExcitingPlan", "plan_exciting"]
+__all__ = ["FourierDesign", "ExcitingPlan", "plan_exciting", "friction_column_share"]
 
 
 @dataclass(frozen=True)
@@ -122,6 +122,36 @@ class ExcitingPlan:
                 "space": "joint", "note": "track q_ref_<k> on active joint k (file order of the active joints)"}
         return make_log(cols, device=device_name, rate_hz=rate_hz, seed=None, experiment="plan_exciting",
                         options=opts)
+
+
+def friction_column_share(device, q, qd, qdd, velocity_threshold: float = 0.2) -> dict[str, float]:
+    """How well a trajectory tells each friction parameter apart: for every Coulomb (``FS<j>``) and viscous
+    (``FV<j>``) column of the base regressor, the norm of its unit-norm column's part that the other base columns
+    do not explain (least squares): 1 = orthogonal to all of them, 0 = a combination of them (not identifiable).
+    σ of that parameter scales as 1 / share for a given noise. Rows where |q̇| < ``velocity_threshold`` [rad/s]
+    are left out, as IDIM leaves them out (:func:`tendyn.ident.treatment.above_threshold`).
+
+    q, qd, qdd : (n, n_active) [rad], [rad/s], [rad/s²], e.g. a design's references at the decimated rate.
+    A single cruise speed per joint makes F_C sign(q̇) and F_V q̇ nearly proportional (share ≈ 0.24 on a desktop
+    capstan arm's base joint); ``design_exciting(…, speed_span=0.8)`` spreads the speeds (share ≈ 0.48)."""
+    import re
+
+    from .model import cached_model
+    from .treatment import above_threshold
+
+    model = cached_model(device)
+    W = model.regressor(np.asarray(q, float), np.asarray(qd, float), np.asarray(qdd, float),
+                        threads=1)[:, list(model.base.columns)]
+    W = W[above_threshold(qd, velocity_threshold).T.ravel()]
+    n = np.linalg.norm(W, axis=0)
+    W = W / np.where(n > 0, n, 1.0)
+    out = {}
+    for i, name in enumerate(model.base.names):
+        if re.fullmatch(r"F[SV]\d+", name):
+            others = np.delete(W, i, axis=1)
+            r = W[:, i] - others @ np.linalg.lstsq(others, W[:, i], rcond=None)[0]
+            out[name] = float(np.linalg.norm(r))
+    return out
 
 
 def plan_exciting(device, harmonics: int = 5, base_hz: float | None = None, max_speed: float = 1.5,

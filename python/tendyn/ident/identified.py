@@ -177,25 +177,48 @@ class IdentifiedModel:
         document, one of another device or identified on another version of the device file (its SHA-256
         differs) — both accepted with ``force`` — and, always, one with a parameter the device does not have
         or missing one of its base parameters (the same checks as ``identify --stream`` and ``maps``)."""
+        from tendyn.io.files import read_json
+        from tendyn.io.params import ParamsError
+
+        try:
+            doc = read_json(path)
+        except OSError as exc:
+            raise ParamsError(f"cannot read the file: {exc.strerror or exc}", None, str(path)) from None
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ParamsError(f"not a JSON document: {exc}", None, str(path)) from None
+        return cls.from_document(doc, device=device, force=force, source=str(path))
+
+    @classmethod
+    def from_document(cls, doc, device=None, force: bool = False, source: str | None = None) -> "IdentifiedModel":
+        """The model of a PARAMS.json document already read (:meth:`load`, a calibrated device's ``params``), with
+        the checks of :meth:`load`; ``source`` names the document in the errors."""
         from tendyn.io.params import ParamsError, read_params
 
-        params = read_params(path)          # the one validated reader of PARAMS.json
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-        if not isinstance(doc, dict):
-            raise ParamsError("must be the document of `tendyn identify --out`, a JSON object", None, str(path))
+        def named(exc):
+            return exc if exc.file or not source else ParamsError(exc.problem, exc.field, source)
+
+        try:
+            params = read_params(doc)          # the one validated reader of PARAMS.json
+        except ParamsError as exc:
+            raise named(exc) from None
+        if not hasattr(doc, "get"):
+            raise ParamsError("must be the document of `tendyn identify --out`, a JSON object", None, source)
         fmt = doc.get("format", FORMAT)
         if fmt != FORMAT:
-            raise ParamsError(f"{fmt!r}: this tendyn reads {FORMAT!r}", "format", str(path))
+            raise ParamsError(f"{fmt!r}: this tendyn reads {FORMAT!r}", "format", source)
         if device is None:
             device = doc.get("device_file") if doc.get("device_file") and Path(doc["device_file"]).is_file() \
                 else doc.get("device")
         model = cls(device, params, doc.get("method", "ols"), doc.get("treatment"), force=force)
         m = model._model()
-        read_params(path, model.device, force, standard_names=m.standard_names, base_names=m.base.names)
+        try:
+            read_params(doc, model.device, force, standard_names=m.standard_names, base_names=m.base.names)
+        except ParamsError as exc:
+            raise named(exc) from None
         want, have = doc.get("device_sha256"), device_digest(model.device)
         if want and have and want != have and not force:
             raise ParamsError(f"identified on another version of {model.device.name}'s file (SHA-256 {want[:12]}… "
-                              f"in PARAMS.json, {have[:12]}… now)", "device_sha256", str(path))
+                              f"in PARAMS.json, {have[:12]}… now)", "device_sha256", source)
         return model
 
     # -- use --------------------------------------------------------------------------------------------

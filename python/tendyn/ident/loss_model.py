@@ -68,6 +68,8 @@ class IdentifiedLosses(Result):
     load_coefficient : (n,) c_L [-], the identified load-dependent loss (0 when not identified)
     sources : {term: "identified" | "none" | "device"} for LOSS_TERMS
     origin : where the friction came from (file name or "mapping")
+    decomposition : the :class:`tendyn.ident.decomposition.LossDecomposition` these per-branch values come from
+        (FRICTION.json of cable transmissions), or None
     """
 
     device: str
@@ -78,6 +80,7 @@ class IdentifiedLosses(Result):
     load_coefficient: np.ndarray
     sources: dict = field(default_factory=dict)
     origin: str = "mapping"
+    decomposition: object = None
 
     @property
     def n(self) -> int:
@@ -178,7 +181,7 @@ def _reducer_from_load(c_l: np.ndarray, source) -> np.ndarray:
     return 1.0 / (1.0 + c_l)
 
 
-def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
+def identified_losses(device, friction, shares=None, origin: str | None = None) -> IdentifiedLosses:
     """The loss model of ``device`` from identified friction, replacing every loss term of its file.
 
     Parameters
@@ -191,6 +194,7 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
         or an :class:`IdentifiedLosses` already built for this device, returned as it is (built once)
     shares : (p, p') (n, n) arrays, or a ``tendyn.shares/1`` file, for the decomposition of FRICTION.json
         (default :func:`tendyn.ident.decomposition.default_shares`)
+    origin : the name of the document a mapping was read from (default: ``mapping``, a path's own name)
 
     Raises
     ------
@@ -209,7 +213,8 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
         if friction.device != dev.name or np.shape(friction.tau0) != (n, n):
             raise LossModelError(f"the loss model is about {friction.device!r}, not {dev.name!r}", field="device")
         return friction
-    doc, origin = _read(friction)
+    doc, read_origin = _read(friction)
+    origin = origin or read_origin
     name = doc.get("device")
     if name is not None and name != dev.name:
         raise LossModelError(f"the friction is about {name!r}, not {dev.name!r}", source=origin, field="device")
@@ -227,7 +232,7 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
     else:
         raise LossModelError(f"unknown friction format {fmt!r} (expected {FORMAT!r}, {DECOMPOSITION_FORMAT!r} "
                              "or per-branch arrays 'tau0', 'nu')", source=origin, field="format")
-    tau0_b, nu_b, beta, eta, load, given = parts
+    tau0_b, nu_b, beta, eta, load, given, *decomposition = parts
     sources = {"tau0": "identified", "nu": "identified", "beta": "none", "bearings": "none",
                "reducer_efficiency": "none"}
     sources.update(given)
@@ -238,7 +243,7 @@ def identified_losses(device, friction, shares=None) -> IdentifiedLosses:
         eta, load = np.ones(n), np.zeros(n)
     elif load is None:
         load = 1.0 / eta - 1.0
-    return _finish(dev, tau0_b, nu_b, beta, eta, load, sources, origin)
+    return _finish(dev, tau0_b, nu_b, beta, eta, load, sources, origin, *decomposition)
 
 
 def _from_friction_file(dev, doc, shares, src):
@@ -268,8 +273,8 @@ def _from_friction_file(dev, doc, shares, src):
             raise LossModelError(str(exc)) from None
     elif shares is not None:
         p, pp = (np.asarray(a, float) for a in shares)
-    dec = decompose(dev, c0, nu, p, pp)
-    return dec.tau0_branch, dec.nu_branch, np.zeros((n, n)), None, load, {}
+    dec = decompose(dev, c0, nu, p, pp, load)      # S0 eqs. 20–21; c_L carried as it is (to the reducer below)
+    return dec.tau0_branch, dec.nu_branch, np.zeros((n, n)), None, load, {}, dec
 
 
 def _from_decomposition(dev, doc, src):
@@ -316,11 +321,11 @@ def _from_branch_arrays(dev, inner, src):
     return tau0_b, nu_b, beta, eta, load, given
 
 
-def _finish(dev, tau0, nu, beta, eta, load, sources, origin) -> IdentifiedLosses:
+def _finish(dev, tau0, nu, beta, eta, load, sources, origin, decomposition=None) -> IdentifiedLosses:
     n = _count(dev)
     low = np.tril(np.ones((n, n)))
     for key, a in (("tau0", tau0), ("nu", nu), ("beta", beta)):
         if np.any(a * (1 - low) != 0):
             raise LossModelError("values past the driven joint (a cable has i branches)", source=origin, field=key)
     return IdentifiedLosses(dev.name, tau0, nu, beta, np.asarray(eta, float), np.asarray(load, float),
-                            sources, origin)
+                            sources, origin, decomposition)

@@ -50,7 +50,10 @@ def drive_identification_parts(device, seed: int = 0) -> dict:
 
     branches = [{"transmission": r["transmission"], "branch": 0, "tau0_N": r["s2_coulomb_motor"] / rm,
                  "nu_Ns_m": r["s2_viscous_motor"] / rm ** 2, "p": 1.0, "p_prime": 1.0} for r in rows]
+    from tendyn.ident.calibrated import calibrate
+
     return {"transmissions": rows, "decomposition": branches, "friction": friction,
+            "calibrated": calibrate(device, friction),
             "identification": {"strategy_for_compensation": "S2 (a capstan drive: one cable stretch, S1 = S2)",
                                "error_pct": "RMS over the test speeds of the fitted minus true motor friction "
                                             "torque, relative to the true RMS"}}
@@ -62,9 +65,11 @@ def identification_parts(device) -> dict:
     ``viscous_motor_true``, ``s1_error_pct`` and ``s2_error_pct``; ``decomposition`` the per-branch τ0, ν;
     ``friction`` the identified per-branch losses the compensator then uses (``{"tau0": (n, n), "nu": (n, n)}``,
     0-based ``[transmission, branch]``; see :func:`tendyn.control.transmission_with_friction`), or None for the
-    twin's own losses.
+    twin's own losses; ``calibrated`` the twin's device with that friction laid over it
+    (:func:`tendyn.ident.calibrated.calibrate`: its one loss model, decomposed once, is what the compensator uses).
     """
-    from tendyn.ident.decomposition import decompose
+    from tendyn.ident.calibrated import calibrate
+    from tendyn.ident.decomposition import decompose_friction
     from tendyn.ident.friction_file import friction_document
 
     from .s0_friction import compare_strategies
@@ -85,12 +90,12 @@ def identification_parts(device) -> dict:
         rows.append(row)
     fits = [cmp.fits[(t, "S2")] for t in cmp.transmissions]
     friction = friction_document(device.name, fits)       # what identify-friction writes: C_m0, ν, c_L
-    dec = decompose(device, [f.coulomb_motor for f in fits], [f.viscous_motor for f in fits],
-                    load_coefficient=friction.get("load_coefficient"))   # C9
+    cal = calibrate(device, friction)                     # the loss model, from one decomposition (C9)
+    dec = decompose_friction(cal)
     branches = [{"transmission": i + 1, "branch": b, "tau0_N": float(dec.tau0_branch[i, b]),
                  "nu_Ns_m": float(dec.nu_branch[i, b]), "p": float(dec.p[i, b]), "p_prime": float(dec.p_prime[i, b])}
                 for i, nb in enumerate(dec.branches) for b in range(nb)]
-    return {"transmissions": rows, "decomposition": branches, "friction": friction,
+    return {"transmissions": rows, "decomposition": branches, "friction": friction, "calibrated": cal,
             "identification": {"strategy_for_compensation": "S2", "error_pct": "RMS over the test speeds of the "
                                "fitted minus true motor friction torque, relative to the true RMS",
                                "decomposition_max_relative_mismatch": dec.max_mismatch()}}
@@ -124,7 +129,7 @@ def run_s0(device, *, quick: bool = False) -> dict:
     # k as with the twin's own losses: the identification carries the load term (c_L), so τ̂0 no longer absorbs
     # the test's load; k = 0.9 gives 72 % and stays passive on L-EXOS (seed 7), where the load-free law needed 0.7.
     # `tendyn export compensator` keeps the safer 0.7 for a lab's device (control.IDENTIFIED_UNDERESTIMATION).
-    fig7 = fig7_experiment(compiled, friction=ident["friction"], underestimation=DEFAULT_UNDERESTIMATION,
+    fig7 = fig7_experiment(ident["calibrated"], underestimation=DEFAULT_UNDERESTIMATION,
                            over=() if quick else (1.2, 1.5), walls=not quick)
     doc = {"device": compiled.name,
            "transmissions": ident["transmissions"],

@@ -447,8 +447,13 @@ def fig7_experiment(device="lexos", *, underestimation: float = DEFAULT_UNDEREST
     ``over``, and (``walls``) the stiff wall at k = ``underestimation`` and at each over-compensating k.
 
     ``friction`` (None, mapping or FRICTION.json path) are the identified losses the compensator uses; the twin
-    always keeps its own (true) losses. ``hand`` passes the path and hand options to :func:`hand_run`.
+    always keeps its own (true) losses. ``device`` may be a calibrated device
+    (:func:`tendyn.ident.calibrated.calibrate`): its one loss model, built once, is every run's. ``hand`` passes the
+    path and hand options to :func:`hand_run`.
     """
+    from tendyn.ident.calibrated import unwrap
+
+    device, friction = unwrap(device, friction)       # a calibrated device: its compiled device and loss model
     compiled = _device(device)
     g = hand_run(compiled, 0.0, cycles=cycles, seed=seed, **hand)
     c = hand_run(compiled, underestimation, friction=friction, cycles=cycles, seed=seed, **hand)

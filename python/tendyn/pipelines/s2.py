@@ -346,16 +346,21 @@ def run_s2(device: Any, *, quick: bool = False, seed: int = 0, optimise: bool = 
 
     # ---- C41–C46: operational maps and compensation from the identified values ----------------------------
     from tendyn.analysis.operational import operational_maps
+    from tendyn.ident.calibrated import calibrate
 
     from .s2_compensation import compensation_from_identified
 
     say("operational maps from the identified Table 4 parameters and capstan stiffness")
     # the reduced model's document: its `omitted` parameters are zero on purpose (read_params refuses others missing)
     reduced = {"device": red.result_.device, "params": params, "omitted": red.result_.omitted}
-    maps = operational_maps(compiled, reduced, stiffness_motor=stiffness_motor, quick=quick, progress=say)
+    # the device with what S2 identified laid over it: the capstan stiffness per drive, the base parameters
+    cal = calibrate(compiled, params=reduced, stiffness=stiffness_motor)
+    maps = operational_maps(cal.compiled, cal.params, quick=quick, progress=say)
     summary["maps"] = maps.to_dict()
+    summary["calibration_sources"] = {k: v for k, v in cal.sources.items() if k.startswith(("stiffness", "params"))}
     figures.update({f"maps_{name}": fig for name, fig in maps.figures.items()})
-    comp = compensation_from_identified(compiled, reduced, quick=quick, progress=say)
+    # the controller gets the identified parameters; the twin it drives keeps the file's values (its stiffness)
+    comp = compensation_from_identified(compiled, cal.params, quick=quick, progress=say)
     summary["compensation"] = comp.summary
     figures["compensation"] = comp
 

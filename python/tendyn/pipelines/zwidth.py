@@ -225,6 +225,8 @@ class ZWidthResult(Result):
     colgate_b : {mode: b} viscous damping along the normal [N·s/m] of the bound b > K T / 2 + |B|
         (:func:`colgate_damping`)
     criterion : the stability criterion in words; scheduler : where the grid ran
+    friction_source : the friction the compensator uses: ``file`` (the device file's losses) or ``identified:
+        <document>`` (a calibrated device's, or the one a compensator file records)
     """
 
     device: str
@@ -236,6 +238,7 @@ class ZWidthResult(Result):
     colgate_b: dict
     criterion: str = ""
     scheduler: str = "local"
+    friction_source: str = "file"
     _figsize = (4.0, 3.6)
 
     def stable_fraction(self, mode: str) -> float:
@@ -292,7 +295,7 @@ class ZWidthResult(Result):
         return {"device": self.device, "rate_hz": self.rate_hz, "criterion": self.criterion,
                 "stiffness": [float(x) for x in self.stiffness], "damping": [float(x) for x in self.damping],
                 "modes": list(self.modes), "colgate_b": {m: self.colgate_b[m] for m in self.modes},
-                "scheduler": self.scheduler,
+                "scheduler": self.scheduler, "friction_source": self.friction_source,
                 "summary": {m: {"stable_fraction": self.stable_fraction(m),
                                 "max_stable_stiffness_at_lowest_damping": self.max_stable_stiffness(m),
                                 "colgate_max_stiffness_at_zero_damping": self.colgate_max_stiffness(m)}
@@ -305,7 +308,7 @@ class ZWidthResult(Result):
         text = format_table(("mode", "stable points [%]", f"max stable K at B = {self.damping.min():g} [N/m]",
                              "Colgate b [N·s/m]", "Colgate K at B = 0 [N/m]"),
                             rows, title=f"{self.device}: Z-width at {self.rate_hz:g} Hz")
-        return text + f"\ncriterion: {self.criterion}"
+        return text + f"\ncriterion: {self.criterion}\ncompensated friction: {self.friction_source}"
 
 
 CRITERION = ("unstable when the handle height oscillates by more than the tolerance (peak-to-peak) in the last "
@@ -317,9 +320,30 @@ def run_zwidth(device: Any, *, stiffness: Sequence[float] | None = None, damping
                n_workers: int = 2, progress: bool = True, client=None, **point) -> ZWidthResult:
     """Every (mode, K, B) point on Dask: ``scheduler`` an address or None (a local cluster of ``n_workers``,
     :func:`tendyn.pipelines.sweep.local_cluster`), ``client`` an existing Client, ``scheduler="none"`` in
-    process. ``point`` passes options to :func:`zwidth_point`."""
-    from tendyn.device import compile_device
+    process. ``point`` passes options to :func:`zwidth_point`.
 
+    ``device`` may be a calibrated device (:func:`tendyn.ident.calibrated.calibrate`): with identified friction the
+    compensator of every mode is built once from its one loss model (the passivity bound too) and handed to the
+    points as a model file's text; the twin keeps the device file's losses (the plant the compensator meets)."""
+    from tendyn.device import compile_device
+    from tendyn.ident.calibrated import CalibratedDevice
+
+    friction_source = "file"
+    if isinstance(device, CalibratedDevice):
+        if device.friction_source() != "file":
+            if compensator_text is not None:
+                raise ValueError("give identified friction or a compensator model file, not both")
+            from tendyn.control import Compensator
+
+            compensator_text = Compensator.from_device(device, passivity=True,
+                                                       rate_hz=point.get("control_hz") or 1000.0).text()
+            friction_source = device.friction_source()
+        device = device.compiled
+    elif compensator_text is not None:
+        from tendyn import _core
+
+        recorded = _core.parse_compensator_model(compensator_text, "compensator", "").friction_source
+        friction_source = f"identified: {recorded}" if recorded else "file"
     compiled = compile_device(device)
     if compiled.kind != "serial" or not (compiled.device.transmissions or compiled.device.drives):
         raise ValueError(f"{compiled.name}: Z-width needs a serial device with cable transmissions or capstan drives")
@@ -338,7 +362,7 @@ def run_zwidth(device: Any, *, stiffness: Sequence[float] | None = None, damping
         rows, where = _on_dask(dev, tasks, compensator_text, point, scheduler, n_workers, progress, client)
     return ZWidthResult(compiled.name, _rate(compiled, compensator_text, point), rows, ks, bs, tuple(modes),
                         colgate_damping(compiled, compensator_text, q0=point["q0"], normal=point["normal"]),
-                        CRITERION, where)
+                        CRITERION, where, friction_source)
 
 
 def _rate(compiled, compensator_text, point) -> float:

@@ -286,6 +286,12 @@ class ExcitingDesign:
     sin_amplitude, sin_freq_hz, sin_phase : (nm, n_sin) [rad], [Hz], [cycles]
     band_hz : (low, high) [Hz] the identification band the frequencies were chosen in
     ramp_s : fade-in [s] of the excursions (the run starts at rest on ``center``)
+    speed_span : ρ ∈ [0, 1) [-]; 0 (default) runs every mode at its own constant pace. ρ > 0 warps each mode's
+        time, u_k(t) = e_k(θ_k(t)) with θ̇_k = g_k(t) = 1 − ρ/2 + ρ/2 cos(2π f_w,k t) ∈ [1 − ρ, 1]: the path
+        (hence the limits) is unchanged, every velocity of the mode (triangle cruise and sines alike) is scaled
+        by g_k, so the cruise speeds sweep [1 − ρ, 1] × the design's and the sines still reverse only at the
+        corners; q̇ ≤ the unwarped bound (``peak_speed``), q̈ = e'' g² + e' ġ.
+    span_hz : (nm,) f_w,k [Hz], the warp's frequency per mode (None when ρ = 0)
     """
 
     center: np.ndarray
@@ -299,6 +305,8 @@ class ExcitingDesign:
     band_hz: tuple
     ramp_s: float = 2.0
     sharpness: float = 0.1
+    speed_span: float = 0.0
+    span_hz: np.ndarray | None = None
 
     @property
     def n_phases(self) -> int:
@@ -336,14 +344,23 @@ class ExcitingDesign:
         w = np.where(t < T, 0.5 * (1 - np.cos(np.pi * t / T)), 1.0)
         wd = np.where(t < T, 0.5 * np.pi / T * np.sin(np.pi * t / T), 0.0)
         wdd = np.where(t < T, 0.5 * (np.pi / T) ** 2 * np.cos(np.pi * t / T), 0.0)
+        rho = float(self.speed_span)
         for k in range(nm):
-            e, ed, edd = smooth_triangle(t, self.tri_freq_hz[k], self.tri_amplitude[k], self.tri_phase[k],
+            if rho > 0.0:      # time warp θ(t), θ̇ = g ∈ [1 − ρ, 1] (class docstring)
+                wk = 2 * np.pi * float(self.span_hz[k])
+                tau = (1 - rho / 2) * t + rho / 2 * np.sin(wk * t) / wk
+                g = 1 - rho / 2 + rho / 2 * np.cos(wk * t)
+                gd = -rho / 2 * wk * np.sin(wk * t)
+            else:
+                tau, g, gd = t, 1.0, 0.0
+            e, ed, edd = smooth_triangle(tau, self.tri_freq_hz[k], self.tri_amplitude[k], self.tri_phase[k],
                                          self.sharpness)
             for a, f, ph in zip(self.sin_amplitude[k], self.sin_freq_hz[k], self.sin_phase[k]):
-                x = 2 * np.pi * (f * t + ph)
+                x = 2 * np.pi * (f * tau + ph)
                 e = e + a * np.sin(x)
                 ed = ed + a * 2 * np.pi * f * np.cos(x)
                 edd = edd - a * (2 * np.pi * f) ** 2 * np.sin(x)
+            ed, edd = ed * g, edd * g * g + ed * gd         # d/dt of e(θ(t)): chain rule
             u[:, k] = w * e
             ud[:, k] = w * ed + wd * e
             udd[:, k] = w * edd + 2 * wd * ed + wdd * e
@@ -353,7 +370,8 @@ class ExcitingDesign:
     def to_dict(self) -> dict:
         return to_jsonable({k: getattr(self, k) for k in ("center", "modes", "tri_amplitude", "tri_freq_hz",
                                                           "tri_phase", "sin_amplitude", "sin_freq_hz", "sin_phase",
-                                                          "band_hz", "ramp_s", "sharpness")})
+                                                          "band_hz", "ramp_s", "sharpness", "speed_span",
+                                                          "span_hz")})
 
 
 def stops_touched(device, q_active) -> list[int]:
@@ -448,9 +466,14 @@ def excitation_modes(device) -> np.ndarray:
     return np.column_stack(basis[:na])
 
 
+SPAN_PERIODS = 4.0
+"""Triangle periods (at full pace) per cycle of the speed warp of ``design_exciting(…, speed_span=ρ)``: every
+cruise speed level is held for about one triangle period."""
+
+
 def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float = 0.25, max_speed: float = 1.5,
                     margin: float = 0.1, seed: int = 0, modes=None, sine_speed_ratio: float | None = 0.8,
-                    tri_freq_factors=(1.5, 2.0, 2.5)) -> ExcitingDesign:
+                    tri_freq_factors=(1.5, 2.0, 2.5), speed_span: float | None = None) -> ExcitingDesign:
     """An :class:`ExcitingDesign` that keeps every tree joint (passive ones too: q_tree = L q_a + c) inside its
     limits less ``margin`` [rad], and every active joint below ``max_speed`` [rad/s].
 
@@ -468,8 +491,19 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     reversals on every sine cycle this biased ZZ3R by +4 % and FV5 by +12 % on the CEA twin (ideal sensors),
     a few reversals make it negligible. Triangle frequencies band_lo × ``tri_freq_factors`` [Hz].
     Phases: seeded uniform draws (see :func:`tendyn.pipelines.s2.optimise_exciting` to improve cond(W)).
+
+    ``speed_span`` ρ ∈ [0, 1) (None, the default: off): each mode's time is warped so that its speeds sweep
+    [1 − ρ, 1] × the design's, once every 1 / f_w,k s, f_w,k = f_tri,k / SPAN_PERIODS (:class:`ExcitingDesign`).
+    With one cruise speed per joint the Coulomb column F_C sign(q̇) and the viscous column F_V q̇ of the
+    regressor are nearly proportional on the cruise rows (only the sines tell them apart); spread speeds
+    separate them (docs/device-file.md, the numbers). Positions, limits and the speed bound are unchanged; the
+    frequencies slow to (1 − ρ)× at the slow end (below band_lo when the triangles sit near it, as in the default
+    design). It pays only when the cruise speeds are high (the fast design of the docs) and the log long (≥ 60 s).
     """
     from scipy.optimize import linprog
+
+    if speed_span is not None and not 0.0 <= float(speed_span) < 1.0:
+        raise ValueError(f"speed_span must be in [0, 1) (got {speed_span!r}): the slowest pace is 1 − speed_span")
 
     lo, hi, L, c = tree_limits(device)
     na = L.shape[1]
@@ -515,7 +549,9 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
         cruise = 2 * np.pi * design.tri_freq_hz * np.array([smooth_triangle_scale(a) for a in design.tri_amplitude])
         sine_speed = (2 * np.pi * sin_a * design.sin_freq_hz).sum(axis=1)
         sin_a = sin_a * np.minimum(1.0, sine_speed_ratio * cruise / np.maximum(sine_speed, 1e-300))[:, None]
-    return dataclasses.replace(design, sin_amplitude=sin_a)
+    span = float(speed_span or 0.0)
+    return dataclasses.replace(design, sin_amplitude=sin_a, speed_span=span,
+                               span_hz=design.tri_freq_hz / SPAN_PERIODS if span > 0.0 else None)
 
 
 def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
