@@ -31,6 +31,8 @@ FAST_TWINS = {
         "test_realdata_mtm.py::test_wpi_published_parameters_through_tendyn_within_5_percent",
     "test_realdata_mtm.py::test_preset_with_wpi_boxes_converged_is_far_from_wpi":   # + `make realdata`
         "test_realdata_mtm.py::test_wpi_preset_close_to_wpi",
+    "test_realdata_mtm.py::test_wpi_preset_with_wpi_solver_within_5_percent":      # + `make scs126`
+        "test_realdata_mtm.py::test_wpi_sdp_is_wpi_problem_shape",
     "test_realdata_tx40.py::test_figaroh_preset_plants_are_seen":
         "test_realdata_tx40.py::test_figaroh_preset_reproduces_every_determined_parameter",
     "test_blockmodel_amplitude.py::test_constant_level_misses_the_generated_bench":
