@@ -24,13 +24,56 @@ def count(request):
     return request.config.getoption("--count")
 
 
-@pytest.fixture(scope="session")
-def claims_ctx(request):
-    """The twins and expensive runs of the claims' checks (tendyn.claims), shared by every test file of a session:
-    the tests and `tendyn claims` run the same definitions."""
+SHARED_RUNS = ("s1_report", "s2_report")
+"""Runs of the claims' context computed once per parallel run, not once per worker (tens of seconds of CPU each,
+picklable, seeded: the same object whichever worker makes it); the others are cheap or hold compiled models."""
+
+
+def _shared_context(folder: Path | None, **kw):
+    """A :class:`tendyn.claims.Context` whose :data:`SHARED_RUNS` go through ``folder`` (the run's temporary
+    folder, common to the workers): the first worker to need one computes it under a file lock and pickles it, the
+    others wait for the lock and read it. ``folder=None`` (one process): a plain context."""
+    import fcntl
+    import pickle
+
     from tendyn.claims import Context
 
-    return Context(quick=False, seed=request.config.getoption("--seed"), count=request.config.getoption("--count"))
+    class WorkersContext(Context):
+        def get(self, name, make):
+            if folder is None or name in self._cache or name not in SHARED_RUNS:
+                return super().get(name, make)
+            path = folder / f"{name}.pickle"
+            with open(folder / f"{name}.lock", "w") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)          # released when the file closes, even on an error
+                if path.is_file():
+                    value = pickle.loads(path.read_bytes())
+                else:
+                    value = make()
+                    try:
+                        data = pickle.dumps(value)
+                    except (pickle.PicklingError, TypeError, AttributeError):
+                        data = None                        # not picklable: each worker makes its own
+                    if data is not None:
+                        part = path.with_suffix(f".part{os.getpid()}")
+                        part.write_bytes(data)
+                        part.replace(path)
+            self._cache[name] = value
+            return value
+
+    return WorkersContext(**kw)
+
+
+@pytest.fixture(scope="session")
+def claims_ctx(request, tmp_path_factory):
+    """The twins and expensive runs of the claims' checks (tendyn.claims), shared by every test file of a session:
+    the tests and `tendyn claims` run the same definitions. In a parallel run the :data:`SHARED_RUNS` are computed
+    by one worker for all (through the run's temporary folder, which pytest-xdist's workers have in common)."""
+    folder = None
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        folder = tmp_path_factory.getbasetemp().parent / "claims-context"
+        folder.mkdir(exist_ok=True)
+    return _shared_context(folder, quick=False, seed=request.config.getoption("--seed"),
+                           count=request.config.getoption("--count"))
 
 
 @pytest.fixture(scope="session")
@@ -38,9 +81,8 @@ def s1_quick_report(claims_ctx):
     """``run_s1(mcgill_bench, quick=True)``: the S1Report of `tendyn pipeline s1 --quick`, once per session, for
     the HTML report of test_reports.py (the JSON of the claims is tendyn.claims.twins.s1_json)."""
     from tendyn.claims import twins
-    from tendyn.pipelines.s1 import run_s1
 
-    return claims_ctx.get("s1_report", lambda: run_s1(twins.mcgill(claims_ctx), quick=True))
+    return twins.s1_report(claims_ctx)
 
 
 @pytest.fixture(scope="session")
@@ -182,6 +224,23 @@ other workers idle at the end of a parallel run (longest-first scheduling). Name
 is still run, in its place."""
 
 
+def slow_asked(config) -> bool:
+    """True when the run's ``-m`` expression names the ``slow`` marker (``-m slow``, ``-m "slow or not slow"``)."""
+    return "slow" in (config.getoption("markexpr", "") or "")
+
+
+def _deselect_slow(config, items) -> None:
+    """Tests marked ``slow`` (a long variant of a fast test of the same code path, docs/testing.md) are deselected
+    unless ``-m`` names the marker: `make test` runs the fast twin, `pytest -m slow` the long one. Deselected, not
+    skipped: the summary counts them as deselected, and no test body decides it by itself."""
+    if slow_asked(config):
+        return
+    slow = [item for item in items if item.get_closest_marker("slow") is not None]
+    if slow:
+        config.hook.pytest_deselected(items=slow)
+        items[:] = [item for item in items if item.get_closest_marker("slow") is None]
+
+
 def _wide_params(item) -> tuple:
     """(argname, index) of the parameters of item's module-, class- or session-scoped fixtures (test_any_device's
     devices, test_examples' build routes): the items sharing them share one set-up."""
@@ -202,6 +261,7 @@ def pytest_collection_modifyitems(session, config, items):
     parameters over the workers, but pytest-xdist 3.8 renames node ids through an attribute pytest 9 no longer
     reads: every test became its own group and module fixtures were built on each worker.)"""
     result = yield
+    _deselect_slow(config, items)
     rank = {name: k for k, name in enumerate(HEAVY_FIRST)}
     first_module: dict = {}
     first_param: dict = {}

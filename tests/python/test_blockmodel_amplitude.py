@@ -108,7 +108,6 @@ def test_push_pull_model_across_amplitudes_on_generated_benches(mcgill, changes)
     assert max(_ratios(pp, recs)) <= 1.2, (changes, _ratios(pp, recs))
 
 
-@pytest.mark.slow       # three structures fitted (≈ 13 s); the push-pull fit itself is in the fast McGill test
 def test_identify_bench_auto_chooses_the_structure_on_another_amplitude(mcgill_records, tmp_path):
     """`identify-bench --structure auto --validate` (validation at 0.5 A): the push-pull Lur'e model wins over
     the Wiener dead-zone and the one-loop Lur'e, and the JSON says each candidate's validation NRMS."""

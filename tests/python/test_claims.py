@@ -131,3 +131,25 @@ def test_command_usage_errors_are_one_line(capsys, tmp_path):
 def test_step_lines_when_stderr_is_not_a_terminal(capsys):
     code, _, err = _run(["--only", "C2,C13"], capsys)
     assert code == 0 and "[claims] C2" in err and "(2/2)" in err
+
+
+def test_the_s1_summary_and_report_share_one_pipeline_run(monkeypatch):
+    """`twins.s1_json` (C21–C28) is the summary of `twins.s1_report` (the test suite's HTML report): one
+    `run_s1(quick=True)` per context for both, not one each (it was run twice, ~14 s of CPU each)."""
+    import types
+
+    import tendyn.pipelines.s1 as s1
+    from tendyn.claims import twins
+
+    calls = []
+
+    def fake_run_s1(bench, quick=False, progress=None):
+        calls.append((bench, quick))
+        return types.SimpleNamespace(summary={"peak_hz": 12.5})
+
+    monkeypatch.setattr(s1, "run_s1", fake_run_s1)
+    ctx = Context(quick=True)
+    doc = twins.s1_json(ctx)
+    report = twins.s1_report(ctx)
+    assert calls == [(twins.mcgill(ctx), True)], calls
+    assert doc == dict(report.summary) == {"peak_hz": 12.5}

@@ -317,8 +317,6 @@ def test_every_command_fuzzed_exit_codes_one_line_nothing_written(pool, tmp_path
 
 
 @pytest.mark.slow
-def test_every_command_fuzzed_long(pool, tmp_path, capsys, monkeypatch, request):
+def test_every_command_fuzzed_long(pool, tmp_path, capsys, monkeypatch):
     """Ten times the budget; runs only when asked: `pytest -m slow tests/python/test_cli_property_fuzz.py`."""
-    if "slow" not in (request.config.getoption("markexpr") or ""):
-        pytest.skip("long fuzz: run with -m slow")
     _fuzz(pool, tmp_path, capsys, monkeypatch, 10 * FAST_BUDGET_S, max_examples=4000)

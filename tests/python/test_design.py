@@ -196,13 +196,10 @@ def test_campaigns_on_a_real_scheduler_equal_in_process(dask_cluster):
 
 
 @pytest.mark.slow
-def test_sweep_and_identify_on_a_real_scheduler_equal_in_process(request):
+def test_sweep_and_identify_on_a_real_scheduler_equal_in_process(dask_cluster):
     """The same for a sweep and an identification campaign in batches (`pytest -m slow`: their fresh workers derive
     S1's plant and build the TX40 model, ~20 s; the same batching code runs in the fast suite on LocalClusters,
     test_s1.py::test_sweep_cli_on_a_local_dask_cluster and test_ident.py::test_campaign_on_a_dask_scheduler)."""
-    if "slow" not in (request.config.getoption("markexpr") or ""):
-        pytest.skip("real workers that build the models: run with -m slow")
-    dask_cluster = request.getfixturevalue("dask_cluster")
     from tendyn.devices import load
     from tendyn.pipelines.sweep import design_grid, evaluate_design, run_sweep
 

@@ -101,8 +101,6 @@ def test_corrupted_input_files_never_crash(files, tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_corrupted_input_files_never_crash_long(files, tmp_path, capsys, request):
+def test_corrupted_input_files_never_crash_long(files, tmp_path, capsys):
     """Ten times the budget (~40 s); runs only when asked: `pytest -m slow tests/python/test_file_fuzz.py`."""
-    if "slow" not in (request.config.getoption("markexpr") or ""):
-        pytest.skip("long fuzz: run with -m slow")
     _run(files, tmp_path, capsys, cases=2400, seed=7)

@@ -147,7 +147,6 @@ def test_identify_friction_of_the_elbow_drive_recovers_the_file(tmp_path):
     assert abs(fit.viscous_motor / d.viscous_motor - 1) < 0.25, fit.viscous_motor
 
 
-@pytest.mark.slow
 def test_identify_friction_of_every_drive(tmp_path):
     """The three drives through `identify_friction` (the command's function): FRICTION.json per drive."""
     from tendyn.commands.s0 import identify_friction
@@ -184,7 +183,6 @@ def test_cli_plan_and_decompose_take_drives(tmp_path):
     assert np.isclose(out["drives"][2]["coulomb_joint"], dev.drives[2].ratio * dev.drives[2].coulomb_motor)
 
 
-@pytest.mark.slow
 def test_pipeline_s2_on_a_generated_arm(tmp_path):
     """`pipeline s2 --quick` on an arm that is not the CEA branch: every base parameter, no internal error."""
     arm = write_parallelogram_arm(tmp_path, seed=0)

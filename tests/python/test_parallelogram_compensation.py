@@ -217,7 +217,6 @@ def test_zwidth_runs_on_a_capstan_arm(tmp_path):
     assert res.colgate_b["gravity"] > 0
 
 
-@pytest.mark.slow
 def test_pipeline_s0_on_a_generated_arm(tmp_path):
     """`tendyn pipeline s0 ARM --quick --json`: per-drive identification within 10 % (Coulomb), Fig. 7 ≥ 50 %."""
     arm = write_parallelogram_arm(tmp_path, seed=0)

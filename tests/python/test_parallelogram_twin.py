@@ -132,7 +132,6 @@ def test_max_push_is_what_the_peak_torques_hold(tmp_path):
     assert push <= 0.5 * fmax + 1e-12 and (note is None) == (push == 10.0)
 
 
-@pytest.mark.slow
 def test_zwidth_default_push_note_on_a_weak_arm(tmp_path):
     """`tendyn zwidth` on an arm whose motors cannot hold 20 N says why it pushes less."""
     import subprocess

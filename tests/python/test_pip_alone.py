@@ -81,10 +81,8 @@ def _source_copy(dest: Path) -> Path:
 
 
 @pytest.mark.slow
-def test_pip_wheel_installs_into_a_fresh_venv_and_runs_the_cli_and_the_c_example(tmp_path, request):
+def test_pip_wheel_installs_into_a_fresh_venv_and_runs_the_cli_and_the_c_example(tmp_path):
     """Minutes (the C++ build, the dependencies downloaded into the venv): `pytest -m slow tests/python/test_pip_alone.py`."""
-    if "slow" not in (request.config.getoption("markexpr") or ""):
-        pytest.skip("builds the C++ core and a fresh venv (minutes): run with -m slow")
     if shutil.which("git") is None or shutil.which("cc") is None:
         pytest.skip("needs git and a C compiler")
     src = _source_copy(tmp_path / "src")

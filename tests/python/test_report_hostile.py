@@ -205,12 +205,10 @@ def test_every_page_shows_hostile_text_as_text(tmp_path, browser):
 
 
 @pytest.mark.slow
-def test_slow_pages_are_inert(tmp_path, browser, request):
+def test_slow_pages_are_inert(tmp_path, browser):
     """The pipelines' pages and sweep's (the same publishers as above, ~140 s in all on 2 busy cores): the
     hostile device (S0) or bench (S1, sweep) and the hostile report folder. Runs only when asked:
     `pytest -m slow tests/python/test_report_hostile.py`."""
-    if "slow" not in (request.config.getoption("markexpr") or ""):
-        pytest.skip("pipelines and sweep on hostile inputs (~140 s): run with -m slow")
     f = tmp_path / FOLDER
     f.mkdir()
     dev, bench = hostile_cable_device(f), hostile_bench(f)

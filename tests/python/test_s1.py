@@ -328,7 +328,6 @@ def test_sweep_cli_usage_errors(tmp_path, capsys, argv, problem):
     assert problem in capsys.readouterr().err
 
 
-@pytest.mark.slow
 def test_sweep_cli_on_a_local_dask_cluster(tmp_path):
     import pyarrow.parquet as pq
 
