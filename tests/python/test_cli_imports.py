@@ -44,7 +44,7 @@ def test_light_commands_load_no_heavy_module(argv):
 
 def test_the_probe_sees_a_heavy_import():
     """The probe can fail: a command that needs scipy.signal shows it (identify-bench's model simulates with it)."""
-    code = "import sys; import tendyn.ident.blockmodel as b; b._lfilter([1.0], [1.0], [0.0]); print('scipy.signal' in sys.modules)"
+    code = "import sys; import tendyn.ident.block_simulation as b; b._lfilter([1.0], [1.0], [0.0]); print('scipy.signal' in sys.modules)"
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert r.stdout.strip() == "True"
 

@@ -70,7 +70,7 @@ def test_one_name_per_public_class():
                 owners.setdefault(key, []).append(mod.__name__)
     shared = {k: v for k, v in owners.items() if len(v) > 1}
     assert not shared, shared
-    assert TransmissionSpec.__module__ == "tendyn.device.schema"
+    assert TransmissionSpec.__module__ == "tendyn.device.schema_parts"      # its owner; the schema face re-exports it
 
 
 # ---- results of one shape ----------------------------------------------------------------------------
@@ -301,6 +301,9 @@ def test_import_rules(sub):
 
 def test_the_schema_is_a_leaf():
     """transmission.py may read the parameter declarations of device/schema.py because schema imports nothing
-    of tendyn: no circle device → transmission → device can form."""
-    assert set(_tendyn_imports(PACKAGE / "device" / "schema.py")) <= {"device"}     # its own base class only
+    of tendyn: no circle device → transmission → device can form. The schema is a face over its parts (issue 33
+    item 4): the face and each part import only the device's base class, its term limits and one another."""
+    family = ["schema.py", "schema_fields.py", "schema_parts.py", "core_fields.py", "serial_device.py"]
+    for name in family:
+        assert set(_tendyn_imports(PACKAGE / "device" / name)) <= {"device", "device.schema"}, name
     assert list(_tendyn_imports(PACKAGE / "device" / "base.py")) == []
