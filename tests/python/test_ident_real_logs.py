@@ -648,3 +648,13 @@ def test_estimators_share_the_contract(arm, tmp_path):
     assert np.array_equal(a.time, log.time) and a.joint.shape == (log.n_samples, 2)
     np.testing.assert_allclose(b.joint, a.joint, rtol=1e-6, atol=1e-8 * np.abs(a.joint).max())
     np.testing.assert_allclose(st.score(log), est.score(log), rtol=1e-6)
+
+
+def test_precision_warnings_are_told_from_sign_faults():
+    """The 'plain least squares is not physical' line names the sign faults only (what the consistent fit answers):
+    precision_warning tells implausible's σ warnings (not pinned) from its sign faults (not physical)."""
+    from tendyn.ident.result import implausible, precision_warning
+
+    w = implausible(["FV1", "FV2", "IA3"], [-0.1, 0.1, 0.001], [0.01, 0.02, 0.002])
+    assert len(w) == 3
+    assert [precision_warning(x) for x in w] == [False, True, True]

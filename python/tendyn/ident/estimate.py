@@ -19,7 +19,7 @@ import numpy as np
 
 from .lsq import least_squares, rel_stderr_pct, row_factor
 from .model import IdentModel, cached_model, diagonal_coupling  # noqa: F401 — cached_model: its home is model.py
-from .result import IdentificationResult, implausible, not_physical  # noqa: F401 — their home is result.py
+from .result import IdentificationResult, implausible, not_physical, precision_warning  # noqa: F401 — their home is result.py
 from .treatment import (PRESETS, above_threshold, drop_stale, preset_treatment, stack_blocks, treat,
                         velocity_thresholds)
 
@@ -687,7 +687,7 @@ class IDIM:
             self.consistent = "auto"
         res = self.result_
         res.plain = plain
-        why = [w for w in plain.warnings if "σ exceeds" not in w and "to 10 %" not in w] or plain.warnings
+        why = [w for w in plain.warnings if not precision_warning(w)] or plain.warnings
         res.warnings.insert(0, "the plain least squares is not physical (" + "; ".join(why)[:400]
                             + "): the physically consistent estimate (pseudo-inertia LMIs) is reported instead "
                               "(--plain: the plain one)")

@@ -26,6 +26,14 @@ default exciting logs): viscous σ 7-33 % with errors to +60 %; the fast spread-
 within 4.5 % (docs/device-file.md)."""
 
 _FRICTION = ("FV", "FVm", "FS", "FSm")
+_UNDETERMINED = "its σ exceeds its value"
+_NOT_PINNED = "to 10 %"
+
+
+def precision_warning(text: str) -> bool:
+    """True for a warning of :func:`implausible` that says a value is not pinned by the data (its σ), False for
+    one that says it cannot be physical (a negative sign): the consistent fit answers only the second kind."""
+    return _UNDETERMINED in text or f" {_NOT_PINNED} (excite" in text
 
 
 def implausible(names, values, stderr=None, units=None) -> list[str]:
@@ -36,21 +44,19 @@ def implausible(names, values, stderr=None, units=None) -> list[str]:
     out = []
     for i, (n, v) in enumerate(zip(names, values)):
         stem = n.rstrip("0123456789")
+        unit = units[i] if units else unit_of(n)
         if stem in _MUST_BE_POSITIVE and v < 0:
             sig = f" (σ {stderr[i]:.2g})" if stderr is not None else ""
-            unit = units[i] if units else unit_of(n)
             out.append(f"{n} = {v:.4g} {unit}{sig} is negative, which {_MUST_BE_POSITIVE[stem]} cannot be: either "
                        "the data do not determine it (excite that joint more) or the model misses a term; "
                        "--consistent constrains it to be physical")
         elif stem in _MUST_BE_POSITIVE and stderr is not None and abs(stderr[i]) > abs(v):
-            unit = units[i] if units else unit_of(n)
-            out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: its σ exceeds its value, so the data do not "
+            out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: {_UNDETERMINED}, so the data do not "
                        f"determine {_MUST_BE_POSITIVE[stem]} (excite that joint faster or longer)")
         elif stem in _FRICTION and stderr is not None and abs(stderr[i]) > FRICTION_REL_SIGMA_WARN * abs(v):
-            unit = units[i] if units else unit_of(n)
             out.append(f"{n} = {v:.4g} ± {stderr[i]:.2g} {unit}: σ is {100 * abs(stderr[i] / v):.0f} % of it, so "
-                       f"the data do not pin {_MUST_BE_POSITIVE[stem]} to 10 % (excite that joint faster, over a "
-                       "wider range of speeds, or longer)")
+                       f"the data do not pin {_MUST_BE_POSITIVE[stem]} {_NOT_PINNED} (excite that joint faster, over "
+                       "a wider range of speeds, or longer)")
     return out
 
 
