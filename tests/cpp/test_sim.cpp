@@ -1,12 +1,16 @@
 // The simulator step allocates nothing (tendon and elastic drives, friction on, sensors on); and physics
 // checks against values computed by hand, so that this executable can fail on wrong simulator physics.
+// `test_sim STEPS` runs those (CTest: sim_no_allocation); `test_sim batch` the batch checks of sim_batch_checks.hpp
+// (CTest: sim_batch): one executable, so the simulator's templates are compiled once.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 
 #include <Eigen/Geometry>
 
 #include "counting_malloc.hpp"
+#include "sim_batch_checks.hpp"
 #include "sim_test_chain.hpp"
 #include "tendyn/sim.hpp"
 
@@ -219,6 +223,7 @@ static tendyn::SimModel n_plus_one_chain() {
 }
 
 int main(int argc, char** argv) {
+  if (argc > 1 && std::strcmp(argv[1], "batch") == 0) return sim_batch_checks();
   tree_dynamics_matches_pinocchio();
   step_on_pinocchio_matches();
   reducer_constant_speed();

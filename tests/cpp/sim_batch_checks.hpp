@@ -1,6 +1,10 @@
 // tendyn::run_batch (include/tendyn/sim_batch.hpp): a batch spread over threads equals the same runs one after
 // the other, bit for bit (logs and final states); and the stepping loop allocates nothing (the allocations of
 // a batch are those of its thread starts: the same for 200 and for 2000 steps per run).
+// Run by `test_sim batch` (CTest: sim_batch). A header of test_sim.cpp, not its own executable: the simulator's
+// templates cost ~100 s of compiler CPU per translation unit, paid once for both checks (issue 39).
+#pragma once
+
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -13,7 +17,7 @@
 namespace {
 
 // The shared 3-joint tendon chain; `scale` multiplies tau0 and beta.
-tendyn::SimModel chain(double scale) { return three_joint_chain(tendyn::DriveKind::Tendon, scale); }
+tendyn::SimModel batch_chain(double scale) { return three_joint_chain(tendyn::DriveKind::Tendon, scale); }
 
 struct Logs {  // one run's log arrays
   long rows;
@@ -40,7 +44,7 @@ struct Batch {
   std::vector<tendyn::BatchRun> runs;
   Batch(int count, long steps) {
     for (int k = 0; k < count; ++k) {
-      models.push_back(chain(0.5 + 0.25 * k));
+      models.push_back(batch_chain(0.5 + 0.25 * k));
       models.back().finalize();
     }
     zero = tendyn::RowMatrixXd::Zero(steps, 3);
@@ -62,7 +66,7 @@ struct Batch {
 
 }  // namespace
 
-int main() {
+inline int sim_batch_checks() {
   int failures = 0;
   const int count = 6;
   const long steps = 2000;
