@@ -13,9 +13,13 @@ $(VPY):
 	$(PY) -m venv $(VENV)
 	$(PIP) install -q --upgrade pip
 
-# Build requirements go into the venv once, then the package builds without isolation (fast rebuilds).
+# Build requirements go into the venv once, then the package builds without isolation (fast rebuilds). The
+# dependencies (pyproject.toml's, the test extra's and the build requirements) go in through uv when it installs
+# (~5 s against pip's ~55 s with the downloads cached; issue 39), else through pip; pip then builds and installs
+# tendyn itself (it rebuilds a local folder every time, so a changed C++ source is never served from a cache).
 $(STAMP): $(VPY) $(SOURCES)
-	$(PIP) install -q $(BUILD_DEPS)
+	{ $(PIP) install -q uv && $(VENV)/bin/uv pip install -q --python $(VPY) $(BUILD_DEPS) -r pyproject.toml --extra test; } \
+	  || $(PIP) install -q $(BUILD_DEPS)
 	$(PIP) install -q --no-build-isolation ".[test]"
 	touch $(STAMP)
 
