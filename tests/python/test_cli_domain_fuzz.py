@@ -232,7 +232,13 @@ def test_device_limits_just_outside_and_inside(capsys, tmp_path, monkeypatch, co
               f"seed {SEED}")
 
 
-# ---- options that need a flag (args.OPTION_NEEDS): read from the table, given without and with the flag ---------
+# ---- options that need or exclude another (args.OPTION_NEEDS, OPTION_EXCLUDES): read from the tables ----------
+
+_ARGV = {"identify": ["identify", "no_such_device", "log.csv"], "zwidth": ["zwidth", "no_such_device"],
+         "export": ["export", "compensator", "no_such_device", "--out", "x.comp"]}
+"""The command line of each command of the tables (a device that does not exist; log.csv is written by the test,
+its content never read): a new command needs one here."""
+
 
 def _needs_cases():
     from tendyn.commands.args import OPTION_NEEDS
@@ -240,22 +246,53 @@ def _needs_cases():
     return [(c, o, f) for c, row in OPTION_NEEDS.items() for o, (f, _) in row.items()]
 
 
+def _excludes_cases():
+    from tendyn.commands.args import OPTION_EXCLUDES
+
+    return [(c, o, f) for c, row in OPTION_EXCLUDES.items() for o, (f, _) in row.items()]
+
+
+def _given(command, dest, tmp_path):
+    """[flag, value] of option ``dest`` with a value inside its domain (a file written here when it takes one), or
+    [flag] for a switch."""
+    action = [a for w, p in commands(build_parser()) if w == (command,) for a in p._actions if a.dest == dest][0]
+    flag = max(action.option_strings, key=len)
+    if action.nargs == 0:
+        return [flag]
+    domain = getattr(action.type, "domain", None)
+    name, text = domain.inside()[0] if domain is not None else (f"{dest}.json", "{}")
+    path = tmp_path / f"v{name}"
+    path.write_text(text, encoding="utf-8")
+    return [flag, str(path)]
+
+
 @pytest.mark.parametrize("command, option, needed", _needs_cases())
 def test_option_needs_its_flag(capsys, tmp_path, monkeypatch, command, option, needed):
-    """Each OPTION_NEEDS row: the option given with a value inside its domain but without the flag → exit 2, one
-    line naming the option and the flag, before the DEVICE is read (a device that does not exist); with the flag,
-    the same line is no longer about the option (the missing device is)."""
+    """Each OPTION_NEEDS row: the option given with a value inside its domain but without the one it needs → exit
+    2, one line naming both, before the DEVICE is read (a device that does not exist); with the other given too,
+    the line is no longer about the option (the missing device is)."""
     monkeypatch.chdir(tmp_path)
-    action = [a for w, p in commands(build_parser()) if w == (command,) for a in p._actions if a.dest == option][0]
-    flag = max(action.option_strings, key=len)
-    value = action.type.domain.inside()[0]
-    path = tmp_path / f"v{value[0]}"
-    path.write_text(value[1], encoding="utf-8")
-    argv = {"identify": ["identify", "no_such_device", str(path)]}[command]   # a new row needs its command line here
-    code = main([*argv, flag, str(path)])
+    (tmp_path / "log.csv").write_text("time\n0\n", encoding="utf-8")
+    opt, need = _given(command, option, tmp_path), _given(command, needed, tmp_path)
+    code = main([*_ARGV[command], *opt])
     lines = capsys.readouterr().err.strip().splitlines()
-    need = "--" + needed.replace("_", "-")
-    assert code == 2 and len(lines) == 1 and flag in lines[0] and need in lines[0], lines
-    code = main([*argv, flag, str(path), need])
+    assert code == 2 and len(lines) == 1 and opt[0] in lines[0] and need[0] in lines[0], lines
+    code = main([*_ARGV[command], *opt, *need])
     lines = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(lines) == 1 and "no_such_device" in lines[0] and flag not in lines[0], lines
+    assert code == 2 and len(lines) == 1 and "no_such_device" in lines[0] and opt[0] not in lines[0], lines
+
+
+@pytest.mark.parametrize("command, option, excluded", _excludes_cases())
+def test_option_excludes_the_other(capsys, tmp_path, monkeypatch, command, option, excluded):
+    """Each OPTION_EXCLUDES row: both options given (values inside their domains) → exit 2, one line naming both,
+    before the DEVICE is read; either one alone gets as far as the missing device."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "log.csv").write_text("time\n0\n", encoding="utf-8")
+    opt, other = _given(command, option, tmp_path), _given(command, excluded, tmp_path)
+    code = main([*_ARGV[command], *opt, *other])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(lines) == 1 and opt[0] in lines[0] and other[0] in lines[0], lines
+    for alone in (opt, other):
+        code = main([*_ARGV[command], *alone])
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(lines) == 1 and "no_such_device" in lines[0], lines

@@ -325,19 +325,35 @@ def check_applies(args) -> None:
 
 OPTION_NEEDS: dict[str, dict[str, tuple[str, str]]] = {
     "identify": {"bounds": ("consistent", "the boxes constrain the physically consistent fit")},
+    "zwidth": {"shares": ("friction", "the shares split identified friction")},
+    "export": {"shares": ("friction", "the shares split identified friction")},
 }
-"""command → {option: (the flag it needs, why)}: ``identify --bounds`` without ``--consistent`` is refused (the
+"""command → {option: (the option it needs, why)}: ``identify --bounds`` without ``--consistent`` is refused (the
 plain least squares has no constraints to add boxes to). Checked by :func:`check_needs` before any work; the fuzz
 (tests/python/test_cli_domain_fuzz.py) reads this table."""
 
+OPTION_EXCLUDES: dict[str, dict[str, tuple[str, str]]] = {
+    "zwidth": {"friction": ("compensator", "a compensator model file carries its own friction")},
+}
+"""command → {option: (the option it cannot go with, why)}: ``zwidth --friction F --compensator X`` is refused.
+Checked by :func:`check_needs` before any work; the fuzz reads this table too."""
+
 
 def check_needs(command: str, args) -> None:
-    """Refuse an option of :data:`OPTION_NEEDS` given without the flag it needs (before any work)."""
+    """Refuse an option of :data:`OPTION_NEEDS` given without the option it needs, or one of
+    :data:`OPTION_EXCLUDES` given with the option it excludes (before any work)."""
     from tendyn.errors import UsageError
 
-    for dest, (flag, why) in OPTION_NEEDS.get(command, {}).items():
-        if getattr(args, dest, None) is not None and not getattr(args, flag, False):
-            raise UsageError(f"needs --{flag.replace('_', '-')} ({why})", dest)
+    def given(dest):
+        value = getattr(args, dest, None)
+        return value is not None and value is not False
+
+    for dest, (other, why) in OPTION_NEEDS.get(command, {}).items():
+        if given(dest) and not given(other):
+            raise UsageError(f"needs --{other.replace('_', '-')} ({why})", dest)
+    for dest, (other, why) in OPTION_EXCLUDES.get(command, {}).items():
+        if given(dest) and given(other):
+            raise UsageError(f"cannot go with --{other.replace('_', '-')} ({why}): give one of them", dest)
 
 
 @dataclass(frozen=True)

@@ -79,6 +79,7 @@ def run_export(args) -> int:
     from tendyn.commands.s0 import _print_json, cable_device
 
     conv.check_applies(args)
+    conv.check_needs("export", args)
     if args.out.suffix.lower() not in SUFFIXES[args.kind]:
         raise UsageError(f"must end in {' or '.join(SUFFIXES[args.kind])} for {args.kind} (got {str(args.out)!r})",
                          "out")
@@ -99,8 +100,6 @@ def run_export(args) -> int:
         raise UsageError("a compensator is exported from identified friction (tendyn identify-friction); "
                          "without it, Compensator.from_device(device).export(path) uses the device file's "
                          "nominal losses", "friction")
-    if args.shares is not None and args.friction is None:
-        raise UsageError("shares split identified friction: give --friction too", "shares")
     # the device file with the identified friction laid over it: one loss model, read once
     cal = calibrated(dev, args.friction, shares=args.shares)
     try:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tendyn.commands.args import existing_file, number, out_path
+from tendyn.commands.args import check_needs, existing_file, number, out_path
 from tendyn.errors import UsageError
 
 
@@ -69,14 +69,10 @@ def run(args) -> int:
     from tendyn.ident.calibrated import CalibrationError
     from tendyn.pipelines.zwidth import MODES, run_zwidth
 
+    check_needs("zwidth", args)
     dev = _load(args.device)
     if dev.kind != "serial" or not (getattr(dev, "transmissions", None) or getattr(dev, "drives", None)):
         raise UsageError(f"{dev.name} is not a serial device with cable transmissions or capstan drives", "device")
-    if args.friction is not None and args.compensator is not None:
-        raise UsageError("a compensator model file carries its own friction: give --friction or --compensator, "
-                         "not both", "friction")
-    if args.shares is not None and args.friction is None:
-        raise UsageError("shares split identified friction: give --friction too", "shares")
     stiffness = _grid(args.stiffness, "stiffness", 0.0)
     damping = _grid(args.damping, "damping", 0.0)
     modes = [m.strip() for m in args.modes.split(",") if m.strip()]
