@@ -554,9 +554,10 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
                                span_hz=design.tri_freq_hz / SPAN_PERIODS if span > 0.0 else None)
 
 
-FAST_TRI_FREQ_FACTORS = (6.0, 8.0, 10.0)
-"""Triangle frequencies of the fast design (:func:`design_fast`), × the band's low end: 0.6, 0.8 and 1.0 Hz in the
-default 0.1–2 Hz band, cruise speeds of 1–4.5 rad/s on the generated desktop arms (docs/device-file.md)."""
+FAST_TRI_FREQ_FACTORS = (8.0, 10.0, 12.0)
+"""Triangle frequencies of the fast design (:func:`design_fast`), × the band's low end: 0.8, 1.0 and 1.2 Hz in the
+default 0.1–2 Hz band. Generated arms 0–2, 5 phase seeds each, 120 s: FV within 6.2 %, σ(FV) 0.7–3.0 %; (6, 8, 10)
+gave within 7.5 %, σ 0.9–3.5 %; (10, 13, 16) σ 1.0–2.4 % but a base FV +7.9 % (4σ) (docs/device-file.md)."""
 
 FAST_SPEED_SPAN = 0.8
 """speed_span ρ of the fast design: its cruise speeds sweep [0.2, 1] × the design's (Coulomb and viscous columns
@@ -564,8 +565,8 @@ apart, :class:`ExcitingDesign`)."""
 
 FAST_DURATION_S = 120.0
 """Default length [s] of an exciting run with the fast design (``tendyn simulate … exciting`` on a device with
-elastic capstan drives, tendyn.sim.catalogue): on generated arms 0–2 (5 phase seeds each) FV within 7.5 % at
-120 s, σ(FV) 0.9–3.5 %; at 60 s one log in 15 missed by 16 % (σ 4–6 %)."""
+elastic capstan drives, tendyn.sim.catalogue): on generated arms 0–2 (5 phase seeds each, triangles (6, 8, 10) ×
+0.1 Hz) FV within 7.5 % at 120 s, σ(FV) 0.9–3.5 %; at 60 s one log in 15 missed by 16 % (σ 4–6 %)."""
 
 DEFAULT_DURATION_S = 20.0
 """Default length [s] of an exciting run with the band or classic design (every other device)."""
