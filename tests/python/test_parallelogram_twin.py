@@ -350,6 +350,8 @@ def test_default_cli_chain_recovers_coulomb_and_viscous_friction_and_a_physical_
         assert abs(val[f"FV{d.joint}"] / (d.ratio ** 2 * d.viscous_motor) - 1) < 0.10, (d.name, val)
     assert all(p["ok"] for p in doc["pseudo_inertia"]), doc["pseudo_inertia"]
     assert doc["warnings"] == [], doc["warnings"]
+    why = " ".join(doc["treatment"]["why"])       # the report names the threshold rule it applied
+    assert "velocity threshold 10 % of each joint's peak speed (elastic" in why and "0.25 %" not in why, why
 
 
 def test_the_fast_designs_motor_torques_are_the_twins_and_weak_motors_bound_its_speed(tmp_path):
