@@ -305,17 +305,20 @@ def test_speed_span_domain_and_what_the_log_records(tmp_path):
 
 
 def test_the_default_exciting_design_keeps_a_parallelogram_off_its_stops(tmp_path):
-    """exciting_trajectory's default on a device with passive tree joints is the band design (every tree joint
-    inside its limits): the "classic" one drove the elbow into its stops (0.6 s of 20 on arm0), the stop forces
-    then in the identification log. Fails with the old default ("classic" without bandwidth_hz)."""
+    """exciting_trajectory's default on the arm (elastic capstan drives: the fast design, triangles 0.8–1.2 Hz,
+    tracking errors of a faster path) and the band design keep every tree joint inside its limits: the "classic"
+    one drove the elbow into its stops (0.6 s of 20 on arm0), the stop forces then in the identification log.
+    Fails with "classic" as the default."""
     from tendyn.sim.experiments import exciting_trajectory, tree_limits
 
     dev = _arm(tmp_path, seed=0)
-    run = exciting_trajectory(dev, duration=20.0, seed=1)
-    assert "end_stops" not in run.log.meta["options"], run.log.meta["options"].get("end_stops")
     lo, hi, L, c = tree_limits(dev)
-    qt = np.asarray(run.states["q_joint"]) @ L.T + c
-    assert np.all(qt >= lo) and np.all(qt <= hi), (qt.min(0) - lo, hi - qt.max(0))
+    for design in (None, "band"):
+        run = exciting_trajectory(dev, duration=20.0, seed=1, design=design)
+        assert "end_stops" not in run.log.meta["options"], (design, run.log.meta["options"].get("end_stops"))
+        assert run.log.meta["options"]["design"]["kind"] == (design or "fast")
+        qt = np.asarray(run.states["q_joint"]) @ L.T + c
+        assert np.all(qt >= lo) and np.all(qt <= hi), (design, qt.min(0) - lo, hi - qt.max(0))
 
 
 @pytest.mark.parametrize("seed", (0, 1, 2))
