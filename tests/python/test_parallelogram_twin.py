@@ -418,3 +418,7 @@ def test_default_exciting_design_and_duration_follow_the_drives(tmp_path):
     assert catalogue.resolve(arm, "exciting", {"duration": 7.0})["duration"] == 7.0
     assert catalogue.resolve(lexos, "swept-sine", {"transmission": 1})["duration"] == 20.0
     assert default_duration(arm) == 120.0 and default_duration(lexos) == 20.0
+    from tendyn.sim.experiments import exciting_trajectory
+
+    with pytest.raises(ValueError, match="fast exciting design is for capstan"):
+        exciting_trajectory(lexos, duration=1.0, design="fast")

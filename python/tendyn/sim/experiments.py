@@ -628,6 +628,9 @@ def design_fast(device, band_hz=(0.1, 2.0), seed: int = 0) -> tuple[ExcitingDesi
     the log's ``options.design``. Raises ValueError when the motors cannot follow it at any speed (gravity)."""
     compiled = compile_device(device)
     drives = compiled.device.drives
+    if not drives:
+        raise ValueError(f"{compiled.name}: the fast exciting design is for capstan [[drives]] (its speed bound is "
+                         "their motors' torques); use the 'band' or 'classic' design")
     peak_lim = np.array([d.motor.peak_torque for d in drives], float)
     cont_lim = np.array([d.motor.continuous_torque for d in drives], float)
     bound = math.inf
