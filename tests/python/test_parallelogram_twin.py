@@ -1,11 +1,13 @@
 """Issue 40: the twin of a desktop haptic arm keeps to its limits, its torque-mode tests are held by gravity
-compensation, identification on its exciting logs says when it is wrong, Z-width pushes within what it can give
-(generated parallelogram capstan arms, tendyn.devices.generate).
+compensation, identification on its exciting logs recovers the file's friction by default (the fast design on
+elastic capstan drives) and says when it is wrong, Z-width pushes within what it can give (generated
+parallelogram capstan arms, tendyn.devices.generate).
 
 Independent routes: the end stops' energy — the twin's mechanical energy (Pinocchio's kinetic and potential energy
 plus the stop springs) against the work of the motors and the hand less what friction, dampers and stops dissipate;
-the stop force against Hooke's law at rest; the held pose against the file's limits; the identified Coulomb
-friction against the file's; the largest push against the motors' peak torques through Pinocchio's Jacobian."""
+the stop force against Hooke's law at rest; the held pose against the file's limits; the identified Coulomb and
+viscous friction against the file's; the fast design's model motor torques against the twin's commanded ones; the
+largest push against the motors' peak torques through Pinocchio's Jacobian."""
 
 from __future__ import annotations
 
@@ -330,7 +332,8 @@ def test_default_cli_chain_recovers_coulomb_and_viscous_friction_and_a_physical_
     friction against the identified), every link's pseudo-inertia physical, no warning. Measured: FS within
     0.14 %, FV −2.4/−3.8/−2.2 % (arm 0), −2.0/−7.4/−0.1 % (arm 1), +0.5/−1.4/+0.3 % (arm 2) for drives 1/2/5,
     σ(FV) 0.8–3.0 %. Before (band design, 20 s): FV −18…+60 %, only warned. Planted: the band design as the
-    default (20 s) gives FV1 −99.9 % and FV5 +15 % on arm 0 (fails). ~7 s per arm."""
+    default (20 s) gives FV1 −99.9 % and FV5 +15 % on arm 0 (fails). 5–6 s per arm (120 s simulated at 10 kHz
+    in ~4 s, identify ~1.5 s)."""
     import json
 
     from tendyn.cli import main
@@ -363,7 +366,7 @@ def test_the_fast_designs_motor_torques_are_the_twins_and_weak_motors_bound_its_
     route, the twin's commanded motor torques on the same design (cable springs, PID; peak and rms within 15 %,
     measured within 4–10 %); on arm 0 (peak torque 0.2 N·m) the torques never bound it (speed_bound None, peak
     speeds 3.6–3.8 rad/s); with peak_torque 0.03 N·m the bound is 1.1 rad/s, every model torque within the
-    limits and the twin's within 1.1 × them; motors that cannot hold the arm at all are refused in one line."""
+    limits and the twin's within 1.1 × them; motors that cannot hold the arm at all are refused in one line. ~9 s."""
     import re
 
     from tendyn.sim.experiments import design_fast, design_motor_torques, exciting_trajectory
