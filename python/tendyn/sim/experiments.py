@@ -498,7 +498,8 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     regressor are nearly proportional on the cruise rows (only the sines tell them apart); spread speeds
     separate them (docs/device-file.md, the numbers). Positions, limits and the speed bound are unchanged; the
     frequencies slow to (1 − ρ)× at the slow end (below band_lo when the triangles sit near it, as in the default
-    design). It pays only when the cruise speeds are high (the fast design of the docs) and the log long (≥ 60 s).
+    design). It pays only when the cruise speeds are high and the log long (≥ 60 s): :func:`design_fast`, the default
+    on elastic capstan drives, sets ρ = :data:`FAST_SPEED_SPAN`.
     """
     from scipy.optimize import linprog
 
@@ -583,7 +584,8 @@ def default_design(device) -> str:
     compiled = compile_device(device)
     if getattr(compiled.device, "elastic_drives", False):
         return "fast"
-    if getattr(compiled.device, "bandwidth_hz", None) or tree_limits(compiled)[2].shape[0] > compiled.active_map[0].shape[1]:
+    passive = tree_limits(compiled)[2].shape[0] > compiled.active_map[0].shape[1]
+    if getattr(compiled.device, "bandwidth_hz", None) or passive:
         return "band"
     return "classic"
 
