@@ -50,7 +50,7 @@ motor sticks while the spring winds up by 2 C_m / K (S2 Fig. 4), so the joint-si
 over a band of speeds, not as F_C sign(q̇); least squares fits that ramp with a larger viscous slope and a smaller
 Coulomb term. Measured on generated parallelogram arms 0-4 (the band exciting design, 20 s): at 0.25 % FV
 +32 … +406 % (σ 13-30 %, no warning) and FS −2 … −4 %; at 10 % FV −18 … +60 % (σ 7-33 %) and FS within 0.3 %.
-On the default fast design (120 s, tendyn.sim.experiments.design_fast) 10 % is 0.30-0.38 rad/s: FS within
+On the twin's default fast design for such drives (120 s, design_fast) 10 % is 0.30-0.38 rad/s: FS within
 0.14 %, FV within 7.4 % on arms 0-2 (docs/device-file.md, "Identification by default")."""
 
 def velocity_thresholds(rule, peaks, elastic: bool = False) -> np.ndarray:
