@@ -118,3 +118,23 @@ def test_the_passivity_bound_of_a_calibrated_device_is_the_one_of_its_friction()
     np.testing.assert_allclose(b_cal, b_doc, rtol=1e-12)
     np.testing.assert_allclose(c_file, dissipation_bound(dev)[0], rtol=1e-12)
     assert not np.allclose(c_cal, c_file)
+
+
+def test_elastic_drives_is_the_devices(tmp_path):
+    """Whether a device's capstan drives are elastic has one owner, ``SerialDevice.elastic_drives``: identification's
+    model (velocity threshold, drive-stretch refit) and the twin's default exciting design read it. Independent
+    route: the file's ``[[drives]]`` and their ``stiffness_motor``, read from the TOML text."""
+    import tomllib
+
+    from tendyn.device import compile_device
+    from tendyn.ident.model import cached_model
+    from tendyn.sim.experiments import default_design
+
+    arm = generate.write_parallelogram_arm(tmp_path, seed=0)
+    for path in (arm, bundled("cea_branch"), bundled("lexos")):
+        raw = tomllib.loads(open(path).read())
+        truth = bool(raw.get("drives")) and all(d["stiffness_motor"] > 0 for d in raw["drives"])
+        dev = load_device(path)
+        assert dev.elastic_drives is truth
+        assert cached_model(compile_device(dev)).elastic_drives is truth
+        assert (default_design(dev) == "fast") is truth

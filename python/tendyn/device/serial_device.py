@@ -61,6 +61,14 @@ class SerialDevice(Device):
         return len(self.transmissions)
 
     @property
+    def elastic_drives(self) -> bool:
+        """True when the device's capstan ``[[drives]]`` declare a finite cable stiffness (``stiffness_motor`` > 0):
+        the motor encoders do not read the link, the dry friction sits at the motor behind the cable spring (S2
+        Fig. 4). The one test of it: identification's velocity threshold and drive-stretch refit
+        (``tendyn.ident.model``) and the twin's default exciting design (``tendyn.sim.experiments``) read it."""
+        return bool(self.drives) and all(d.stiffness_motor > 0.0 for d in self.drives)
+
+    @property
     def n_plus_one(self) -> bool:
         """True for an N+1 routing (``[device] routing = "n_plus_one"``): n + 1 tendons on n actuated joints."""
         return self.routing == "n_plus_one"

@@ -475,7 +475,8 @@ class IDIM:
         rate = float(log.meta["rate_hz"])
         preset = preset or "tendyn"
         bw = getattr(model.device, "bandwidth_hz", None)
-        tr = preset_treatment(preset, rate, bw, *settings)       # the options given win over the preset's
+        tr = preset_treatment(preset, rate, bw, *settings,      # the options given win over the preset's
+                              elastic=model.elastic_drives)
         if "velocities" in PRESETS[preset].fields(rate, bw):     # a preset that says which velocities it uses
             velocities = tr.velocities
         time, q, tau = model.joint_signals(log)

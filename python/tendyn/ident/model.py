@@ -379,8 +379,9 @@ class IdentModel:
     @property
     def elastic_drives(self) -> bool:
         """Whether the device's capstan ``[[drives]]`` declare a finite cable stiffness (``stiffness_motor`` > 0):
-        then the motor encoders do not read the link (:meth:`link_positions`)."""
-        return bool(self.device.drives) and all(d.stiffness_motor > 0.0 for d in self.device.drives)
+        then the motor encoders do not read the link (:meth:`link_positions`). The device owns the test
+        (:attr:`tendyn.device.serial_device.SerialDevice.elastic_drives`)."""
+        return bool(getattr(self.device, "elastic_drives", False))
 
     def link_positions(self, q, tau, rate_hz: float, cutoff_hz: float, order: int, coulomb_motor, viscous_motor):
         """Link positions [rad] (n, n_a) of the motor-encoder positions q = q_m / N of elastic capstan drives.

@@ -427,7 +427,7 @@ class StreamingIDIM:
             raise model.no_logged_velocities()
         self._vel_cols = vel
         tr = default_treatment(rate, getattr(model.device, "bandwidth_hz", None), self.cutoff_hz, self.decimate,
-                               self.order, self.velocity_threshold)
+                               self.order, self.velocity_threshold, elastic=model.elastic_drives)
         tr = dataclasses.replace(tr, velocities="logged" if vel else "differentiate")
         # stale rows and time stamps (the same re-timing as in memory) counted on the speed pass, which reads
         # q, τ and the logged speeds once: a clean log is read twice in all, a log to re-time three times

@@ -48,9 +48,10 @@ ELASTIC_VELOCITY_FRACTION = 0.10
 of each joint's peak |q̇|. There the dry friction sits at the motor, behind the cable spring: at each reversal the
 motor sticks while the spring winds up by 2 C_m / K (S2 Fig. 4), so the joint-side friction passes through zero
 over a band of speeds, not as F_C sign(q̇); least squares fits that ramp with a larger viscous slope and a smaller
-Coulomb term. Measured on generated parallelogram arms 0-4 (the default exciting design, 20 s): at 0.25 % FV
-+32 … +406 % (σ 13-30 %, no warning) and FS −2 … −4 %; at 10 % FV −18 … +60 % (σ 7-33 %) and FS within 0.3 %
-(docs/device-file.md, "Identification defaults")."""
+Coulomb term. Measured on generated parallelogram arms 0-4 (the band exciting design, 20 s): at 0.25 % FV
++32 … +406 % (σ 13-30 %, no warning) and FS −2 … −4 %; at 10 % FV −18 … +60 % (σ 7-33 %) and FS within 0.3 %.
+On the twin's default fast design for such drives (120 s, design_fast) 10 % is 0.30-0.38 rad/s: FS within
+0.14 %, FV within 7.4 % on arms 0-2 (docs/device-file.md, "Identification by default")."""
 
 def velocity_thresholds(rule, peaks, elastic: bool = False) -> np.ndarray:
     """Per-joint velocity threshold [rad/s] (the one rule, in memory and ``--stream``): ``rule`` None gives the
@@ -236,9 +237,11 @@ class Treatment:
 
 
 def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None, decimate=None, order: int = 4,
-                      velocity_threshold: float | None = 0.0) -> Treatment:
+                      velocity_threshold: float | None = 0.0, elastic: bool = False) -> Treatment:
     """Gautier's defaults from the log's rate and the device's dynamic bandwidth (explicit values win); each
-    setting's origin goes into :attr:`Treatment.why`. A peer's settings: :func:`preset_treatment`."""
+    setting's origin goes into :attr:`Treatment.why` (``elastic``: the device's capstan drives are elastic, the
+    default velocity threshold is :data:`ELASTIC_VELOCITY_FRACTION`, :func:`velocity_thresholds`). A peer's
+    settings: :func:`preset_treatment`."""
     bw = float(bandwidth_hz or DEFAULT_BANDWIDTH_HZ)
     why = [] if bandwidth_hz else [f"the device file gives no bandwidth_hz, {bw:g} Hz assumed"]
     if cutoff_hz is None:
@@ -253,7 +256,10 @@ def default_treatment(rate_hz: float, bandwidth_hz: float | None, cutoff_hz=None
         why.append(f"decimation to about 10 x the bandwidth ({rate_hz / decimate:g} Hz)")
     else:
         why.append("decimation given")
-    if velocity_threshold is None:
+    if velocity_threshold is None and elastic:
+        why.append(f"velocity threshold {100 * ELASTIC_VELOCITY_FRACTION:g} % of each joint's peak speed (elastic "
+                   "capstan drives: at each reversal the motor sticks behind the cable spring)")
+    elif velocity_threshold is None:
         why.append(f"velocity threshold {100 * DEFAULT_VELOCITY_FRACTION:g} % of each joint's peak speed "
                    "(the sign of the Coulomb term is undefined near rest)")
     else:
@@ -340,7 +346,7 @@ and :attr:`Treatment.preset` take their names from it; docs/realdata.md describe
 
 
 def preset_treatment(name: str, rate_hz: float, bandwidth_hz=None, cutoff_hz=None, decimate=None, order: int = 4,
-                     velocity_threshold=None) -> Treatment:
+                     velocity_threshold=None, elastic: bool = False) -> Treatment:
     """The :class:`Treatment` of preset ``name`` (:data:`PRESETS`) for a log at ``rate_hz`` [Hz]; ``cutoff_hz``
     [Hz], ``decimate`` and ``velocity_threshold`` [rad/s] given (not None) win over the preset's, ``order`` is the
     preset's when it sets one. ValueError naming the presets for an unknown name."""
@@ -354,7 +360,7 @@ def preset_treatment(name: str, rate_hz: float, bandwidth_hz=None, cutoff_hz=Non
             fields[k] = v
     order = fields.pop("order", order)
     tr = default_treatment(rate_hz, bandwidth_hz, fields.pop("cutoff_hz"), fields.pop("decimate"), order,
-                           fields.pop("velocity_threshold"))
+                           fields.pop("velocity_threshold"), elastic=elastic)
     if name == "tendyn":
         return tr
     said = {"cutoff_hz": "cut-off given", "decimate": "decimation given",

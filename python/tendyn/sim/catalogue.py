@@ -81,7 +81,8 @@ OPTIONS: dict[str, Option] = {o.name: o for o in (
            "identify-friction needs)", lo=0.0, lo_open=True, hi=1_000.0, max_len=50),
     Option("loads", "int", "-", "poses (gravity loads) of a constant-velocity test of a cable device, chosen "
            "from its limits and gravity model (default 2: the load-dependent friction needs two)", lo=1, hi=10),
-    Option("duration", "float", "s", "length of an exciting trajectory or a swept sine (default 20 s)",
+    Option("duration", "float", "s", "length of an exciting trajectory or a swept sine (default 20 s; 120 s for "
+           "the fast exciting design of elastic capstan drives)",
            lo=0.0, lo_open=True, hi=86_400.0),
     Option("torque", "float", "N·m or N", "input amplitude: motor torque [N·m] on chains (≤ the motor's peak "
            "torque), force command [N] on a tendon bench (default 0.1)", lo=0.0, lo_open=True, hi=1_000.0),
@@ -234,7 +235,12 @@ def _device_defaults(device, exp: Experiment) -> dict[str, Any]:
         return {"rate": 20_000.0}
     from tendyn.sim.model import default_control_hz
 
-    return {"rate": 10_000.0, "control_rate": default_control_hz(device)}
+    out = {"rate": 10_000.0, "control_rate": default_control_hz(device)}
+    if exp.name == "exciting":      # 120 s with the fast design of elastic capstan drives, else 20 s
+        from tendyn.sim.experiments import default_duration
+
+        out["duration"] = default_duration(device)
+    return out
 
 
 def _divides(fast: float, slow: float) -> bool:

@@ -498,7 +498,8 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
     regressor are nearly proportional on the cruise rows (only the sines tell them apart); spread speeds
     separate them (docs/device-file.md, the numbers). Positions, limits and the speed bound are unchanged; the
     frequencies slow to (1 − ρ)× at the slow end (below band_lo when the triangles sit near it, as in the default
-    design). It pays only when the cruise speeds are high (the fast design of the docs) and the log long (≥ 60 s).
+    design). It pays only when the cruise speeds are high and the log long (≥ 60 s): :func:`design_fast`, the default
+    on elastic capstan drives, sets ρ = :data:`FAST_SPEED_SPAN`.
     """
     from scipy.optimize import linprog
 
@@ -554,22 +555,123 @@ def design_exciting(device, band_hz=(0.1, 2.0), n_sin: int = 3, sin_share: float
                                span_hz=design.tri_freq_hz / SPAN_PERIODS if span > 0.0 else None)
 
 
-def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
+FAST_TRI_FREQ_FACTORS = (8.0, 10.0, 12.0)
+"""Triangle frequencies of the fast design (:func:`design_fast`), × the band's low end: 0.8, 1.0 and 1.2 Hz in the
+default 0.1–2 Hz band. Generated arms 0–2, 5 phase seeds each, 120 s: FV within 6.2 %, σ(FV) 0.7–3.0 %; (6, 8, 10)
+gave within 7.5 %, σ 0.9–3.5 %; (10, 13, 16) σ 1.0–2.4 % but a base FV +7.9 % (4σ) (docs/device-file.md)."""
+
+FAST_SPEED_SPAN = 0.8
+"""speed_span ρ of the fast design: its cruise speeds sweep [0.2, 1] × the design's (Coulomb and viscous columns
+apart, :class:`ExcitingDesign`)."""
+
+FAST_DURATION_S = 120.0
+"""Default length [s] of an exciting run with the fast design (``tendyn simulate … exciting`` on a device with
+elastic capstan drives, tendyn.sim.catalogue): on generated arms 0–2 (5 phase seeds each, triangles (6, 8, 10) ×
+0.1 Hz) FV within 7.5 % at 120 s, σ(FV) 0.9–3.5 %; at 60 s one log in 15 missed by 16 % (σ 4–6 %)."""
+
+DEFAULT_DURATION_S = 20.0
+"""Default length [s] of an exciting run with the band or classic design (every other device)."""
+
+TORQUE_CHECK_S = 40.0
+"""Seconds of a design (from its start) on which :func:`design_motor_torques` evaluates the motor torques."""
+
+
+def default_design(device) -> str:
+    """The exciting design ``exciting_trajectory(design=None)`` runs on ``device``: "fast" on elastic capstan
+    ``[[drives]]`` (``SerialDevice.elastic_drives``: the viscous friction is only seen above the current noise at
+    speeds of rad/s, docs/device-file.md), "band" when the file gives ``bandwidth_hz`` or the device has passive
+    tree joints (a parallelogram), else "classic"."""
+    compiled = compile_device(device)
+    if getattr(compiled.device, "elastic_drives", False):
+        return "fast"
+    passive = tree_limits(compiled)[2].shape[0] > compiled.active_map[0].shape[1]
+    if getattr(compiled.device, "bandwidth_hz", None) or passive:
+        return "band"
+    return "classic"
+
+
+def default_duration(device) -> float:
+    """Default length [s] of an exciting run on ``device``: :data:`FAST_DURATION_S` with the fast design, else
+    :data:`DEFAULT_DURATION_S` (the one rule ``exciting_trajectory`` and ``tendyn simulate`` follow)."""
+    return FAST_DURATION_S if default_design(device) == "fast" else DEFAULT_DURATION_S
+
+
+def design_motor_torques(device, design, seconds: float = TORQUE_CHECK_S, dt: float = 2e-3):
+    """The motor torques [N·m] a design asks of the capstan drives, by the device file's model: rigid-body
+    inverse dynamics of the tree (Pinocchio, q_tree = L q + c, τ = Lᵀ τ_tree), each drive's rotor inertia,
+    Coulomb and viscous friction at the motor (τ_m = τ/N + J_r N q̈ + C_m sign(q̇) + ν_m N q̇; ``[[terms]]`` and the
+    cable's own dynamics left out), over the first ``seconds`` of the design on the grid ``dt`` [s].
+    Returns (peak, rms), each (n_drives,)."""
+    compiled = compile_device(device)
+    drives = compiled.device.drives
+    q, qd, qdd = design.references(seconds, dt)
+    L, c = (np.asarray(a, float) for a in compiled.active_map)
+    pm, data = compiled.pinocchio_model, compiled.pinocchio_data()
+    tau = np.empty_like(q)
+    for k in range(q.shape[0]):
+        tau[k] = L.T @ pin.rnea(pm, data, L @ q[k] + c, L @ qd[k], L @ qdd[k])
+    N = np.array([d.ratio for d in drives], float)
+    Jr = np.array([d.motor.rotor_inertia for d in drives], float)
+    Cm = np.array([d.coulomb_motor for d in drives], float)
+    nu = np.array([d.viscous_motor for d in drives], float)
+    tm = tau / N + Jr * N * qdd + Cm * np.sign(qd) + nu * N * qd
+    return np.abs(tm).max(axis=0), np.sqrt((tm ** 2).mean(axis=0))
+
+
+def design_fast(device, band_hz=(0.1, 2.0), seed: int = 0) -> tuple[ExcitingDesign, dict]:
+    """The fast exciting design for elastic capstan drives: :func:`design_exciting` with triangles at band_lo ×
+    :data:`FAST_TRI_FREQ_FACTORS` and spread cruise speeds (``speed_span`` :data:`FAST_SPEED_SPAN`), every tree
+    joint inside its limits; its speeds set by those frequencies over the joint ranges, bounded by the motors:
+    the device file gives no speed limit, so the bound is the largest at which the model's motor torques
+    (:func:`design_motor_torques`) stay within each motor's ``peak_torque`` and their rms within its
+    ``continuous_torque`` (inertial torques grow as the square of the speed: the bound shrinks by 0.9/√excess
+    until they do). Returns (design, record): the record (``kind``, ``tri_freq_factors``, ``speed_bound``
+    [rad/s] or None when the torques never bound it, ``motor_torque_peak`` / ``motor_torque_rms`` [N·m]) goes to
+    the log's ``options.design``. Raises ValueError when the motors cannot follow it at any speed (gravity)."""
+    compiled = compile_device(device)
+    drives = compiled.device.drives
+    if not drives:
+        raise ValueError(f"{compiled.name}: the fast exciting design is for capstan [[drives]] (its speed bound is "
+                         "their motors' torques); use the 'band' or 'classic' design")
+    peak_lim = np.array([d.motor.peak_torque for d in drives], float)
+    cont_lim = np.array([d.motor.continuous_torque for d in drives], float)
+    bound = math.inf
+    for _ in range(40):
+        design = design_exciting(compiled, band_hz=band_hz, seed=seed, tri_freq_factors=FAST_TRI_FREQ_FACTORS,
+                                 max_speed=bound, speed_span=FAST_SPEED_SPAN)
+        peak, rms = design_motor_torques(compiled, design)
+        excess = float(max(np.max(peak / peak_lim), np.max(rms / cont_lim)))
+        if excess <= 1.0:
+            return design, {"kind": "fast", "tri_freq_factors": list(FAST_TRI_FREQ_FACTORS),
+                            "speed_bound": None if math.isinf(bound) else float(bound),
+                            "motor_torque_peak": peak.tolist(), "motor_torque_rms": rms.tolist()}
+        bound = 0.9 * float(design.peak_speed().max()) / math.sqrt(excess)
+    i = int(np.argmax(np.maximum(peak / peak_lim, rms / cont_lim)))
+    raise ValueError(f"{compiled.name}: motor {i + 1} cannot follow an exciting trajectory within its torques "
+                     f"(peak {peak[i]:.3g} of {peak_lim[i]:.3g} N·m, rms {rms[i]:.3g} of {cont_lim[i]:.3g} N·m at "
+                     f"{bound:.3g} rad/s): gravity alone is too much for it")
+
+
+def exciting_trajectory(device, duration: float | None = None, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
                         f_sin=(0.5, 1.1, 1.7), a_sin: float = 0.05, rate_hz: float = 5_000.0,
                         control_hz: float | None = None, log_rate_hz: float = 1_000.0, seed: int = 0,
                         bandwidth_hz: float = 8.0, design: "ExcitingDesign | str | None" = None,
                         progress=None, friction: bool = True) -> SimRun:
     """Triangular + sinusoidal joint trajectories (S2 §VI) tracked by a joint-space PID.
 
-    design : ExcitingDesign, FourierDesign (:func:`tendyn.ident.exciting.plan_exciting`), "band", "classic" or None
+    duration : [s]; None: :func:`default_duration` (120 s with the fast design, else 20 s)
+    design : ExcitingDesign, FourierDesign (:func:`tendyn.ident.exciting.plan_exciting`), "fast", "band",
+        "classic" or None (:func:`default_design`). "fast": :func:`design_fast` in the band 0.1 Hz …
+        ``device.bandwidth_hz`` (2 Hz when the file gives none), the default on elastic capstan ``[[drives]]``.
         "classic": one triangle per joint (``amplitude`` [rad], ``f_tri`` [Hz]) plus the sines ``f_sin`` [Hz]
         of ``a_sin`` [rad] shared by all joints, clipped inside the active joint limits. "band": the design of
         :func:`design_exciting` inside the device's identification band (0.1 Hz … ``device.bandwidth_hz``),
         passive joints kept inside their limits, distinct frequencies per joint (``q0``, ``amplitude``,
-        ``f_tri``, ``f_sin``, ``a_sin`` unused). None: "band" when the device file gives ``bandwidth_hz``
-        (its motion bandwidth, e.g. the CEA branch's 2 Hz) or has passive tree joints (a parallelogram: "classic"
-        drove a desktop arm's elbow into its end stops for 0.6 s of 20, the stop forces in the log, σ(FV) 1.4–3.6×
-        FV), else "classic".
+        ``f_tri``, ``f_sin``, ``a_sin`` unused). None: "fast" on elastic capstan drives; else "band" when the
+        device file gives ``bandwidth_hz`` (its motion bandwidth) or has passive tree joints (a parallelogram:
+        "classic" drove a desktop arm's elbow into its end stops for 0.6 s of 20, the stop forces in the log,
+        σ(FV) 1.4–3.6× FV), else "classic". The log records the design (``options.design``; a string design
+        adds its ``kind``, the fast one its speed bound and the model's motor torques).
     friction : False runs the twin without its friction sources (a rigid-body-plus-terms truth).
     """
     device = compile_device(device)   # built once: sim model, PID gains and log share it
@@ -577,13 +679,19 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
     na = m.na
     dev_bw = getattr(device.device, "bandwidth_hz", None)
     if design is None:      # "classic" clips the active limits only: passive tree joints would ride their stops
-        design = "band" if dev_bw or tree_limits(device)[2].shape[0] > na else "classic"
-    if isinstance(design, str) and design == "band":
-        design = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
+        design = default_design(device)
+    if duration is None:
+        duration = FAST_DURATION_S if isinstance(design, str) and design == "fast" else DEFAULT_DURATION_S
+    record = {}
+    if isinstance(design, str) and design == "fast":
+        design, record = design_fast(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
+    elif isinstance(design, str) and design == "band":
+        design, record = design_exciting(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed), {"kind": "band"}
     if not isinstance(design, str) and hasattr(design, "references"):   # ExcitingDesign, ident.exciting.FourierDesign
         ref_q, ref_qd, _ = design.references(duration, m.dt)
         q0 = design.center
-        opts = dict(duration=duration, design=design.to_dict(), rate_hz=rate_hz, control_hz=control_hz)
+        opts = dict(duration=duration, design={**design.to_dict(), **record}, rate_hz=rate_hz,
+                    control_hz=control_hz)
     elif design == "classic":
         lo, hi = _active_limits(device)
         q0 = 0.5 * (lo + hi) if q0 is None else np.asarray(q0, float)
@@ -598,7 +706,7 @@ def exciting_trajectory(device, duration: float = 20.0, amplitude: float = 0.4, 
         opts = dict(duration=duration, amplitude=amplitude, f_tri=f_tri, f_sin=list(f_sin), a_sin=a_sin, q0=q0,
                     rate_hz=rate_hz, control_hz=control_hz)
     else:
-        raise ValueError(f"design must be an ExcitingDesign, 'band' or 'classic' (got {design!r})")
+        raise ValueError(f"design must be an ExcitingDesign, 'fast', 'band' or 'classic' (got {design!r})")
     m.mode = _core.ControlMode.JointPID
     m.kp, m.kd, m.ki = pid_gains(m, device, q0, bandwidth_hz)
     m.velocity_cutoff_hz = 100.0
