@@ -83,6 +83,9 @@ BAD = [
     (SIM + ["lexos", "exciting", "--q0", "0,0,0,5", "--out", "{out}"], ["--q0", "joint 4", "limits"]),
     (SIM + ["lexos", "exciting", "--q0", "-3,0,0,0.5", "--out", "{out}"], ["--q0", "joint 1", "limits"]),
     (SIM + ["cea_branch", "exciting", "--q0", "0,0,0,0", "--out", "{out}"], ["--q0", "3 values"]),
+    # the fast design (elastic capstan drives) centres itself: a start given would be ignored silently
+    (SIM + ["cea_branch", "exciting", "--q0", "0.1,0.1,0.1", "--out", "{out}"], ["--q0", "fast exciting design",
+                                                                                "classic design only"]),
     (SIM + ["mcgill_bench", "stepped-sine", "--q0", "0", "--out", "{out}"], ["--q0", "not an option"]),
     # --- speeds, durations, amplitudes, periods, cycles, frequencies
     (SIM + ["lexos", "constant-velocity", "--speeds", "nan", "--out", "{out}"], ["--speeds", "finite"]),

@@ -321,6 +321,13 @@ def _check_chain(device, exp: Experiment, o: dict) -> None:
         for i, (q, a, b) in enumerate(zip(q0, lower, upper)):
             if a is not None and b is not None and not a <= q <= b:
                 raise UsageError(f"joint {i + 1} = {q:g} rad is outside its limits [{a:g}, {b:g}] rad", "q0")
+        if exp.name == "exciting":
+            from tendyn.sim.experiments import default_design
+
+            design = default_design(device)
+            if design != "classic":     # it centres its motion in the joint limits: a start given would be ignored
+                raise UsageError(f"the {design} exciting design of {device.name} centres its motion in the joint "
+                                 "limits and starts there; --q0 sets the start of the classic design only", "q0")
     if "torque" in o:
         k = o.get("transmission", o.get("joint")) - 1
         peak = _motors(device)[k].peak_torque
