@@ -216,9 +216,10 @@ def no_process_left_behind(request):
                     + "; ".join(f"{p}: {c}" for p, c in sorted(left.items())), pytrace=False)
 
 
-HEAVY_FIRST = ("test_package.py", "test_reports.py", "test_readme.py", "test_any_device.py", "test_examples.py",
-               "test_cli_property_fuzz.py", "test_file_fuzz.py", "test_report_hostile.py", "test_ident_friction.py",
-               "test_realdata_mtm.py", "test_design.py", "test_nplus1_sim.py", "test_cli_domain_fuzz.py")
+HEAVY_FIRST = ("test_any_device.py", "test_readme.py", "test_package.py", "test_reports.py", "test_examples.py",
+               "test_cli_property_fuzz.py", "test_parallelogram_twin.py", "test_s2_ident.py", "test_s1.py",
+               "test_file_fuzz.py", "test_report_hostile.py", "test_ident_friction.py", "test_realdata_mtm.py",
+               "test_design.py", "test_cli_domain_fuzz.py")
 """Modules of a minute or more of work, handed to the workers first: a long module started last would leave the
 other workers idle at the end of a parallel run (longest-first scheduling). Names only: a module missing here
 is still run, in its place."""
