@@ -108,10 +108,10 @@ def _run_handle(args, dev) -> int:
             raise UsageError(f"{args.friction}: the maps take identify-friction's FRICTION.json (tendyn.friction/1)",
                              "friction")
         kw.update(coulomb_motor=cal.friction["coulomb_motor"], viscous_motor=cal.friction["viscous_motor"])
-        sources["friction"] = f"identified: {args.friction} ({cal.friction['format']})"
+        sources["friction"] = f"{cal.sources['friction']} ({cal.friction['format']})"   # the calibration's record
     if args.params is not None:
         kw["mass_matrix"] = _identified_mass_matrix(cal, args.params)
-        sources["inertia"] = f"identified: {args.params} (base parameters, rotor terms included)"
+        sources["inertia"] = f"{cal.sources['params']} (base parameters, rotor terms included)"
     try:
         from tendyn.progress import Ticker
 
