@@ -251,10 +251,14 @@ def test_local_cluster_workers_keep_their_heap_between_generations():
     per 64-design batch of L-EXOS's 81 poses and 72 000 per island of the benchmark, +20 % CPU against the warm
     in-process run; the cluster's MALLOC_* environment, :data:`tendyn.ident.cluster.QUIET_CONFIG`, removes them:
     without it this test measured 450–1 000 faults per batch, with it 0)."""
+    import resource
+
     from dask.distributed import Client
 
     from tendyn.ident.cluster import local_cluster
 
+    if not hasattr(resource, "RUSAGE_THREAD"):
+        pytest.skip("per-thread page faults are Linux's (glibc reads the MALLOC_* environment)")
     space = DesignSpace("lexos", LEXOS_VARY)                 # the whole pose grid: batches of a few MB
     X = np.random.default_rng(0).uniform(space.lower, space.upper, (64, len(space.names)))
 
