@@ -5,7 +5,9 @@
   grid) per second, in batches (numpy over the designs); baseline: the same objectives evaluated one design at a
   time (a plain per-design loop of the same numpy code), same run.
 * ``dask_design_speedup``: a design run of 4 NSGA-II islands on 2 local Dask workers (the design space scattered
-  once to each worker, one task per island) against the same islands one after the other in one process.
+  once to each worker, one task per island) against the same islands one after the other in one process; beside
+  the CPU speed-up, the minor page faults of the in-process runs and of the busiest worker (allocator churn: a
+  fresh worker with glibc's start thresholds re-faulted its heap every generation, docs/design.md).
 
 The machine is shared: the 1-minute load average is recorded beside each number.
 """
