@@ -100,6 +100,9 @@ def bench_dask_design(results: list, islands: int = 4, population: int = 64, gen
     serial, dask_s = statistics.median(t_serial), statistics.median(t_dask)
     serial_cpu, busiest, client_cpu = (statistics.median(c) for c in (c_serial, c_worker, c_client))
     cpu_speedup = serial_cpu / (busiest + client_cpu)      # critical path: the busier worker, then the client
+    print(f"[bench] dask_design_speedup per pair: in-process CPU {', '.join(f'{c:.2f}' for c in c_serial)} s, busiest "
+          f"worker {', '.join(f'{c:.2f}' for c in c_worker)} s, client {', '.join(f'{c:.2f}' for c in c_client)} s",
+          file=sys.stderr)
     print(f"[bench] dask_design_speedup: {islands} islands, one process {', '.join(f'{t:.2f}' for t in t_serial)} s, "
           f"2 workers {', '.join(f'{t:.2f}' for t in t_dask)} s: median wall speed-up {serial / dask_s:.2f}, CPU "
           f"speed-up {cpu_speedup:.2f} (in-process CPU {serial_cpu:.2f} s over busiest worker {busiest:.2f} s + "
