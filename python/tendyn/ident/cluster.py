@@ -2,7 +2,8 @@
 one way to connect, one way to start a local cluster.
 
 The local cluster (:func:`local_cluster`) runs single-threaded worker processes without the memory monitor, the
-statistical profiler and Dask's aggressive malloc trimming, with the event-loop tick probe and the system monitor slowed down. The
+statistical profiler and Dask's aggressive malloc trimming, with glibc's allocator thresholds of a warm
+process (:data:`MMAP_THRESHOLD`), with the event-loop tick probe and the system monitor slowed down. The
 campaigns send one batch per worker (or a few), each tens of milliseconds to seconds of CPU, so with Dask's
 defaults these periodic samplers cost the workers, and the client process that hosts the scheduler and the
 nannies, a large share of the work itself: issue 11 (16 designs, busiest worker 1.59 s → 1.20 s of CPU against
@@ -11,16 +12,28 @@ nannies, a large share of the work itself: issue 11 (16 designs, busiest worker 
 
 from __future__ import annotations
 
-__all__ = ["QUIET_CONFIG", "connect_scheduler", "local_cluster", "placement", "worker_threads"]
+__all__ = ["MMAP_THRESHOLD", "QUIET_CONFIG", "connect_scheduler", "local_cluster", "placement", "worker_threads"]
+
+MMAP_THRESHOLD = 32 * 2**20
+"""Bytes: blocks smaller than this come from a worker's heap, never a fresh mapping (glibc's largest dynamic mmap
+threshold on 64-bit; a larger value is ignored); the heap is trimmed only beyond twice it."""
 
 QUIET_CONFIG = {"distributed.worker.profile.enabled": False,          # read by the spawned workers
                 "distributed.admin.tick.interval": "1000ms",           # event-loop blocking probe (default 20 ms)
                 "distributed.admin.system-monitor.interval": "5000ms",  # psutil sampling (default 500 ms)
                 # the workers' environment: Dask's default also sets MALLOC_TRIM_THRESHOLD_=65536, with which glibc
                 # hands freed memory back to the system at once, so numpy's batch arrays are page-faulted in again
-                # at every allocation: +28 % CPU on a design island (2.44 s against 1.91 s in a plain process)
+                # at every allocation: +28 % CPU on a design island (2.44 s against 1.91 s in a plain process).
+                # Without it glibc's own thresholds start low (mmap and trim 128 kB) and rise only when a large
+                # block is freed: a long-running process that once evaluated a large batch (the client, after its
+                # pooled evaluation) keeps its heap, a fresh worker trims it after every generation and faults it
+                # in again (issue 32: 72 000 page faults, +0.2 s of CPU, per design island; 0 in the warm process).
+                # The workers start where a warm process ends: glibc's largest dynamic mmap threshold and twice it
+                # for the trim, as glibc sets them itself (MALLOC_MMAP_THRESHOLD_, MALLOC_TRIM_THRESHOLD_).
                 "distributed.nanny.pre-spawn-environ": {"OMP_NUM_THREADS": 1, "MKL_NUM_THREADS": 1,
-                                                        "OPENBLAS_NUM_THREADS": 1}}
+                                                        "OPENBLAS_NUM_THREADS": 1,
+                                                        "MALLOC_MMAP_THRESHOLD_": MMAP_THRESHOLD,
+                                                        "MALLOC_TRIM_THRESHOLD_": 2 * MMAP_THRESHOLD}}
 """Dask settings of :func:`local_cluster` (module docstring)."""
 
 CONNECT_TIMEOUT = "10s"
