@@ -171,6 +171,27 @@ def test_a_params_file_missing_a_base_parameter_is_refused_not_zeroed(tmp_path, 
     assert _maps(tmp_path, capsys, doc)[0] == 0
 
 
+def test_an_identified_model_of_an_essential_fit_keeps_what_it_left_out():
+    """IdentifiedModel of a document with ``omitted`` writes it back (to_dict): the document it gives is read again,
+    also through a calibrated device given the model in memory, as maps reads it (to_dict used to drop
+    ``omitted``: "missing base parameter(s) FV1")."""
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+    from tendyn.ident.calibrated import calibrate
+    from tendyn.ident.identified import IdentifiedModel
+
+    dev = load_device(bundled("cea_branch"))
+    doc = _params_doc()
+    doc["params"] = [p for p in doc["params"] if p["name"] != "FV1"]
+    doc["omitted"] = ["FV1"]
+    model = IdentifiedModel.from_document(doc, device=dev)
+    again = IdentifiedModel.from_document(model.to_dict(), device=dev)
+    assert model.omitted == again.omitted == ["FV1"]
+    cal = calibrate(dev, params=model)
+    assert cal.params["omitted"] == ["FV1"]
+    assert IdentifiedModel.from_document(cal.params, device=dev).omitted == ["FV1"]
+
+
 def test_a_params_file_of_another_device_is_refused_unless_forced(tmp_path, capsys):
     code, err, _ = _maps(tmp_path, capsys, _params_doc(device="L-EXOS"))
     assert code == 2 and len(err) == 1 and "device" in err[0] and "'L-EXOS'" in err[0] and "--force" in err[0], err

@@ -146,9 +146,12 @@ class IdentifiedModel:
         applies.
     force : bool
         Predict logs of another device (``meta.device``) anyway (``--force``); default refused, as by identify.
+    omitted : sequence of str
+        Base parameters left out on purpose (``identify --essential`` / ``--parameters``: taken as 0), kept so
+        that :meth:`to_dict` writes a document the readers accept again.
     """
 
-    def __init__(self, device, params, method="ols", treatment=None, force: bool = False):
+    def __init__(self, device, params, method="ols", treatment=None, force: bool = False, omitted=()):
         from tendyn.device.compiled import as_device
 
         self.device = as_device(device) if not isinstance(device, (str, Path)) else _load_device(device)
@@ -156,11 +159,12 @@ class IdentifiedModel:
         self.method = method
         self.treatment = dict(treatment or {})
         self.force = bool(force)
+        self.omitted = [str(n) for n in omitted]
 
     # -- file -------------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         return {**provenance(self.device), "device": self.device.name, "method": self.method,
-                "params": self.params, "treatment": self.treatment}
+                "params": self.params, "omitted": list(self.omitted), "treatment": self.treatment}
 
     def save(self, path) -> Path:
         """Write the PARAMS.json document atomically (:data:`FORMAT`)."""
@@ -209,7 +213,8 @@ class IdentifiedModel:
         if device is None:
             device = doc.get("device_file") if doc.get("device_file") and Path(doc["device_file"]).is_file() \
                 else doc.get("device")
-        model = cls(device, params, doc.get("method", "ols"), doc.get("treatment"), force=force)
+        model = cls(device, params, doc.get("method", "ols"), doc.get("treatment"), force=force,
+                    omitted=doc.get("omitted") or ())
         m = model._model()
         try:
             read_params(doc, model.device, force, standard_names=m.standard_names, base_names=m.base.names)
