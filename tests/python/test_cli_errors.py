@@ -183,7 +183,9 @@ def test_the_table_is_large():
 
 
 @pytest.mark.parametrize("argv, words", BAD, ids=[" ".join(a[1:4]) + f"#{i}" for i, (a, _) in enumerate(BAD)])
-def test_bad_input_is_one_line_exit_2_nothing_written(argv, words, tmp_path, capsys, inputs):
+def test_bad_input_is_one_line_exit_2_nothing_written(argv, words, tmp_path, capsys, inputs, monkeypatch):
+    # no row reaches a real scheduler: the unreachable one is refused after 1 s instead of the product's 10 s
+    monkeypatch.setattr("tendyn.ident.cluster.CONNECT_TIMEOUT", "1s")
     code = main(_fill(argv, tmp_path, inputs))
     cap = capsys.readouterr()
     lines = cap.err.strip().splitlines()

@@ -341,9 +341,10 @@ def test_sweep_cli_on_a_local_dask_cluster(tmp_path):
     assert out.with_suffix(".png").exists()
 
 
-def test_sweep_cli_unreachable_scheduler_is_a_usage_error(tmp_path, capsys):
+def test_sweep_cli_unreachable_scheduler_is_a_usage_error(tmp_path, capsys, monkeypatch):
     from tendyn.cli import main
 
+    monkeypatch.setattr("tendyn.ident.cluster.CONNECT_TIMEOUT", "1s")   # refused after 1 s, not the product's 10
     code = main(["sweep", "mcgill_bench", "--param", "k1=1e4:2e4:2", "--scheduler", "tcp://127.0.0.1:9", "--quiet",
                  "--out", str(tmp_path / "t.parquet")])
     assert code == 2
