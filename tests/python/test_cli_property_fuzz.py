@@ -37,7 +37,9 @@ from tendyn.cli import build_parser, main
 
 CASE_SECONDS = 0.75
 """Work budget of one case [s]; past it the case is interrupted (SIGALRM → KeyboardInterrupt → exit 130). At 1.5 s
-the interrupted cases took 31 of the 40 s budget (197 cases run); at 0.75 s 264 cases run in 30 s (issue 39)."""
+the interrupted cases took 31 of the 40 s budget (197 cases run); at 0.75 s 264 cases of the same draw ran in 30 s
+(issue 39). The draw changes with this file's code (derandomize seeds from it): the current one runs its 400 cases
+in ~25 s (the first draw after the change found `identify -h` failing on a bare % in a help text)."""
 FAST_BUDGET_S = 30.0
 """Wall-clock budget of the fuzz in `make test` [s]: examples past it pass without running."""
 
@@ -282,6 +284,11 @@ def run_case(argv, inputs: Path, pristine: Path, case: Path, capsys, monkeypatch
     return code
 
 
+class _BudgetSpent(Exception):
+    """Raised by the first example drawn past the budget: the draw ends there (hypothesis stops at an exception and
+    replays it) instead of generating the remaining examples only to pass them (~10 s of generation)."""
+
+
 def _fuzz(pool, tmp_path, capsys, monkeypatch, budget_s: float, max_examples: int):
     inputs, pristine = pool
     stop = time.monotonic() + budget_s
@@ -296,7 +303,7 @@ def _fuzz(pool, tmp_path, capsys, monkeypatch, budget_s: float, max_examples: in
     @given(argv=invocation())
     def check(argv):
         if time.monotonic() > stop and argv not in failed:
-            return
+            raise _BudgetSpent
         try:
             code = run_case(argv, inputs, pristine, tmp_path / f"case{next(number)}", capsys, monkeypatch)
         except AssertionError:
@@ -305,7 +312,10 @@ def _fuzz(pool, tmp_path, capsys, monkeypatch, budget_s: float, max_examples: in
         counts[code] = counts.get(code, 0) + 1
         seen.add(tuple(argv[:2]))
 
-    check()
+    try:
+        check()
+    except _BudgetSpent:
+        pass
     print(f"exit codes {counts}; commands reached: {len({s[0] for s in seen})}")
     return counts, seen
 

@@ -53,7 +53,7 @@ def register(subparsers) -> None:
                    help="decimation factor of the parallel filter (default rate / (10 x bandwidth))")
     p.add_argument("--velocity-threshold", type=number(0.0, None, unit="rad/s"), default=None,
                    help="drop a joint's samples below this |velocity| [rad/s], 0 keeps all (default: a fraction "
-                        "of each joint's peak speed, 0.25 %, 10 % on elastic capstan drives, "
+                        "of each joint's peak speed, 0.25 %%, 10 %% on elastic capstan drives, "
                         "tendyn.ident.treatment; the treatment line prints it)")
     p.add_argument("--velocities", choices=("logged", "differentiate"), default=None,
                    help="joint velocities from the log's qd_motor_<i> (or qd_joint_<j>) columns or from the "
