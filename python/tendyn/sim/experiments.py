@@ -590,10 +590,12 @@ def default_design(device) -> str:
     return "classic"
 
 
-def default_duration(device) -> float:
-    """Default length [s] of an exciting run on ``device``: :data:`FAST_DURATION_S` with the fast design, else
-    :data:`DEFAULT_DURATION_S` (the one rule ``exciting_trajectory`` and ``tendyn simulate`` follow)."""
-    return FAST_DURATION_S if default_design(device) == "fast" else DEFAULT_DURATION_S
+def default_duration(device, design=None) -> float:
+    """Default length [s] of an exciting run on ``device`` with ``design`` (None: :func:`default_design`):
+    :data:`FAST_DURATION_S` with the fast design, else :data:`DEFAULT_DURATION_S` (the one rule
+    ``exciting_trajectory`` and ``tendyn simulate`` follow)."""
+    name = default_design(device) if design is None else design
+    return FAST_DURATION_S if isinstance(name, str) and name == "fast" else DEFAULT_DURATION_S
 
 
 def design_motor_torques(device, design, seconds: float = TORQUE_CHECK_S, dt: float = 2e-3):
@@ -681,7 +683,7 @@ def exciting_trajectory(device, duration: float | None = None, amplitude: float 
     if design is None:      # "classic" clips the active limits only: passive tree joints would ride their stops
         design = default_design(device)
     if duration is None:
-        duration = FAST_DURATION_S if isinstance(design, str) and design == "fast" else DEFAULT_DURATION_S
+        duration = default_duration(device, design)
     record = {}
     if isinstance(design, str) and design == "fast":
         design, record = design_fast(device, band_hz=(0.1, float(dev_bw or 2.0)), seed=seed)
