@@ -4,10 +4,11 @@ VENV     := .venv
 VPY      := $(VENV)/bin/python
 PIP      := $(VPY) -m pip
 STAMP    := $(VENV)/.tendyn-installed
+DEPS     := $(VENV)/.tendyn-dependencies
 BUILD_DEPS := scikit-build-core nanobind pin cmeel-eigen cmeel-urdfdom-headers
 SOURCES  := $(shell find include src bindings python cmake -type f \( -name '*.hpp' -o -name '*.h' -o -name '*.cpp' -o -name '*.py' -o -name '*.toml' -o -name '*.in' -o -name '*.j2' \) 2>/dev/null) CMakeLists.txt pyproject.toml
 
-.PHONY: install test test-steps test-python test-cpp test-asan tools demo bench realdata scs126 mutants docs clean
+.PHONY: install test test-steps test-python test-cpp cpp-build test-asan tools demo bench realdata scs126 mutants docs clean
 
 $(VPY):
 	$(PY) -m venv $(VENV)
@@ -17,13 +18,16 @@ $(VPY):
 # dependencies (pyproject.toml's, the test extra's and the build requirements) go in through uv when it installs
 # (~5 s against pip's ~55 s with the downloads cached; issue 39), else through pip; pip then builds and installs
 # tendyn itself (it rebuilds a local folder every time, so a changed C++ source is never served from a cache).
-# uv compiles the bytecode (pip does by default): where PYTHONDONTWRITEBYTECODE is set (it is on the
-# machines this suite is timed on), a process would otherwise compile numpy, scipy, pandas and matplotlib from source at every start
-# (5.4 s against 1.8 s for their import; the suite starts hundreds of them).
-$(STAMP): $(VPY) $(SOURCES)
+# uv compiles the bytecode (pip does by default): where PYTHONDONTWRITEBYTECODE is set (it is on the machines
+# this suite is timed on), every process would otherwise compile numpy, scipy, pandas and matplotlib from source
+# at its start (5.4 s against 1.8 s for their import).
+$(DEPS): $(VPY) pyproject.toml
 	{ $(PIP) install -q uv && $(VENV)/bin/uv pip install -q --compile-bytecode --python $(VPY) $(BUILD_DEPS) \
 	  -r pyproject.toml --extra test; } \
 	  || $(PIP) install -q $(BUILD_DEPS)
+	touch $(DEPS)
+
+$(STAMP): $(DEPS) $(SOURCES)
 	$(PIP) install -q --no-build-isolation ".[test]"
 	touch $(STAMP)
 
@@ -41,7 +45,11 @@ test:
 	@start=$$(date +%s); $(MAKE) --no-print-directory test-steps; rc=$$?; \
 	echo "[test] make test: $$(( $$(date +%s) - start )) s wall, $(NPROC) pytest workers, exit $$rc"; exit $$rc
 
-test-steps: install tools test-cpp
+# The package (its wheel: the Python module and the C ABI) and the C++ tests' build compile side by side: each
+# alone leaves a core idle behind its longest translation unit (docs/testing.md).
+test-steps: tools
+	@$(MAKE) --no-print-directory -j 2 install cpp-build
+	$(CTEST)
 	@start=$$(date +%s); TENDYN_REQUIRE_EXAMPLES=1 TENDYN_CPP_BUILD=$(abspath build/cpp) $(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope \
 	  --durations=15 $(PYTEST_ARGS); rc=$$?; \
 	echo "[test] Python suite: $$(( $$(date +%s) - start )) s wall"; exit $$rc
@@ -59,13 +67,17 @@ tools:
 test-python: install
 	$(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope $(PYTEST_ARGS)
 
-# C++ test executables (no allocation in the real-time calls, C ABI), through CTest.
-test-cpp: install
+# C++ test executables (no allocation in the real-time calls, C ABI), through CTest. Their build needs the
+# dependencies (Eigen, Pinocchio), not the package.
+cpp-build: $(DEPS)
 	mkdir -p build
 	cmake -S . -B build/cpp -DTENDYN_BUILD_PYTHON=OFF -DTENDYN_BUILD_TESTS=ON -DCMAKE_INSTALL_LIBDIR=lib \
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
-	ctest --test-dir build/cpp --output-on-failure -j $(NPROC)
+
+CTEST := ctest --test-dir build/cpp --output-on-failure -j $(NPROC)
+test-cpp: cpp-build
+	$(CTEST)
 
 # The C++ tests and the C loaders' fuzz under AddressSanitizer + UndefinedBehaviorSanitizer (leaks included):
 # any finding fails the test (exit status). Not part of `make test`: the C ABI alone is ~3 min of CPU to build under
