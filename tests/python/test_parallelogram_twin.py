@@ -360,6 +360,31 @@ def test_default_cli_chain_recovers_coulomb_and_viscous_friction_and_a_physical_
     assert "velocity threshold 10 % of each joint's peak speed (elastic" in why and "0.25 %" not in why, why
 
 
+def test_design_motor_torques_equal_pinocchio_rnea_sample_by_sample(tmp_path):
+    """design_motor_torques takes the tree's inverse dynamics of every sample from one core call (the
+    joint-torque regressor times the device file's inertial parameters); an independent route, Pinocchio's own
+    rnea sample by sample plus the rotor inertia and drive friction written out here, gives the same peak and rms
+    motor torques on two generated arms (1e-9 relative)."""
+    import pinocchio as pin
+
+    from tendyn.sim.experiments import design_fast, design_motor_torques
+
+    for seed in (0, 1):
+        comp = compile_device(load(str(write_parallelogram_arm(tmp_path, seed=seed))))
+        design, _ = design_fast(comp)
+        q, qd, qdd = design.references(3.0, 2e-3)
+        L, c = (np.asarray(a, float) for a in comp.active_map)
+        pm, data = comp.pinocchio_model, comp.pinocchio_data()
+        tau = np.array([L.T @ pin.rnea(pm, data, L @ q[k] + c, L @ qd[k], L @ qdd[k]) for k in range(len(q))])
+        drives = comp.device.drives
+        N, Jr, Cm, nu = (np.array([f(d) for d in drives], float) for f in (
+            lambda d: d.ratio, lambda d: d.motor.rotor_inertia, lambda d: d.coulomb_motor, lambda d: d.viscous_motor))
+        tm = tau / N + Jr * N * qdd + Cm * np.sign(qd) + nu * N * qd
+        peak, rms = design_motor_torques(comp, design, seconds=3.0)
+        np.testing.assert_allclose(peak, np.abs(tm).max(axis=0), rtol=1e-9)
+        np.testing.assert_allclose(rms, np.sqrt((tm ** 2).mean(axis=0)), rtol=1e-9)
+
+
 def test_the_fast_designs_motor_torques_are_the_twins_and_weak_motors_bound_its_speed(tmp_path):
     """design_fast's speed bound comes from the device file's motors: the model's motor torques
     (design_motor_torques: Pinocchio inverse dynamics + rotor inertia + drive friction) against an independent
