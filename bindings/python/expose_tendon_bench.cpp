@@ -1,4 +1,5 @@
-// Bindings of include/tendyn/tendon_bench.hpp: the McGill 2N tendon bench (one channel).
+// Bindings of include/tendyn/tendon_bench.hpp: the McGill 2N tendon bench (one channel), and of lure.hpp: the
+// Lur'e block model its identification (identify-bench) fits.
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -6,6 +7,7 @@
 #include <nanobind/ndarray.h>
 
 #include "common.hpp"
+#include "tendyn/lure.hpp"
 #include "tendyn/routing.hpp"
 #include "tendyn/tendon_bench.hpp"
 
@@ -241,6 +243,27 @@ void expose_tendon_bench(nb::module_& m) {
         nb::arg("force_measured"), nb::arg("u_cmd"), nb::arg("force_true"),
         "Run the reference r [N] (one value per bench step) in closed loop; write F_m (sensed), the command u and "
         "the true F_m into the preallocated float64 arrays (length of r).");
+  m.def(
+      "lure_simulate",
+      [](ConstArr b, ConstArr a, double level, ConstArr u, double per_output, double sign) {
+        if (b.shape(0) != a.shape(0) || a.shape(0) < 1)
+          throw nb::value_error("lure_simulate: b and a need the same length n >= 1 (b_1..b_n, a_1..a_n)");
+        const std::size_t n = u.shape(0);
+        double* y = new double[n > 0 ? n : 1];
+        nb::capsule owner(y, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+        Status s;
+        {
+          nb::gil_scoped_release release;
+          s = lure_simulate(b.data(), a.data(), static_cast<int>(a.shape(0)), level, u.data(),
+                            static_cast<long>(n), per_output, sign, y);
+        }
+        check(s, "lure_simulate");
+        return nb::ndarray<nb::numpy, double, nb::ndim<1>>(y, {n}, owner);
+      },
+      nb::arg("b"), nb::arg("a"), nb::arg("level"), nb::arg("u"), nb::arg("per_output") = 0.0,
+      nb::arg("sign") = 1.0,
+      "y of the Lur'e model from rest for the input u (include/tendyn/lure.hpp): b = b_1..b_n, a = a_1..a_n "
+      "float64, level F [u unit], per_output mu, sign (1, -1 or 0: |y|). Returns a new float64 array.");
 }
 
 }  // namespace tendyn::py

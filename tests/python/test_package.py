@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parents[2]
 LEXOS_MODEL = REPO / "examples" / "01_feedforward" / "lexos.model"
 # the headers of the real-time core that need Eigen only (tendyn::core, tendyn-cpp.pc)
 CORE_HEADERS = ["status.hpp", "routing.hpp", "losses.hpp", "model_file.hpp", "chain.hpp", "compensator.hpp",
-                "compensator_file.hpp", "render.hpp", "tendon_bench.hpp", "tendons.hpp"]
+                "compensator_file.hpp", "render.hpp", "tendon_bench.hpp", "tendons.hpp", "lure.hpp"]
 
 
 @pytest.fixture(scope="module")

@@ -29,53 +29,14 @@ def _lure_simulate(b, a, level, u, per_output=0.0, sign=1.0) -> np.ndarray:
     |u − y/G(1)| ≤ F: F is the half-width of the dead-band seen from u. Resting the state (rather than only
     holding y_{t+1} = y_t, which inverts G's numerator and makes the stuck friction ring on its sampling
     zero near z = −1) is what a stuck mass does: its velocity is zero. One scalar recursion per sample (the
-    stick/slip choice depends on the simulated output): plain floats, ≈ 0.5 µs a sample.
+    stick/slip choice depends on the simulated output), in the core (``include/tendyn/lure.hpp``).
 
     ``per_output`` μ ≠ 0: the level of step t is max(F + μ s y_t, 0), s = ``sign`` (0: |y_t|) — friction linear
     in the tension the branch's output is (``coulomb-tension``)."""
-    n = len(a)
-    b = [float(v) for v in b]
-    a = [float(v) for v in a]
-    b1, F = b[0], max(float(level), 0.0)
-    thr, sb = abs(b1) * F, (1.0 if b1 >= 0.0 else -1.0)
-    ab1, F0, mu, sgn = abs(b1), float(level), float(per_output), float(sign)
-    sum_b = sum(b)
-    inv_g0 = (1.0 + sum(a)) / sum_b if sum_b != 0.0 else 0.0        # 1/G(1)
-    uu = np.asarray(u, float).tolist()
-    N = len(uu)
-    out = [0.0] * N
-    yh = [0.0] * n              # y_t, y_{t−1}, …, y_{t−n+1}
-    wh = [0.0] * (n - 1)        # w_{t−1}, …, w_{t−n+1}  (w = u − φ)
-    bw = b[1:]
-    for t in range(N - 1):
-        ut = uu[t]
-        acc = b1 * ut
-        for k in range(n - 1):
-            acc += bw[k] * wh[k]
-        for k in range(n):
-            acc -= a[k] * yh[k]
-        yt = yh[0]
-        if mu != 0.0:
-            F = F0 + mu * (sgn * yt if sgn != 0.0 else abs(yt))
-            F = F if F > 0.0 else 0.0
-            thr = ab1 * F
-        d = acc - yt
-        if -thr <= d <= thr:                                        # stick: at rest at y_t
-            yh = [yt] * n
-            wh = [yt * inv_g0] * (n - 1)
-            out[t + 1] = yt
-            continue
-        if d > 0.0:
-            f, ynew = F * sb, acc - thr
-        else:
-            f, ynew = -F * sb, acc + thr
-        yh.insert(0, ynew)
-        yh.pop()
-        if n > 1:
-            wh.insert(0, ut - f)
-            wh.pop()
-        out[t + 1] = ynew
-    return np.array(out)
+    from tendyn import _core
+
+    f = lambda x: np.ascontiguousarray(x, float)
+    return _core.lure_simulate(f(b), f(a), float(level), f(u), float(per_output), float(sign))
 
 
 def _push_pull_simulate(b, a, level, u, per_output=0.0) -> np.ndarray:
