@@ -612,8 +612,8 @@ def design_motor_torques(device, design, seconds: float = TORQUE_CHECK_S, dt: fl
     L, c = (np.ascontiguousarray(a, float) for a in compiled.active_map)
     # τ = Lᵀ rnea(L q + c, L q̇, L q̈) for every sample in one core call: rigid-body inverse dynamics is linear in the
     # tree's ten inertial parameters per body (Pinocchio's joint-torque regressor, the first 10 columns per body of
-    # the identification regressor, rows joint-major) times the device file's values (a Python loop of pin.rnea
-    # took 0.2 s per call, up to 40 calls per fast design)
+    # the identification regressor, rows joint-major) times the device file's values: 0.09 s for the 20 000 samples
+    # of a generated arm against 0.15 s for a Python loop of pin.rnea, and up to 40 calls per fast design
     G = np.ascontiguousarray(compiled.device.motor_joint_matrix(), float)
     W = _core.identification_regressor(compiled.rigid_body, _core.RigidBodyData(compiled.rigid_body), L, c, G,
                                        *(np.ascontiguousarray(x, float) for x in (q, qd, qdd)), np.ones(1), 1, 1)
