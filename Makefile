@@ -35,6 +35,7 @@ install: $(STAMP)
 
 # Workers of the Python suite: one per CPU this process may use (NPROC=1 runs it serially).
 NPROC    ?= $(shell nproc 2>/dev/null || echo 2)
+CTEST    := ctest --test-dir build/cpp --output-on-failure -j $(NPROC)
 # Extra pytest options, e.g. PYTEST_ARGS="-p randomly" (shuffled order, its seed printed) or "-m slow".
 PYTEST_ARGS ?=
 
@@ -75,7 +76,6 @@ cpp-build: $(DEPS)
 	      -DPython_EXECUTABLE=$(abspath $(VPY)) -DCMAKE_BUILD_TYPE=Release > build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 	cmake --build build/cpp -j 2 >> build/cpp.log 2>&1 || (cat build/cpp.log; exit 1)
 
-CTEST := ctest --test-dir build/cpp --output-on-failure -j $(NPROC)
 test-cpp: cpp-build
 	$(CTEST)
 

@@ -245,25 +245,23 @@ void expose_tendon_bench(nb::module_& m) {
         "the true F_m into the preallocated float64 arrays (length of r).");
   m.def(
       "lure_simulate",
-      [](ConstArr b, ConstArr a, double level, ConstArr u, double per_output, double sign) {
+      [](ConstArr b, ConstArr a, double level, ConstArr u, double per_output, double sign, Arr y) {
         if (b.shape(0) != a.shape(0) || a.shape(0) < 1)
           throw nb::value_error("lure_simulate: b and a need the same length n >= 1 (b_1..b_n, a_1..a_n)");
-        const std::size_t n = u.shape(0);
-        double* y = new double[n > 0 ? n : 1];
-        nb::capsule owner(y, [](void* p) noexcept { delete[] static_cast<double*>(p); });
+        if (y.shape(0) != u.shape(0)) throw nb::value_error("lure_simulate: y must have the length of u");
         Status s;
         {
           nb::gil_scoped_release release;
           s = lure_simulate(b.data(), a.data(), static_cast<int>(a.shape(0)), level, u.data(),
-                            static_cast<long>(n), per_output, sign, y);
+                            static_cast<long>(u.shape(0)), per_output, sign, y.data());
         }
         check(s, "lure_simulate");
-        return nb::ndarray<nb::numpy, double, nb::ndim<1>>(y, {n}, owner);
       },
-      nb::arg("b"), nb::arg("a"), nb::arg("level"), nb::arg("u"), nb::arg("per_output") = 0.0,
-      nb::arg("sign") = 1.0,
-      "y of the Lur'e model from rest for the input u (include/tendyn/lure.hpp): b = b_1..b_n, a = a_1..a_n "
-      "float64, level F [u unit], per_output mu, sign (1, -1 or 0: |y|). Returns a new float64 array.");
+      nb::arg("b"), nb::arg("a"), nb::arg("level"), nb::arg("u"), nb::arg("per_output"), nb::arg("sign"),
+      nb::arg("y").noconvert(),
+      "y of the Lur'e model from rest for the input u (include/tendyn/lure.hpp), written into the preallocated "
+      "float64 array y (length of u): b = b_1..b_n, a = a_1..a_n, level F [u unit], per_output mu, sign (1, -1 "
+      "or 0: |y|).");
 }
 
 }  // namespace tendyn::py

@@ -36,7 +36,10 @@ def _lure_simulate(b, a, level, u, per_output=0.0, sign=1.0) -> np.ndarray:
     from tendyn import _core
 
     f = lambda x: np.ascontiguousarray(x, float)
-    return _core.lure_simulate(f(b), f(a), float(level), f(u), float(per_output), float(sign))
+    u = f(u)
+    y = np.empty_like(u)
+    _core.lure_simulate(f(b), f(a), float(level), u, float(per_output), float(sign), y)
+    return y
 
 
 def _push_pull_simulate(b, a, level, u, per_output=0.0) -> np.ndarray:

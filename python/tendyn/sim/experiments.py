@@ -21,6 +21,7 @@ import pinocchio as pin
 
 from tendyn import _core
 from tendyn.device import CompiledDevice, Device, compile_device
+from tendyn.device.rigid_body import standard_parameters
 from tendyn.device.schema import TRANSMISSION_MODEL_FIELDS
 from tendyn.errors import UsageError
 from tendyn.io import to_jsonable
@@ -604,8 +605,6 @@ def design_motor_torques(device, design, seconds: float = TORQUE_CHECK_S, dt: fl
     Coulomb and viscous friction at the motor (τ_m = τ/N + J_r N q̈ + C_m sign(q̇) + ν_m N q̇; ``[[terms]]`` and the
     cable's own dynamics left out), over the first ``seconds`` of the design on the grid ``dt`` [s].
     Returns (peak, rms), each (n_drives,)."""
-    from tendyn.device.rigid_body import standard_parameters
-
     compiled = compile_device(device)
     drives = compiled.device.drives
     q, qd, qdd = design.references(seconds, dt)
