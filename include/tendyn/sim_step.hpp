@@ -213,7 +213,10 @@ inline void tree_dynamics(const SimModel& m, SimData& d, const V1& q, const V2& 
     Mtree = &d.tree.M;
     nle = &d.tree.nle;
   } else {
-    pinocchio::crba(m.body.pin, d.body.pin, q);
+    // Through Eigen::Ref<const VectorXd>: the instantiation libpinocchio_default ships (declared extern by
+    // Pinocchio's headers). Any other argument type instantiates crba's two passes over every joint type in each
+    // translation unit that includes the simulator: ~60 s of compiler CPU (issue 39).
+    pinocchio::crba(m.body.pin, d.body.pin, Eigen::Ref<const Eigen::VectorXd>(q));
     d.body.pin.M.triangularView<Eigen::StrictlyLower>() = d.body.pin.M.transpose().triangularView<Eigen::StrictlyLower>();
     pinocchio::nonLinearEffects(m.body.pin, d.body.pin, q, v);
     Mtree = &d.body.pin.M;

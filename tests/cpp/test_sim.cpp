@@ -142,7 +142,7 @@ static void tree_dynamics_matches_pinocchio() {
     Eigen::VectorXd q(6), v(6);
     for (int j = 0; j < 6; ++j) { q(j) = 3.0 * rnd(); v(j) = 4.0 * rnd(); }
     tendyn::tree_mass_and_bias(tm, td, q, v);
-    pinocchio::crba(body.pin, pd, q);
+    pinocchio::crba(body.pin, pd, Eigen::Ref<const Eigen::VectorXd>(q));  // the library's instantiation (sim_step.hpp)
     pd.M.triangularView<Eigen::StrictlyLower>() = pd.M.transpose().triangularView<Eigen::StrictlyLower>();
     pinocchio::nonLinearEffects(body.pin, pd, q, v);
     worst_m = std::max(worst_m, (td.M - pd.M).cwiseAbs().maxCoeff() / pd.M.cwiseAbs().maxCoeff());
