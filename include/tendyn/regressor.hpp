@@ -1,6 +1,6 @@
 // tendyn — dynamic-identification regressor over whole sample arrays (inverse dynamic model, IDIM).
 //
-// The joint-torque regressor of Pinocchio (computeJointTorqueRegressor: 10 standard parameters per link,
+// The joint-torque regressor of Pinocchio (computeJointTorqueRegressor's columns: 10 standard parameters per link,
 // Pinocchio's order M MX MY MZ XX XY YY XZ YZ ZZ, about the link frame origin) evaluated at every sample of
 // a trajectory in C++, projected on the active coordinates of a closed-loop tree (S2 eq. 12:
 // Γ_m = [I Lᵀ] Γ_ar = Lᵀ Γ_tree with q_tree = L q_a + c), completed by the drive columns, and — optionally —
@@ -27,7 +27,9 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <pinocchio/algorithm/regressor.hpp>
+#include <pinocchio/algorithm/jacobian.hpp>
+#include <pinocchio/algorithm/kinematics.hpp>
+#include <pinocchio/algorithm/regressor.hpp>  // bodyRegressor
 
 #include "tendyn/rigid_body.hpp"
 #include "tendyn/status.hpp"
@@ -71,6 +73,29 @@ inline Status fir_decimate(const Eigen::Ref<const Eigen::VectorXd>& taps, Eigen:
 
 namespace detail {
 
+/// Pinocchio's joint-torque regressor at (q, v, a) into data.jointTorqueRegressor (nv × 10 (njoints − 1), the
+/// columns of computeJointTorqueRegressor), from the algorithms libpinocchio_default ships compiled (forward
+/// kinematics, joint Jacobians: declared extern by Pinocchio's headers). computeJointTorqueRegressor itself is
+/// declared inline, so every build instantiated its passes for every joint type (~44 s of compiler CPU; issue 39).
+/// Body i's regressor B_i (6 × 10, its frame, at its velocity and its acceleration with gravity's,
+/// a_i − ⁱX_o g) acts on joint j ≤ i of its support through the power of j's world-frame motion subspace:
+/// rows of j, columns of i = S_o,jᵀ (ᵒX_i* B_i) = S_jᵀ (ʲX_i* B_i), Pinocchio's backward pass. Mimic joints are not
+/// supported (as by Pinocchio's). Allocates nothing.
+inline void joint_torque_regressor(const pinocchio::Model& model, pinocchio::Data& data, const Eigen::VectorXd& q,
+                                   const Eigen::VectorXd& v, const Eigen::VectorXd& a) {
+  pinocchio::forwardKinematics(model, data, q, v, a);
+  pinocchio::computeJointJacobians(model, data);  // data.J: world-frame motion subspaces at data.oMi
+  data.jointTorqueRegressor.setZero();
+  Eigen::Matrix<double, 6, 10> body, world;
+  for (pinocchio::JointIndex i = 1; i < static_cast<pinocchio::JointIndex>(model.njoints); ++i) {
+    pinocchio::bodyRegressor(data.v[i], data.a[i] - data.oMi[i].actInv(model.gravity), body);
+    world.noalias() = data.oMi[i].toDualActionMatrix() * body;
+    for (pinocchio::JointIndex j = i; j > 0; j = model.parents[j])
+      data.jointTorqueRegressor.block(model.idx_vs[j], 10 * static_cast<Eigen::Index>(i - 1), model.nvs[j], 10)
+          .noalias() = data.J.middleCols(model.idx_vs[j], model.nvs[j]).transpose() * world;
+  }
+}
+
 /// Outputs [k_begin, k_end) of identification_regressor (sizes checked by the caller, rows zeroed): the input
 /// samples whose windows reach them, with `d` as workspace. Ranges of outputs are independent, so threads
 /// each take one (the few input samples shared by two neighbouring ranges are computed by both).
@@ -108,7 +133,7 @@ inline void regressor_outputs(const RigidBodyModel& m, RigidBodyData& d, const E
       v.noalias() = L * va;
       a.noalias() = L * aa;
     }
-    pinocchio::computeJointTorqueRegressor(m.pin, d.pin, q, v, a);
+    joint_torque_regressor(m.pin, d.pin, q, v, a);
     if (serial)
       Ya.leftCols(p_in) = d.pin.jointTorqueRegressor;
     else
