@@ -76,11 +76,11 @@ namespace detail {
 /// Pinocchio's joint-torque regressor at (q, v, a) into data.jointTorqueRegressor (nv × 10 (njoints − 1), the
 /// columns of computeJointTorqueRegressor), from the algorithms libpinocchio_default ships compiled (forward
 /// kinematics, joint Jacobians: declared extern by Pinocchio's headers). computeJointTorqueRegressor itself is
-/// declared inline, so every build instantiated its passes for every joint type (~44 s of compiler CPU; issue 39).
+/// declared inline, so every build instantiated its passes for every joint type (~40 s of compiler CPU; issue 39).
 /// Body i's regressor B_i (6 × 10, its frame, at its velocity and its acceleration with gravity's,
 /// a_i − ⁱX_o g) acts on joint j ≤ i of its support through the power of j's world-frame motion subspace:
 /// rows of j, columns of i = S_o,jᵀ (ᵒX_i* B_i) = S_jᵀ (ʲX_i* B_i), Pinocchio's backward pass. Mimic joints are not
-/// supported (as by Pinocchio's). Allocates nothing.
+/// supported (as by Pinocchio's).
 inline void joint_torque_regressor(const pinocchio::Model& model, pinocchio::Data& data, const Eigen::VectorXd& q,
                                    const Eigen::VectorXd& v, const Eigen::VectorXd& a) {
   pinocchio::forwardKinematics(model, data, q, v, a);
