@@ -47,9 +47,9 @@ test:
 	echo "[test] make test: $$(( $$(date +%s) - start )) s wall, $(NPROC) pytest workers, exit $$rc"; exit $$rc
 
 # The package (its wheel: the Python module and the C ABI) and the C++ tests' build compile side by side: each
-# alone leaves a core idle behind its longest translation unit. The wheel is the longer path (~210 s of compiler
-# CPU, one unit of ~110 s), so the C++ tests' build runs at a lower priority and takes the CPU the wheel leaves:
-# both builds 194 s against 236 s at equal priority (docs/testing.md).
+# alone leaves a core idle behind its longest translation unit. The wheel is the longer path (its Pinocchio
+# unit the longest), so the C++ tests' build runs at a lower priority and takes the CPU the wheel leaves: both
+# builds 194 s against 236 s at equal priority (docs/testing.md).
 test-steps: tools
 	@$(MAKE) --no-print-directory -j 2 install cpp-build
 	$(CTEST)
