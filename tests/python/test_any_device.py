@@ -28,7 +28,7 @@ def chain(request, tmp_path_factory):
     n, planar, bearings = request.param
     d = tmp_path_factory.mktemp(f"dev{n}")
     dev = write_cable_device(d, n, planar=planar, bearings=bearings, seed=10 + n)
-    logs = []
+    refs, logs = [], []
     for t in range(1, n + 1):
         # the references as Parquet: the CSV a bench reads is written and read by the README walk-through and
         # test_ident_friction's plan test; here its ~0.3 M rows per transmission only cost time (issue 39)
@@ -36,13 +36,13 @@ def chain(request, tmp_path_factory):
         assert main(["plan", "constant-velocity", str(dev), "--transmission", str(t), "--out", str(ref)]) == 0
         assert main(["simulate", str(dev), "constant-velocity", "--transmission", str(t), "--quiet",
                      "--out", str(log)]) == 0
+        refs.append(ref)
         logs.append(log)
     friction = d / "friction.json"
     assert main(["identify-friction", str(dev), *map(str, logs), "--out", str(friction)]) == 0
     comp = d / "x.comp"
     assert main(["export", "compensator", str(dev), "--friction", str(friction), "--out", str(comp)]) == 0
-    return dict(n=n, dev=dev, refs=[d / f"ref{t}.parquet" for t in range(1, n + 1)], logs=logs, friction=friction,
-                comp=comp, folder=d)
+    return dict(n=n, dev=dev, refs=refs, logs=logs, friction=friction, comp=comp, folder=d)
 
 
 def test_plan_and_simulate_make_the_same_test_inside_the_limits(chain):
