@@ -14,15 +14,26 @@ from tendyn.control import Compensator
 from tendyn.device import load_device
 from tendyn.io import read_log
 
-CASES = [(6, True, False), (6, False, True), (3, False, True), (2, True, True), (1, True, False)]
-"""(transmissions, planar, bearings); the largest first (longest-first scheduling of the parallel run)."""
+CASES = [pytest.param((6, True, False), id="n6-planar"),
+         pytest.param((6, False, True), id="n6-spatial-bearings", marks=pytest.mark.slow),
+         pytest.param((3, False, True), id="n3-spatial-bearings"),
+         pytest.param((2, True, True), id="n2-planar-bearings"),
+         pytest.param((1, True, False), id="n1-planar")]
+"""(transmissions, planar, bearings) of the chains; the largest first (longest-first scheduling of the parallel
+run). The six-transmission spatial arm with bearings runs with ``-m slow`` (its chain is ~50 s of CPU): `make test`
+runs the same code path on the three-transmission spatial arm with bearings and on the six-transmission planar
+arm (tests/python/test_suite_selection.py names the twins)."""
+
+DEMO_CASES = [pytest.param((6, True, False), id="demo-n6-planar", marks=pytest.mark.slow),
+              pytest.param((6, False, True), id="demo-n6-spatial-bearings", marks=pytest.mark.slow),
+              pytest.param((3, False, True), id="demo-n3-spatial-bearings"),
+              pytest.param((2, True, True), id="demo-n2-planar-bearings"),
+              pytest.param((1, True, False), id="demo-n1-planar")]
+"""The devices of `demo` and `pipeline s0 --quick` (~25 s of CPU on each six-transmission arm: ``-m slow``; the
+three-transmission spatial arm with bearings is their twin in `make test`)."""
 
 
-def _case_id(c) -> str:
-    return f"n{c[0]}-{'planar' if c[1] else 'spatial'}{'-bearings' if c[2] else ''}"
-
-
-@pytest.fixture(scope="module", params=CASES, ids=_case_id)
+@pytest.fixture(scope="module", params=CASES)
 def chain(request, tmp_path_factory):
     """The S0 chain run through the command line on one generated device: the paths of every stage's file."""
     n, planar, bearings = request.param
@@ -95,16 +106,19 @@ def test_decompose_and_export_hand_over(chain, capsys):
         Compensator.load(chain["comp"], expected_device="L-EXOS")
 
 
-def test_demo_and_pipeline_s0_run(chain, tmp_path, capsys):
+@pytest.mark.parametrize("case", DEMO_CASES)
+def test_demo_and_pipeline_s0_run(case, tmp_path, capsys):
     """Item 1: demo and pipeline s0 (quick) on the generated device: no L-EXOS constant in the way."""
-    assert main(["demo", str(chain["dev"]), "--out", str(tmp_path / "demo")]) == 0
+    n, planar, bearings = case
+    dev = write_cable_device(tmp_path, n, planar=planar, bearings=bearings, seed=10 + n)   # the chain's device
+    assert main(["demo", str(dev), "--out", str(tmp_path / "demo")]) == 0
     assert (tmp_path / "demo" / "statics_with_losses.png").exists()
     capsys.readouterr()
-    rc = main(["pipeline", "s0", str(chain["dev"]), "--quick", "--json"])
+    rc = main(["pipeline", "s0", str(dev), "--quick", "--json"])
     out = capsys.readouterr().out
     assert rc in (0, 1), out        # 1 = the C11 check (> 50 %) failed on this device: a result, not a crash
     doc = json.loads(out)
     comp = doc["compensation"]
-    assert len(doc["transmissions"]) == chain["n"]
+    assert len(doc["transmissions"]) == n
     assert comp["energy_to_hand_per_cycle"] <= 0.0, comp         # passive (C10, C46)
     assert comp["rms_joint1_compensated"] < comp["rms_joint1_gravity_only"], comp

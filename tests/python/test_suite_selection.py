@@ -41,6 +41,10 @@ FAST_TWINS = {
         "test_blockmodel_amplitude.py::test_tension_model_holds_across_amplitudes_on_a_generated_bench",
     "test_parallelogram_compensation.py::test_fig7_on_more_arms":
         "test_parallelogram_compensation.py::test_fig7_on_a_generated_arm_halves_the_hand_torque_and_stays_passive",
+    # parameters (``pytest.param(..., id=ID, marks=pytest.mark.slow)``): file::[ID]
+    "test_any_device.py::[n6-spatial-bearings]": "test_any_device.py::[n3-spatial-bearings]",
+    "test_any_device.py::[demo-n6-planar]": "test_any_device.py::[demo-n3-spatial-bearings]",
+    "test_any_device.py::[demo-n6-spatial-bearings]": "test_any_device.py::[demo-n3-spatial-bearings]",
 }
 """slow test → the fast test of the same code path that `make test` runs. A slow test without one is not marked
 (docs/testing.md lists both)."""
@@ -64,15 +68,33 @@ def test_slow_tests_are_deselected_unless_asked(tmp_path):
     assert asked == [SLOW_TEST], out
 
 
+def _param_id(node) -> str | None:
+    """The ``id=`` of a ``pytest.param(...)`` call node, else None."""
+    if isinstance(node, ast.Call) and ast.unparse(node.func).endswith("param"):
+        for kw in node.keywords:
+            if kw.arg == "id" and isinstance(kw.value, ast.Constant):
+                return kw.value.value
+    return None
+
+
 def _slow_tests() -> set[str]:
-    """file::name of every test function of tests/python decorated ``@pytest.mark.slow`` (read from the source)."""
+    """file::name of every test function of tests/python decorated ``@pytest.mark.slow``, and file::[ID] of every
+    ``pytest.param(..., id=ID, marks=pytest.mark.slow)`` (read from the source)."""
     found = set()
     for path in sorted(HERE.glob("test_*.py")):
         for node in ast.walk(ast.parse(path.read_text("utf-8"))):
             if isinstance(node, ast.FunctionDef) and any(
                     "mark.slow" in ast.unparse(d) for d in node.decorator_list):
                 found.add(f"{path.name}::{node.name}")
+            elif _param_id(node) is not None and any(
+                    kw.arg == "marks" and "mark.slow" in ast.unparse(kw.value) for kw in node.keywords):
+                found.add(f"{path.name}::[{_param_id(node)}]")
     return found
+
+
+def _param_ids(path: Path) -> set[str]:
+    """The ids of every ``pytest.param(..., id=ID)`` of a test file."""
+    return {i for node in ast.walk(ast.parse(path.read_text("utf-8"))) if (i := _param_id(node)) is not None}
 
 
 def test_every_slow_test_names_a_fast_twin_that_exists_and_is_not_slow():
@@ -82,6 +104,8 @@ def test_every_slow_test_names_a_fast_twin_that_exists_and_is_not_slow():
     assert slow == set(FAST_TWINS), (sorted(slow - set(FAST_TWINS)), sorted(set(FAST_TWINS) - slow))
     for twin in FAST_TWINS.values():
         file, name = twin.split("::")
-        source = (HERE / file).read_text("utf-8")
-        assert f"def {name}(" in source, twin
+        if name.startswith("["):       # a parameter of the same file
+            assert name[1:-1] in _param_ids(HERE / file), twin
+        else:
+            assert f"def {name}(" in (HERE / file).read_text("utf-8"), twin
         assert twin not in slow, twin
