@@ -323,7 +323,9 @@ def test_the_default_exciting_design_keeps_a_parallelogram_off_its_stops(tmp_pat
         assert np.all(qt >= lo) and np.all(qt <= hi), (design, qt.min(0) - lo, hi - qt.max(0))
 
 
-@pytest.mark.parametrize("seed", (0, 1, 2))
+@pytest.mark.parametrize("seed", (pytest.param(0, id="arm0"),      # arms 1 and 2 (~15 s): -m slow, the same path
+                                  pytest.param(1, id="arm1", marks=pytest.mark.slow),
+                                  pytest.param(2, id="arm2", marks=pytest.mark.slow)))
 def test_default_cli_chain_recovers_coulomb_and_viscous_friction_and_a_physical_inertia(tmp_path, capsys, seed):
     """Issue 40 item 4: `tendyn simulate ARM exciting` then `tendyn identify ARM LOG` with every default on generated
     arms 0–2 (noise seed 0): the log is the fast design (elastic capstan drives: triangles 0.8–1.2 Hz, cruise speeds
