@@ -191,6 +191,33 @@ def test_C45_workspace_size_computed(claims_ctx):
     assert_claim("C45", claims_ctx)
 
 
+@pytest.mark.parametrize("arm", ["cea_branch", "generated"])
+def test_C45_reachable_cube_is_the_largest_whose_surface_is_solved_directly(arm, tmp_path):
+    """The reachable-cube edge (rays walked out once from the centre) against the surface solved point by point:
+    inverse kinematics from the natural pose straight to each surface point (the continuation of
+    OperationalModel.inverse_kinematics alone, no ray walk) reaches every point of the cube at the returned
+    half-edge inside the limits, and misses one at half-edge + 2 tol. On the twin and on a generated arm."""
+    from tendyn.analysis.operational import _workspace
+    from tendyn.devices.generate import write_parallelogram_arm
+
+    m = model() if arm == "cea_branch" else OperationalModel(load_device(write_parallelogram_arm(tmp_path, seed=1)))
+    q0 = q_nat() if arm == "cea_branch" else natural_pose(m)
+    x0 = m.position(q0)
+    n, tol = 5, 1e-3
+    half = _workspace(m, q0, x0, n_cube=n, n_joint=3, tol=tol)["reachable_cube_edge_m"] / 2
+
+    def surface_solved(h):
+        g = np.linspace(-1.0, 1.0, n)
+        for u in [np.array([a, b, c]) for a in g for b in g for c in g if max(abs(a), abs(b), abs(c)) == 1.0]:
+            q = m.inverse_kinematics(x0 + h * u, q0, step=0.02)
+            if q is None or not m.within_limits(q):
+                return False
+        return True
+
+    assert 0.02 < half < 0.4, half
+    assert surface_solved(half) and not surface_solved(half + 2 * tol), half
+
+
 # ------------------------------------------------------------------------------------------------------------
 # identified parameters: the contract, and maps within the identified uncertainty
 # ------------------------------------------------------------------------------------------------------------
