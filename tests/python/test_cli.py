@@ -113,3 +113,30 @@ def test_routing_show_and_demo_on_capstan_and_bench_devices(capsys, tmp_path):
     assert code == 0
     slopes = json.loads(out)["stiffness_motor_Nm_rad"]
     assert all(k == pytest.approx(2.0, rel=0.05) for k in slopes.values())   # K_T, S2 Table 2
+
+
+def test_main_reuses_its_parser_without_carrying_values_between_calls(tmp_path, capsys, monkeypatch):
+    """main() builds its parser once per process (tendyn.cli._main_parser): a second call starts from the defaults,
+    not from the first call's options, and gets its own namespace."""
+    import tendyn.cli as cli
+    import tendyn.sim.catalogue as catalogue
+
+    seen = []
+
+    def record(device, experiment, o, progress=None):
+        seen.append(dict(o))
+        raise KeyboardInterrupt          # stop before the run: exit 130
+
+    monkeypatch.setattr(catalogue, "run", record)
+    out = str(tmp_path / "x.parquet")
+    assert cli.main(["simulate", "lexos", "constant-velocity", "--speeds", "1,2", "--seed", "5", "--out", out,
+                     "--quiet"]) == 130
+    parser = cli._PARSER[0]
+    assert cli.main(["simulate", "lexos", "constant-velocity", "--out", out, "--quiet"]) == 130
+    assert cli._PARSER == [parser]                       # the same parser object served the second call
+    first, second = seen
+    assert list(first["speeds"]) == [1.0, 2.0] and first["seed"] == 5
+    assert second["speeds"] is None or list(second["speeds"]) != [1.0, 2.0], second
+    assert second["seed"] != 5, second
+    assert cli.main(["simulate", "lexos", "constant-velocity", "--speeds", "abc", "--out", out]) == 2
+    assert "--speeds" in capsys.readouterr().err
