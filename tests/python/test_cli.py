@@ -115,11 +115,27 @@ def test_routing_show_and_demo_on_capstan_and_bench_devices(capsys, tmp_path):
     assert all(k == pytest.approx(2.0, rel=0.05) for k in slopes.values())   # K_T, S2 Table 2
 
 
-def test_main_reuses_its_parser_without_carrying_values_between_calls(tmp_path, capsys, monkeypatch):
-    """main() builds its parser once per process (tendyn.cli._main_parser): a second call starts from the defaults,
-    not from the first call's options, and gets its own namespace."""
+def test_main_reuses_its_parser_and_no_default_can_carry_a_value_between_calls(tmp_path, capsys, monkeypatch):
+    """main() builds its parser once per process (tendyn.cli._main_parser). What could carry a value from one call
+    to the next is a default object a command changes in place (a list default is the same object in every call):
+    every option's default is immutable (None, a string, a number, a tuple). A second call of the same parser
+    starts from the defaults, not from the first call's options."""
+    import argparse
+
     import tendyn.cli as cli
     import tendyn.sim.catalogue as catalogue
+
+    def actions(parser, words=()):
+        for a in parser._actions:
+            if isinstance(a, argparse._SubParsersAction):
+                for name, sub in a.choices.items():
+                    yield from actions(sub, words + (name,))
+            else:
+                yield words, a
+
+    mutable = sorted({(" ".join(w), a.dest) for w, a in actions(cli.build_parser())
+                      if not isinstance(a.default, (type(None), str, int, float, bool, tuple, frozenset))})
+    assert mutable == [], mutable
 
     seen = []
 

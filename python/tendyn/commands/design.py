@@ -61,7 +61,7 @@ def register(subparsers) -> None:
     p.add_argument("--objective", choices=list(QUANTITIES), action="append", required=True,
                    help="a quantity to optimise (its sense is fixed: friction and mass are minimised, forces, "
                         "stiffness, resonance, Z-width maximised); repeat")
-    p.add_argument("--constraint", type=_constraint, action="append", default=[], metavar="Q>=X|Q<=X",
+    p.add_argument("--constraint", type=_constraint, action="append", default=None, metavar="Q>=X|Q<=X",
                    help="a bound on a quantity of the same vocabulary; repeat")
     p.add_argument("--motors", type=existing_file, default=None, metavar="TABLE.csv",
                    help="motor table (name,rotor_inertia,continuous_torque,peak_torque[,torque_constant][,damping]): "
@@ -157,6 +157,7 @@ def run(args) -> int:
     from tendyn.report.publish import sections_of
 
     dev, space = _space(args)
+    args.constraint = args.constraint or []      # default None: no list object shared by the calls of one parser
     for q in list(args.objective) + [c[0] for c in args.constraint]:
         why = space.why_not(q)
         if why:
