@@ -27,7 +27,7 @@ from tendyn.control.compensator import (DEFAULT_UNDERESTIMATION, DEFAULT_VELOCIT
 from tendyn.device import compile_device, load_device
 from tendyn.devices import bundled
 from tendyn.results import Result, format_table
-from tendyn.pipelines.twin_loop import ControlBlock as _Block, encoders as _encoders, reset_at as _reset
+from tendyn.pipelines.twin_loop import ControlBlock as _Block, reset_at as _reset
 from tendyn.sim.model import sim_model
 
 __all__ = ["Fig7Result", "HandRun", "HandTask", "WallRun", "fig7_experiment", "hand_run", "hand_task", "wall_run",
@@ -253,12 +253,12 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
             raise ValueError(f"the compensator runs at {comp.model.rate_hz:g} Hz, the hand at {control_hz:g} Hz")
         comp.data.restart()                      # a new motion: velocity history gone, tracked friction kept
         comp.data.tracking_active = False
-    read = _encoders if encoders == "quantised" else (lambda sim_, data_: np.array(data_.q_motor))
     handle = _Handle(compiled)
     x0, _ = handle(q0)
     omega = 2 * np.pi / period
     periods = int(round((settle + cycles * period) * control_hz))
     block = _Block(sim)
+    read = block.encoders if encoders == "quantised" else (lambda data_: np.array(data_.q_motor))
     time = np.arange(periods) / control_hz
     torque_hand = np.empty((periods, sim.na))
     force_hand = np.empty((periods, 3))
@@ -268,7 +268,7 @@ def hand_run(device="lexos", underestimation: float = 0.0, *, friction=None, rad
     for s, t in enumerate(time):
         if abs(t - settle) < 0.5 / control_hz:
             work_at_settle = data.work_external
-        torque_motor = comp.cycle(read(sim, data))
+        torque_motor = comp.cycle(read(data))
         ctime[s] = comp.data.compute_time
         # blended circle: the radius grows with a smooth step over `settle`
         u = min(1.0, t / settle) if settle > 0 else 1.0
@@ -350,7 +350,7 @@ def wall_run(device="lexos", underestimation: float = DEFAULT_UNDERESTIMATION, *
     to_hand = np.empty(periods)
     block = _Block(sim)
     for s, t in enumerate(time):
-        torque_motor = rend.cycle(_encoders(sim, data))
+        torque_motor = rend.cycle(block.encoders(data))
         forces[s] = np.array(rend.data.force)
         x, J = handle(np.array(data.q))
         u = min(1.0, t / 0.3)  # the hand presses in over 0.3 s

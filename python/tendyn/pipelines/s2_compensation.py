@@ -183,7 +183,6 @@ def hand_stroke(model, q0, factor: float, *, direction=(1.0, 1.0, 1.0), stroke: 
     if q_start is None:
         raise ValueError("the stroke leaves the reachable workspace")
     sim, data, block = _setup(compiled, q_start, comp, rate_hz, control_hz, seed)
-    from tendyn.pipelines.twin_loop import encoders
 
     x_start = model.position(q_start)
     T = _stroke_timing(stroke, speed, accel)[2]
@@ -192,7 +191,7 @@ def hand_stroke(model, q0, factor: float, *, direction=(1.0, 1.0, 1.0), stroke: 
     f_along, x_along, tag = np.empty(periods), np.empty(periods), np.zeros(periods, int)
     w_cycle = None
     for s, t in enumerate(time):
-        torque_motor = comp.cycle(encoders(sim, data))
+        torque_motor = comp.cycle(block.encoders(data))
         q, qd = np.array(data.q), np.array(data.qd)
         x = model.position(q)
         J = model.jacobian(q)
@@ -248,7 +247,6 @@ def hold_run(model, q0, compensated: bool = True, *, duration: float = 1.0, rate
              control_hz: float = 1_000.0, seed: int = 5, offset_mm=(0.0, 0.0, 0.0), truth=None) -> HoldRun:
     """Release the handle at rest at q0 [rad] for ``duration`` [s] with gravity (+ offset) compensation from the
     model's parameters (k = 0) or with no motor torque at all."""
-    from tendyn.pipelines.twin_loop import encoders
 
     comp = CapstanCompensator(model, 0.0, rate_hz=control_hz) if compensated else None
     sim, data, block = _setup(model.compiled, q0, comp, rate_hz, control_hz, seed)
@@ -257,7 +255,7 @@ def hold_run(model, q0, compensated: bool = True, *, duration: float = 1.0, rate
     peak = 0.0
     zero = np.zeros(len(model.ratio))
     for _ in range(periods):
-        tm = comp.cycle(encoders(sim, data)) if comp is not None else zero
+        tm = comp.cycle(block.encoders(data)) if comp is not None else zero
         block.run(data, tm, zero)
         q, qd = np.array(data.q), np.array(data.qd)
         peak = max(peak, float(np.linalg.norm(model.jacobian(q) @ qd)))

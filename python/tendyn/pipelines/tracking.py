@@ -156,7 +156,7 @@ def self_test_run(device, *, duration: float = 120.0, drift: FrictionDrift | Non
     from tendyn import _core
     from tendyn.control import Compensator
     from tendyn.device import compile_device
-    from tendyn.pipelines.twin_loop import ControlBlock as _Block, encoders as _encoders, reset_at as _reset
+    from tendyn.pipelines.twin_loop import ControlBlock as _Block, reset_at as _reset
     from tendyn.sim.model import sim_model
 
     compiled = compile_device(device)
@@ -194,7 +194,7 @@ def self_test_run(device, *, duration: float = 120.0, drift: FrictionDrift | Non
         t = s / control_hz
         if drift is not None and s % drift_every == 0:
             factor = drift.apply(sim, base, t)
-        _core.compensator_sense(comp.model, comp.data, _encoders(sim, data))
+        _core.compensator_sense(comp.model, comp.data, block.encoders(data))
         q_ref, qd_ref = q_ref_all[s], qd_ref_all[s]
         tau = kp * (q_ref - np.array(comp.data.q)) + kd * (qd_ref - np.array(comp.data.qd))
         _core.compensator_command(comp.model, comp.data, tau)

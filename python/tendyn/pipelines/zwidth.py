@@ -79,7 +79,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     from tendyn import _core
     from tendyn.control import Compensator, Renderer, passivity_model
     from tendyn.device import compile_device
-    from tendyn.pipelines.twin_loop import ControlBlock, encoders, reset_at
+    from tendyn.pipelines.twin_loop import ControlBlock, reset_at
     from tendyn.sim.model import sim_model
 
     if mode not in MODES:
@@ -110,7 +110,7 @@ def zwidth_point(device: Any, stiffness: float, damping: float, *, compensator_t
     height, to_hand = np.empty(periods), np.empty(periods)
     block = ControlBlock(sim)
     for s in range(periods):
-        torque_motor = rend.cycle(encoders(sim, data))
+        torque_motor = rend.cycle(block.encoders(data))
         _core.chain_active(chain, cdata, np.array(data.q))
         block.run(data, torque_motor, np.asarray(cdata.ee_jacobian_active).T @ force)
         height[s] = float(normal @ cdata.ee_position) - floor
