@@ -58,15 +58,18 @@ def user_env() -> dict:
 
 
 def build(route: str, out: Path, cmake_prefix_path: str | None = None, pkg_config_path: str | None = None,
-          only: tuple[str, ...] | None = None) -> dict:
+          only: tuple[str, ...] | None = None, cmake_build_type: str | None = None) -> dict:
     """Build the four programs (or ``only`` those named) into ``out`` by ``route``; returns name → executable
     path. The paths default to what `tendyn config` prints (another install tree can be given, e.g. a
-    `cmake --install` prefix)."""
+    `cmake --install` prefix). ``cmake_build_type``: CMAKE_BUILD_TYPE of the cmake route (default: the examples'
+    own, Release; ``"None"``: no optimisation flags, where only the paths are checked)."""
     out.mkdir(parents=True, exist_ok=True)
     names = tuple(PROGRAMS) if only is None else only
     if route == "cmake":
         prefix = cmake_prefix_path or tendyn_config("--cmake-prefix-path")
-        run(["cmake", "-S", str(EXAMPLES), "-B", str(out), f"-DCMAKE_PREFIX_PATH={prefix}"], env=user_env())
+        build_type = [] if cmake_build_type is None else [f"-DCMAKE_BUILD_TYPE={cmake_build_type}"]
+        run(["cmake", "-S", str(EXAMPLES), "-B", str(out), f"-DCMAKE_PREFIX_PATH={prefix}", *build_type],
+            env=user_env())
         run(["cmake", "--build", str(out), "-j", "2", *([] if only is None else ["--target", *only])])
         return {name: out / name for name in names}
     if route == "pkg-config":

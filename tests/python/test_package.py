@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from native_build import PROGRAMS, TENDYN, build, installed_package, run, tendyn_config, user_env
+from native_build import TENDYN, build, installed_package, run, tendyn_config, user_env
 
 REPO = Path(__file__).resolve().parents[2]
 LEXOS_MODEL = REPO / "examples" / "01_feedforward" / "lexos.model"
@@ -202,11 +202,15 @@ def test_cmake_install_of_the_plain_build(pkg, tmp_path):
     assert {p.name for p in (plain.include_dir / "tendyn").iterdir()} == \
         {p.name for p in (pkg.include_dir / "tendyn").iterdir()}
     expected = _feedforward_python(LEXOS_MODEL)
+    run_here = ("feedforward_c", "feedforward_cpp")      # the C ABI and the header-only core from that prefix
     for route, kw in (("pkg-config", {"pkg_config_path": plain.pkg_config_path()}),
-                      ("cmake", {"cmake_prefix_path": plain.cmake_prefix_path()})):
-        exes = build(route, tmp_path / route, **kw)
-        assert set(exes) == set(PROGRAMS)
-        for name in ("feedforward_c", "feedforward_cpp"):
+                      ("cmake", {"cmake_prefix_path": plain.cmake_prefix_path(),
+                                 # the prefix's paths are what is checked here (test_examples builds Release):
+                                 # no optimisation, feedforward.cpp 6 s of compiler CPU against 12 s (issue 39)
+                                 "cmake_build_type": "None"})):
+        exes = build(route, tmp_path / route, only=run_here, **kw)
+        assert set(exes) == set(run_here) and all(e.exists() for e in exes.values())
+        for name in run_here:
             native = run([str(exes[name]), str(LEXOS_MODEL)], env=user_env()).splitlines()[0]
             np.testing.assert_allclose(np.array(native.split()[1:], float), np.array(expected.split()[1:], float),
                                        rtol=1e-14, atol=0)
