@@ -182,7 +182,8 @@ def test_relocated_package_builds_by_its_own_paths(pkg, tmp_path):
 
 def test_cmake_install_of_the_plain_build(pkg, tmp_path):
     """`cmake --install` of the plain CMake build (no Python module) into a prefix gives the same package: the
-    examples build against that prefix through CMake and pkg-config and give the Python numbers."""
+    feedforward examples (the C ABI and the header-only core) build against that prefix through CMake and
+    pkg-config and give the Python numbers."""
     from tendyn import c_package
 
     build_dir, prefix = tmp_path / "build", tmp_path / "prefix"
