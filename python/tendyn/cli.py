@@ -12,6 +12,7 @@ nothing written; 3 an unexpected error (one line; ``--debug`` shows the tracebac
 from __future__ import annotations
 
 import contextlib
+import functools
 import argparse
 import json
 import os
@@ -131,18 +132,14 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-_PARSER: list = []
-"""The parser :func:`main` reuses (built on its first call): building one is ~15 ms (270 options, argparse's
-gettext and terminal-size lookups for each), which a program or a test calling :func:`main` thousands of times in
-one process paid every time. Reuse is safe: parsing leaves the parser as it was (each call gets a new namespace;
-the options' converters are pure), and the parser depends only on the package (the catalogue and the commands are
-fixed at import: no default read from the environment)."""
-
-
+@functools.cache
 def _main_parser() -> argparse.ArgumentParser:
-    if not _PARSER:
-        _PARSER.append(build_parser())
-    return _PARSER[0]
+    """The parser :func:`main` reuses (built on its first call): building one is ~15 ms (270 options, argparse's
+    gettext and terminal-size lookups for each), which a program or a test calling :func:`main` thousands of times
+    in one process paid every time. Reuse is safe: parsing leaves the parser as it was (each call gets a new
+    namespace; the options' converters are pure, every default immutable: test_cli), and the parser depends only on
+    the package (the catalogue and the commands are fixed at import: no default read from the environment)."""
+    return build_parser()
 
 
 def _register_commands(sub) -> None:

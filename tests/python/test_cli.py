@@ -147,9 +147,9 @@ def test_main_reuses_its_parser_and_no_default_can_carry_a_value_between_calls(t
     out = str(tmp_path / "x.parquet")
     assert cli.main(["simulate", "lexos", "constant-velocity", "--speeds", "1,2", "--seed", "5", "--out", out,
                      "--quiet"]) == 130
-    parser = cli._PARSER[0]
+    parser = cli._main_parser()
     assert cli.main(["simulate", "lexos", "constant-velocity", "--out", out, "--quiet"]) == 130
-    assert cli._PARSER == [parser]                       # the same parser object served the second call
+    assert cli._main_parser() is parser                  # the same parser object served the second call
     first, second = seen
     assert list(first["speeds"]) == [1.0, 2.0] and first["seed"] == 5
     assert second["speeds"] is None or list(second["speeds"]) != [1.0, 2.0], second

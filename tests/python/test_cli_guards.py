@@ -224,6 +224,13 @@ def test_simulate_interrupted_while_writing_writes_every_pair_then_exits_130(tmp
                                                           "run_02.truth.json"]
 
 
+def _python_as_tendyn(code: str, sigint) -> subprocess.CompletedProcess:
+    """``python -c code`` (a script that ends in tendyn's ``main()``) started with SIGINT's action set to ``sigint``
+    (SIG_IGN: a background job's inheritance; SIG_DFL: a terminal's)."""
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, sigint))
+
+
 def test_a_process_started_with_ctrl_c_ignored_keeps_ignoring_it():
     """A background job inherits SIGINT ignored (its shell's `trap '' INT`, or `&` without job control): tendyn
     honours that ignore while files are put in place and after the command returned — exit 0, no 'interrupted'."""
@@ -236,8 +243,7 @@ def test_a_process_started_with_ctrl_c_ignored_keeps_ignoring_it():
             "sys.argv = ['tendyn', 'config', '--cflags']\n"
             "from tendyn.cli import main\n"
             "sys.exit(main())\n")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    res = _python_as_tendyn(code, signal.SIG_IGN)
     assert res.returncode == 0 and "interrupted" not in res.stderr, (res.returncode, res.stderr)
     assert res.stdout.strip()
 
@@ -250,8 +256,7 @@ def test_a_ctrl_c_after_the_command_returned_is_exit_130_not_death_by_signal(tmp
             "sys.argv = ['tendyn', 'config', '--cflags']\n"
             "from tendyn.cli import main\n"
             "sys.exit(main())\n")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    res = _python_as_tendyn(code, signal.SIG_DFL)
     assert res.returncode == 130, (res.returncode, res.stderr)
     assert res.stderr.strip().splitlines()[-1] == "tendyn: interrupted" and "Traceback" not in res.stderr
     assert res.stdout.strip()                      # the command's output was flushed before
@@ -272,18 +277,10 @@ def test_an_exit_handler_failing_after_a_ctrl_c_prints_no_traceback():
             "atexit.register(failing)\n"
             "def interrupted(args):\n"
             "    raise KeyboardInterrupt\n"
-            "cli.build_parser_orig = cli.build_parser\n"
-            "def parser():\n"
-            "    p = cli.build_parser_orig()\n"
-            "    p.set_defaults(func=interrupted)\n"
-            "    for a in p._subparsers._group_actions[0].choices.values():\n"
-            "        a.set_defaults(func=interrupted)\n"
-            "    return p\n"
-            "cli.build_parser = parser\n"
+            "cli.cmd_demo = interrupted                 # the parser, built in main(), binds it\n"
             "sys.argv = ['tendyn', 'demo', 'lexos']\n"
             "sys.exit(cli.main())\n")
-    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
-                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    res = _python_as_tendyn(code, signal.SIG_DFL)
     assert res.returncode == 130, (res.returncode, res.stderr)
     assert res.stderr.strip() == "tendyn: interrupted", res.stderr
     assert res.stdout.strip() == "handler ran", res.stdout        # the exit handlers did run
