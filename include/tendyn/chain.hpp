@@ -23,13 +23,13 @@
 // real-time calls allocate nothing and return a Status.
 #pragma once
 
+#include "tendyn/status.hpp"
+
 #include <cmath>
 #include <vector>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
-#include "tendyn/status.hpp"
 
 namespace tendyn {
 

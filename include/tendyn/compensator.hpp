@@ -23,17 +23,17 @@
 // Model / Data convention; no allocation, no exception on the real-time path; every call returns a Status.
 #pragma once
 
+#include "tendyn/chain.hpp"
+#include "tendyn/friction_tracking.hpp"
+#include "tendyn/losses.hpp"
+#include "tendyn/passivity.hpp"
+
 #include <array>
 #include <chrono>
 #include <cmath>
 #include <string>
 
 #include <Eigen/Core>
-
-#include "tendyn/chain.hpp"
-#include "tendyn/friction_tracking.hpp"
-#include "tendyn/losses.hpp"
-#include "tendyn/passivity.hpp"
 
 namespace tendyn {
 

@@ -59,14 +59,14 @@
 // A caller may name the device it expects: a file for another device is refused, naming `device`.
 #pragma once
 
+#include "tendyn/compensator.hpp"
+#include "tendyn/model_file.hpp"
+
 #include <cmath>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include "tendyn/compensator.hpp"
-#include "tendyn/model_file.hpp"
 
 namespace tendyn {
 

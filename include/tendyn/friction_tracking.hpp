@@ -26,13 +26,13 @@
 // evaluations and 2×2 updates; no allocation, no exception, Status codes.
 #pragma once
 
+#include "tendyn/losses.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
 
 #include <Eigen/Core>
-
-#include "tendyn/losses.hpp"
 
 namespace tendyn {
 

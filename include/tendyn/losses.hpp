@@ -12,13 +12,13 @@
 // one solution in closed form, and they are exact inverses of each other while moving.
 #pragma once
 
+#include "tendyn/routing.hpp"
+
 #include <algorithm>
 #include <cmath>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-
-#include "tendyn/routing.hpp"
 
 namespace tendyn {
 

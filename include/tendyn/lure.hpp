@@ -13,10 +13,10 @@
 // is in the order of the Python reference the tests keep (tests/python/test_blockmodel_lure.py): the same bits.
 #pragma once
 
+#include "tendyn/status.hpp"
+
 #include <cmath>
 #include <vector>
-
-#include "tendyn/status.hpp"
 
 namespace tendyn {
 

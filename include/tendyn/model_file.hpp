@@ -30,6 +30,8 @@
 // transmission of a compensator file loads with tendyn_transmission_load too.
 #pragma once
 
+#include "tendyn/routing.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -38,8 +40,6 @@
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include "tendyn/routing.hpp"
 
 namespace tendyn {
 

@@ -22,14 +22,14 @@
 // Model / Data convention, no allocation, no exception, Status codes.
 #pragma once
 
+#include "tendyn/routing.hpp"
+#include "tendyn/status.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
 
 #include <Eigen/Core>
-
-#include "tendyn/routing.hpp"
-#include "tendyn/status.hpp"
 
 namespace tendyn {
 

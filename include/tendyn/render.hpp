@@ -17,13 +17,13 @@
 // Every term is zero out of contact. Model / Data convention, no allocation, Status codes, compute time.
 #pragma once
 
+#include "tendyn/compensator.hpp"
+
 #include <chrono>
 #include <cmath>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-
-#include "tendyn/compensator.hpp"
 
 namespace tendyn {
 

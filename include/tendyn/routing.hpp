@@ -26,6 +26,8 @@
 // describe, update_matrices) allocate; the real-time calls and validate() do not.
 #pragma once
 
+#include "tendyn/status.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -40,8 +42,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/LU>
-
-#include "tendyn/status.hpp"
 
 namespace tendyn {
 

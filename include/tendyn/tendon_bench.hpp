@@ -67,12 +67,12 @@
 // constants and outputs; step / run (overloads on TendonBenchModel) never allocate and never throw.
 #pragma once
 
+#include "tendyn/status.hpp"
+
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
-
-#include "tendyn/status.hpp"
 
 namespace tendyn {
 

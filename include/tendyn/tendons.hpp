@@ -39,6 +39,9 @@
 // tendon_velocity neither allocate nor throw.
 #pragma once
 
+#include "tendyn/losses.hpp"
+#include "tendyn/status.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -47,9 +50,6 @@
 #include <Eigen/Core>
 #include <Eigen/LU>
 #include <Eigen/SVD>
-
-#include "tendyn/losses.hpp"
-#include "tendyn/status.hpp"
 
 namespace tendyn {
 
@@ -97,6 +97,10 @@ struct TendonData {
 /// ("tendon 2: ...") like the core's other validation messages; `out` is unchanged on a problem.
 /// last_joint (m,), tau0 and nu (m, n): the branches of each tendon (S0 eq. 12); empty: lossless, last_joint = the
 /// last nonzero entry of each row of K.
+/// Svd (the decomposition of Kᵀ, JacobiSVD by default) is a template parameter so that only a translation unit that
+/// builds a tendon model compiles it: its instantiation is ~5 s of compiler CPU, paid otherwise by every file that
+/// includes this header (the simulator's among them) whether it builds a model or not (issue 39).
+template <class Svd = Eigen::JacobiSVD<Eigen::MatrixXd>>
 inline std::string make_tendon_model(const Eigen::MatrixXd& K, const Eigen::VectorXd& motor_radius,
                                      const Eigen::VectorXd& tension_min, TendonModel& out,
                                      const Eigen::VectorXi& last_joint = Eigen::VectorXi(),
@@ -150,7 +154,7 @@ inline std::string make_tendon_model(const Eigen::MatrixXd& K, const Eigen::Vect
       }
   }
   const Eigen::MatrixXd Kt = K.transpose();  // (n, m)
-  Eigen::JacobiSVD<Eigen::MatrixXd> svd(Kt, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Svd svd(Kt, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::VectorXd s = svd.singularValues();  // n values, descending
   if (!(s[0] > 0.0) || s[n - 1] <= 1e-12 * s[0])
     return "K has rank < " + std::to_string(n) + ": the tendons do not reach every joint direction";
