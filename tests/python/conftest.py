@@ -24,7 +24,7 @@ def count(request):
     return request.config.getoption("--count")
 
 
-SHARED_RUNS = ("s1_report", "s2_report")
+SHARED_RUNS = ("s0_report", "s1_report", "s2_report")
 """Runs of the claims' context computed once per parallel run, not once per worker (tens of seconds of CPU each,
 picklable, seeded: the same object whichever worker makes it); the others are cheap or hold compiled models."""
 
@@ -83,6 +83,35 @@ def s1_quick_report(claims_ctx):
     from tendyn.claims import twins
 
     return twins.s1_report(claims_ctx)
+
+
+@pytest.fixture(scope="session")
+def s0_quick_report(claims_ctx):
+    """``run_s0(lexos, quick=True)``: the document of `tendyn pipeline s0 --quick` before the command prints and
+    publishes it, once per parallel run (its S1/S2 runs of every transmission are ~8 s of CPU), for the command's
+    JSON test (test_fig7.py) and its HTML report (test_reports.py). The command pops the table and figures out of
+    the document: pass it a copy (:func:`s0_quick_run`)."""
+    from tendyn.pipelines.s0 import run_s0
+
+    return claims_ctx.get("s0_report", lambda: run_s0("lexos", quick=True))
+
+
+@pytest.fixture(scope="session")
+def s0_quick_run(s0_quick_report):
+    """A stand-in for :func:`tendyn.pipelines.s0.run_s0` on the L-EXOS twin in quick mode that returns a copy of
+    the session's run (monkeypatch it onto ``tendyn.pipelines.s0.run_s0``)."""
+    import copy
+
+    from tendyn.device import load_device
+    from tendyn.devices import bundled
+
+    lexos = load_device(bundled("lexos")).name
+
+    def run(device, quick=False):
+        assert quick and getattr(device, "name", device) in ("lexos", lexos), (device, quick)
+        return copy.deepcopy(s0_quick_report)
+
+    return run
 
 
 @pytest.fixture(scope="session")

@@ -1,8 +1,6 @@
 """S0 Fig. 7 on the L-EXOS twin (C11), passivity, the stiff wall, and `tendyn pipeline s0`."""
 
 import json
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -67,11 +65,16 @@ def test_over_compensation_makes_the_wall_oscillate(lexos):
     assert w.limit_cycle and w.oscillation > 1e-3, w.oscillation
 
 
-def test_pipeline_s0_command_json(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "tendyn.cli", "pipeline", "s0", "--quick", "--json",
-                          "--report", str(tmp_path / "rep")], capture_output=True, text=True)
-    assert out.returncode == 0, out.stderr
-    doc = json.loads(out.stdout)
+def test_pipeline_s0_command_json(tmp_path, s0_quick_run, capsys, monkeypatch):
+    """`tendyn pipeline s0 --quick --json --report DIR` prints the contract keys and writes the figures; the run is
+    the session's (conftest.py: the same `run_s0(lexos, quick=True)` the command calls; the README walk-through runs
+    the command itself in a process of its own)."""
+    import tendyn.pipelines.s0
+    from tendyn.cli import main
+
+    monkeypatch.setattr(tendyn.pipelines.s0, "run_s0", s0_quick_run)
+    assert main(["pipeline", "s0", "--quick", "--json", "--report", str(tmp_path / "rep")]) == 0
+    doc = json.loads(capsys.readouterr().out)
     for key in ("transmissions", "decomposition", "compensation"):
         assert key in doc
     comp = doc["compensation"]

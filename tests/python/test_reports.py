@@ -107,7 +107,7 @@ def artefacts(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="module")
-def runs(s1_quick_report, s2_quick_report, artefacts):
+def runs(s0_quick_run, s1_quick_report, s2_quick_report, artefacts):
     """Run every command once: {name: {"page": Path, "figures": [Figure], "stderr": str}}."""
     import io
     import sys
@@ -126,11 +126,13 @@ def runs(s1_quick_report, s2_quick_report, artefacts):
             drawn.append(self)
         return original(self, *a, **kw)
 
+    import tendyn.pipelines.s0
     import tendyn.pipelines.s1
     import tendyn.pipelines.s2
 
     out = {}
-    mp = pytest.MonkeyPatch()      # pipelines s1 and s2: the session's quick runs (conftest.py), published here
+    mp = pytest.MonkeyPatch()      # the pipelines: the session's quick runs (conftest.py), published here
+    mp.setattr(tendyn.pipelines.s0, "run_s0", s0_quick_run)
     mp.setattr(tendyn.pipelines.s1, "run_s1", lambda dev, quick=False, progress=None: s1_quick_report)
     mp.setattr(tendyn.pipelines.s2, "run_s2", lambda dev, quick=False, progress=None: s2_quick_report)
     Figure.savefig = recording
