@@ -249,7 +249,7 @@ class _Budget:
             signal.raise_signal(signal.SIGINT)          # as Ctrl-C: held where the command holds it
 
         self.old = signal.signal(signal.SIGALRM, ring)
-        signal.setitimer(signal.ITIMER_REAL, self.seconds, 1.0)   # again each second: one may land in a gc hook
+        signal.setitimer(signal.ITIMER_REAL, self.seconds, 1.0)   # again each second: the safety net
 
     def __exit__(self, *exc):
         signal.setitimer(signal.ITIMER_REAL, 0)
@@ -307,6 +307,7 @@ def _fuzz(pool, tmp_path, capsys, monkeypatch, budget_s: float, max_examples: in
     seen: set[tuple] = set()
     number = itertools.count()
     failed: list[list[str]] = []                              # replayed past the budget too (no flaky report)
+    cases: list[tuple[float, int, list[str]]] = []            # (seconds, exit code, the argv's first words)
 
     @settings(derandomize=True, database=None, deadline=None, max_examples=max_examples, print_blob=False,
               phases=(Phase.generate,),
@@ -325,7 +326,6 @@ def _fuzz(pool, tmp_path, capsys, monkeypatch, budget_s: float, max_examples: in
         counts[code] = counts.get(code, 0) + 1
         seen.add(tuple(argv[:2]))
 
-    cases: list[tuple[float, int, list[str]]] = []
     try:
         check()
     except _BudgetSpent:

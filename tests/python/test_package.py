@@ -29,9 +29,11 @@ def core_headers(folder: Path) -> set[str]:
     includes = {p.name: INCLUDE.findall(p.read_text("utf-8")) for p in folder.glob("*.hpp")}
 
     def needs_pinocchio(name, seen=()):
-        return any(inc.startswith("pinocchio/") or (inc.startswith("tendyn/") and inc[7:] not in seen
-                                                    and needs_pinocchio(inc[7:], (*seen, name)))
-                   for inc in includes[name])
+        for inc in includes[name]:
+            own = inc.removeprefix("tendyn/")
+            if inc.startswith("pinocchio/") or (own != inc and own not in seen and needs_pinocchio(own, (*seen, name))):
+                return True
+        return False
 
     return {name for name in includes if not needs_pinocchio(name)}
 
@@ -43,7 +45,7 @@ def first_include(path: Path) -> str | None:
         if directive == "pragma" and rest.split() == ["once"]:
             continue
         found = INCLUDE.match(f"#{directive}{rest}")
-        return found.group(1)[len("tendyn/"):] if found and found.group(1).startswith("tendyn/") else None
+        return found.group(1).removeprefix("tendyn/") if found and found.group(1).startswith("tendyn/") else None
     return None
 
 
