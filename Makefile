@@ -39,6 +39,10 @@ NPROC    ?= $(shell nproc 2>/dev/null || echo 2)
 CTEST    := ctest --test-dir build/cpp --output-on-failure -j $(NPROC)
 # Extra pytest options, e.g. PYTEST_ARGS="-p randomly" (shuffled order, its seed printed) or "-m slow".
 PYTEST_ARGS ?=
+# The Python suite on NPROC workers, each module whole on one worker, handed out in the collection order
+# (conftest.py puts the heaviest modules first): pytest-xdist >= 3.5 otherwise hands out the modules with the most
+# tests first, and the minute-long modules of few tests (the README walk-through) ran last (issue 39).
+XDIST    := -n $(NPROC) --dist loadscope --no-loadscope-reorder
 
 # The Python tests also build the C/C++ examples against the installed package (CMake, pkg-config, cc). The suite
 # runs on every core (pytest-xdist; one module per worker at a time, so a module's fixtures are built once), prints
@@ -54,7 +58,7 @@ test:
 test-steps: tools
 	@$(MAKE) --no-print-directory -j 2 install cpp-build
 	$(CTEST)
-	@start=$$(date +%s); TENDYN_REQUIRE_EXAMPLES=1 TENDYN_CPP_BUILD=$(abspath build/cpp) $(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope \
+	@start=$$(date +%s); TENDYN_REQUIRE_EXAMPLES=1 TENDYN_CPP_BUILD=$(abspath build/cpp) $(VPY) -m pytest tests/python -q $(XDIST) \
 	  --durations=15 $(PYTEST_ARGS); rc=$$?; \
 	echo "[test] Python suite: $$(( $$(date +%s) - start )) s wall"; exit $$rc
 
@@ -69,7 +73,7 @@ tools:
 	  || echo "[tools] chromium is missing and cannot be installed without root: the report browser tests skip"
 
 test-python: install
-	$(VPY) -m pytest tests/python -q -n $(NPROC) --dist loadscope $(PYTEST_ARGS)
+	$(VPY) -m pytest tests/python -q $(XDIST) $(PYTEST_ARGS)
 
 # C++ test executables (no allocation in the real-time calls, C ABI), through CTest. Their build needs the
 # dependencies (Eigen, Pinocchio), not the package.

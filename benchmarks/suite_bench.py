@@ -6,6 +6,7 @@ cores (docs/testing.md). Not a timed test: it only prints. ~15 min on 2 cores (b
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import time
@@ -25,10 +26,16 @@ def _suite(extra: list[str]) -> float:
     return wall
 
 
+def makefile_xdist(workers: int) -> list[str]:
+    """The pytest-xdist options of `make test` (the Makefile's ``XDIST``) for ``workers`` workers."""
+    line = re.search(r"^XDIST\s*:=(.*)$", (REPO / "Makefile").read_text("utf-8"), re.M).group(1)
+    return line.replace("$(NPROC)", str(workers)).split()
+
+
 def bench_test_suite(results: list) -> None:
     workers = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     print(f"[bench] python_suite_wall: the suite on {workers} workers, then serially …", file=sys.stderr)
-    parallel = _suite(["-n", str(workers), "--dist", "loadscope"])
+    parallel = _suite(makefile_xdist(workers))
     serial = _suite(["-p", "no:xdist"])
     results.append(dict(name="python_suite_wall", value=parallel, unit="s",
                         baseline="the same suite serially in one process", baseline_value=serial,

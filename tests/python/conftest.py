@@ -251,7 +251,9 @@ HEAVY_FIRST = ("test_any_device.py", "test_readme.py", "test_package.py", "test_
                "test_design.py", "test_cli_domain_fuzz.py")
 """Modules of a minute or more of work, handed to the workers first: a long module started last would leave the
 other workers idle at the end of a parallel run (longest-first scheduling). Names only: a module missing here
-is still run, in its place."""
+is still run, in its place. pytest-xdist keeps this order only with ``--no-loadscope-reorder`` (the Makefile's
+``XDIST``): by default it hands out the modules with the most tests first, which put the README walk-through (two
+tests, 44 s) last (`test_suite_workers.py`)."""
 
 
 def slow_asked(config) -> bool:

@@ -4,10 +4,16 @@ worker. Two contexts on one folder stand for two workers (threads: the file lock
 
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
 import threading
 import time
+from pathlib import Path
 
 from conftest import SHARED_RUNS, _shared_context
+
+REPO = Path(__file__).resolve().parents[2]
 
 
 def test_a_shared_run_is_made_once_and_read_by_the_other_worker(tmp_path):
@@ -55,3 +61,28 @@ def test_a_run_that_cannot_be_pickled_is_made_by_each_worker(tmp_path):
     va = a.get(name, lambda: {"f": lambda: 1})
     vb = b.get(name, lambda: {"f": lambda: 2})
     assert va["f"]() == 1 and vb["f"]() == 2
+
+
+def _makefile_xdist(workers: int) -> list[str]:
+    """`make test`'s pytest-xdist options (the Makefile's ``XDIST``) for ``workers`` workers."""
+    line = re.search(r"^XDIST\s*:=(.*)$", (REPO / "Makefile").read_text("utf-8"), re.M).group(1)
+    return line.replace("$(NPROC)", str(workers)).split()
+
+
+def test_make_test_hands_out_modules_in_the_collection_order(tmp_path):
+    """With `make test`'s xdist options a worker runs the modules in the order the collection hook leaves them
+    (conftest.py's heaviest first), not xdist's own (most tests first, since pytest-xdist 3.5): a module of one
+    test sorted first by a conftest runs before a module of four tests. One worker, so the order is the hand-out
+    order."""
+    (tmp_path / "conftest.py").write_text(
+        "def pytest_collection_modifyitems(items):\n"
+        "    items.sort(key=lambda item: item.path.name != 'test_few.py')\n", "utf-8")
+    record = "def test_{k}():\n    open('ran.txt', 'a').write(__name__ + '\\n')\n"
+    (tmp_path / "test_few.py").write_text(record.format(k=0), "utf-8")
+    (tmp_path / "test_many.py").write_text("".join(record.format(k=k) for k in range(4)), "utf-8")
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:randomly",
+                        *_makefile_xdist(1), str(tmp_path)], cwd=tmp_path, capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
+    ran = (tmp_path / "ran.txt").read_text("utf-8").split()
+    assert ran == ["test_few"] + ["test_many"] * 4, ran
