@@ -130,7 +130,8 @@ def _mdh(alpha, d, theta):
 
 @functools.lru_cache(maxsize=None)
 def lagrangian_model():
-    """M(q_a), dM/dq_a and dV/dq_a of the branch written directly in the active coordinates (lambdified)."""
+    """M(q_a) and dV/dq_a of the branch written directly in the active coordinates (lambdified; M takes complex
+    q_a too, for :func:`mass_matrix_derivatives`)."""
     dev = device()
     js = {k + 1: j for k, j in enumerate(dev.kinematics.joints)}
     q1, q2, q5 = qa = sp.symbols("q1 q2 q5", real=True)
@@ -158,14 +159,20 @@ def lagrangian_model():
         Jw = sp.Matrix.hstack(*cols)
         M += m * Jv.T * Jv + Jw.T * I * Jw
         V += -m * (g.T * p)[0]
-    dM = [M.diff(x) for x in qa]
     dV = [V.diff(x) for x in qa]
-    return (sp.lambdify([qa], M, "numpy"), sp.lambdify([qa], dM, "numpy"), sp.lambdify([qa], dV, "numpy"))
+    return sp.lambdify([qa], M, "numpy"), sp.lambdify([qa], dV, "numpy")
+
+
+def mass_matrix_derivatives(fM, qa) -> list:
+    """dM/dq_k by complex step, Im M(q_a + i h e_k) / h with h = 1e-30: exact to rounding (no difference of two
+    values), where sympy's symbolic M.diff of the unsimplified M cost ~5 s of the test (issue 39)."""
+    h = 1e-30
+    return [np.array(fM(np.asarray(qa, float) + 1j * h * e), complex).imag / h for e in np.eye(3)]
 
 
 def euler_lagrange(qa, qd, qdd):
-    fM, fdM, fdV = lagrangian_model()
-    M, dM, dV = np.array(fM(qa), float), [np.array(x, float) for x in fdM(qa)], np.array(fdV(qa), float)
+    fM, fdV = lagrangian_model()
+    M, dM, dV = np.array(fM(qa), float), mass_matrix_derivatives(fM, qa), np.array(fdV(qa), float)
     # d/dt dT/dqd - dT/dq + dV/dq with T = qd' M qd / 2
     tau = M @ qdd + sum(dM[k] * qd[k] for k in range(3)) @ qd
     tau -= 0.5 * np.array([qd @ dM[i] @ qd for i in range(3)])
