@@ -15,11 +15,23 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 
 
+def _suite_env() -> dict:
+    """The environment `make test` gives the suite: the C++ tests' build when one was made (`make test`, `make
+    test-cpp`), which the plain-build check installs instead of configuring and compiling one of its own (the C
+    ABI at -O3, ~25 s of compiler CPU in each run: without it neither run is the suite `make test` runs)."""
+    env = dict(os.environ)
+    build = REPO / "build" / "cpp"
+    if (build / "CMakeCache.txt").is_file() and (build / "tests" / "cpp" / "test_sim").is_file():
+        env.update(TENDYN_CPP_BUILD=str(build), TENDYN_REQUIRE_EXAMPLES="1")
+    return env
+
+
 def _suite(extra: list[str]) -> float:
     """Wall time [s] of ``pytest tests/python -q`` plus ``extra`` (must pass)."""
     t0 = time.perf_counter()
     r = subprocess.run([sys.executable, "-m", "pytest", str(REPO / "tests" / "python"), "-q", "-p", "no:cacheprovider",
-                        *extra], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                        *extra], cwd=REPO, env=_suite_env(), stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                       text=True)
     wall = time.perf_counter() - t0
     if r.returncode:
         raise SystemExit(f"python_suite_wall: pytest {' '.join(extra)} failed:\n{r.stdout[-3000:]}")
