@@ -393,7 +393,8 @@ def test_the_fast_designs_motor_torques_are_the_twins_and_weak_motors_bound_its_
     route, the twin's commanded motor torques on the same design (cable springs, PID; peak and rms within 15 %,
     measured within 4–10 %); on arm 0 (peak torque 0.2 N·m) the torques never bound it (speed_bound None, peak
     speeds 3.6–3.8 rad/s); with peak_torque 0.03 N·m the bound is 1.1 rad/s, every model torque within the
-    limits and the twin's within 1.1 × them; motors that cannot hold the arm at all are refused in one line. ~9 s."""
+    limits and the twin's within 1.1 × them; motors that cannot hold the arm at all are refused in one line, at the
+    slowest design offered (FAST_SPEED_FLOOR). ~6 s."""
     import re
 
     from tendyn.sim.experiments import design_fast, design_motor_torques, exciting_trajectory
@@ -426,8 +427,11 @@ def test_the_fast_designs_motor_torques_are_the_twins_and_weak_motors_bound_its_
     hopeless = tmp_path / "hopeless.toml"
     hopeless.write_text(re.sub(r"continuous_torque = [0-9.e-]+", "continuous_torque = 0.0005",
                                text.replace('name = "arm0"', 'name = "hopeless"')))
-    with pytest.raises(ValueError, match="cannot follow an exciting trajectory"):
+    with pytest.raises(ValueError, match="cannot follow an exciting trajectory") as refused:
         design_fast(load(str(hopeless)))
+    # refused at the slowest design it offers (1 % of the unbounded speed, FAST_SPEED_FLOOR), not after crawling to ~0
+    slowest = float(re.search(r"at ([0-9.e+-]+) rad/s", str(refused.value)).group(1))
+    assert 0.01 * design.peak_speed().max() <= slowest < 0.1 * design.peak_speed().max(), slowest
 
 
 def test_default_exciting_design_and_duration_follow_the_drives(tmp_path):

@@ -576,6 +576,11 @@ DEFAULT_DURATION_S = 20.0
 TORQUE_CHECK_S = 40.0
 """Seconds of a design (from its start) on which :func:`design_motor_torques` evaluates the motor torques."""
 
+FAST_SPEED_FLOOR = 0.01
+"""Slowest fast design :func:`design_fast` offers, × the speed of the unbounded one: below it the motors fail on the
+gravity and Coulomb torques, which do not shrink with the speed (a design that slow excites nothing either). Motors
+that cannot hold the arm were refused after all 40 bound iterations, 3 s on a generated arm; now after 3."""
+
 
 def default_design(device) -> str:
     """The exciting design ``exciting_trajectory(design=None)`` runs on ``device``: "fast" on elastic capstan
@@ -635,7 +640,8 @@ def design_fast(device, band_hz=(0.1, 2.0), seed: int = 0) -> tuple[ExcitingDesi
     ``continuous_torque`` (inertial torques grow as the square of the speed: the bound shrinks by 0.9/√excess
     until they do). Returns (design, record): the record (``kind``, ``tri_freq_factors``, ``speed_bound``
     [rad/s] or None when the torques never bound it, ``motor_torque_peak`` / ``motor_torque_rms`` [N·m]) goes to
-    the log's ``options.design``. Raises ValueError when the motors cannot follow it at any speed (gravity)."""
+    the log's ``options.design``. Raises ValueError when the motors cannot follow it at any speed (gravity), i.e. not
+    above :data:`FAST_SPEED_FLOOR` × the unbounded design's speed."""
     compiled = compile_device(device)
     drives = compiled.device.drives
     if not drives:
@@ -643,21 +649,25 @@ def design_fast(device, band_hz=(0.1, 2.0), seed: int = 0) -> tuple[ExcitingDesi
                          "their motors' torques); use the 'band' or 'classic' design")
     peak_lim = np.array([d.motor.peak_torque for d in drives], float)
     cont_lim = np.array([d.motor.continuous_torque for d in drives], float)
-    bound = math.inf
+    bound, unbounded = math.inf, None
     for _ in range(40):
         design = design_exciting(compiled, band_hz=band_hz, seed=seed, tri_freq_factors=FAST_TRI_FREQ_FACTORS,
                                  max_speed=bound, speed_span=FAST_SPEED_SPAN)
+        speed = float(design.peak_speed().max())
+        unbounded = speed if unbounded is None else unbounded
         peak, rms = design_motor_torques(compiled, design)
         excess = float(max(np.max(peak / peak_lim), np.max(rms / cont_lim)))
         if excess <= 1.0:
             return design, {"kind": "fast", "tri_freq_factors": list(FAST_TRI_FREQ_FACTORS),
                             "speed_bound": None if math.isinf(bound) else float(bound),
                             "motor_torque_peak": peak.tolist(), "motor_torque_rms": rms.tolist()}
-        bound = 0.9 * float(design.peak_speed().max()) / math.sqrt(excess)
+        bound = 0.9 * speed / math.sqrt(excess)
+        if bound < FAST_SPEED_FLOOR * unbounded:
+            break
     i = int(np.argmax(np.maximum(peak / peak_lim, rms / cont_lim)))
     raise ValueError(f"{compiled.name}: motor {i + 1} cannot follow an exciting trajectory within its torques "
                      f"(peak {peak[i]:.3g} of {peak_lim[i]:.3g} N·m, rms {rms[i]:.3g} of {cont_lim[i]:.3g} N·m at "
-                     f"{bound:.3g} rad/s): gravity alone is too much for it")
+                     f"{speed:.3g} rad/s): gravity alone is too much for it")
 
 
 def exciting_trajectory(device, duration: float | None = None, amplitude: float = 0.4, q0=None, f_tri: float = 0.25,
