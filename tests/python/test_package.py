@@ -41,10 +41,10 @@ def core_headers(folder: Path) -> set[str]:
 def first_include(path: Path) -> str | None:
     """The tendyn header ``path`` includes before anything else (its first directive after ``#pragma once``),
     or None."""
-    for directive, rest in DIRECTIVE.findall(path.read_text("utf-8")):
-        if directive == "pragma" and rest.split() == ["once"]:
+    for line in DIRECTIVE.finditer(path.read_text("utf-8")):
+        if line.group(1) == "pragma" and line.group(2).split() == ["once"]:
             continue
-        found = INCLUDE.match(f"#{directive}{rest}")
+        found = INCLUDE.match(line.group(0))
         return found.group(1).removeprefix("tendyn/") if found and found.group(1).startswith("tendyn/") else None
     return None
 
