@@ -218,6 +218,9 @@ def _live_children() -> dict[int, str]:
 PROCESS_HELPERS = ("multiprocessing.resource_tracker", "multiprocessing.forkserver")
 """Children that multiprocessing starts once and keeps for the life of this process (not a test's leak)."""
 
+LEFT_PROCESS_GRACE_S = 10.0
+"""How long a test's children still running at its end get to go (a Dask worker shutting down) [s]."""
+
 
 @pytest.fixture(autouse=True)
 def no_process_left_behind(request):
@@ -230,7 +233,7 @@ def no_process_left_behind(request):
 
     before = set(_live_children())
     yield
-    deadline = time.monotonic() + 10.0       # a process being shut down (a Dask worker) gets time to go
+    deadline = time.monotonic() + LEFT_PROCESS_GRACE_S
     left = {p: c for p, c in _live_children().items() if p not in before}
     while left and time.monotonic() < deadline:
         time.sleep(0.05)

@@ -86,3 +86,40 @@ def test_make_test_hands_out_modules_in_the_collection_order(tmp_path):
     assert r.returncode == 0, r.stdout[-2000:] + r.stderr[-2000:]
     ran = (tmp_path / "ran.txt").read_text("utf-8").split()
     assert ran == ["test_few"] + ["test_many"] * 4, ran
+
+
+def test_a_test_that_leaves_a_process_running_fails_with_its_name_and_the_process_is_killed(tmp_path):
+    """Issue 39 item 4, nothing hidden: the suite's own `no_process_left_behind` (conftest.py, loaded here under
+    another name, its grace shortened) fails a test that leaves a child running (an error at its teardown), names
+    it, and kills the child; a test that waits for its child passes."""
+    (tmp_path / "conftest.py").write_text(
+        "import importlib.util\n"
+        f"spec = importlib.util.spec_from_file_location('suite_conftest', {str(Path(__file__).with_name('conftest.py'))!r})\n"
+        "suite = importlib.util.module_from_spec(spec)\n"
+        "spec.loader.exec_module(suite)\n"
+        "suite.LEFT_PROCESS_GRACE_S = 0.2\n"
+        "no_process_left_behind = suite.no_process_left_behind\n", "utf-8")
+    (tmp_path / "test_children.py").write_text(
+        "import subprocess\n"
+        "def test_leaks():\n"
+        "    open('pid.txt', 'w').write(str(subprocess.Popen(['sleep', '60']).pid))\n"
+        "def test_waits():\n"
+        "    subprocess.run(['true'], check=True)\n", "utf-8")
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:randomly",
+                        "-p", "no:xdist", str(tmp_path)], cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert r.returncode == 1, r.stdout[-2000:] + r.stderr[-2000:]
+    assert "test_children.py::test_leaks left 1 process(es) running" in r.stdout, r.stdout
+    assert "ERROR test_children.py::test_leaks" in r.stdout and "1 error" in r.stdout, r.stdout
+    assert "test_waits" not in r.stdout.split("short test summary")[-1], r.stdout
+    pid = int((tmp_path / "pid.txt").read_text("utf-8"))
+
+    def state() -> str:          # Linux /proc: "Z" killed (not yet reaped), "gone" reaped, else still running
+        try:
+            return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+        except OSError:
+            return "gone"
+
+    deadline = time.monotonic() + 5.0
+    while time.monotonic() < deadline and state() not in ("Z", "gone"):
+        time.sleep(0.05)
+    assert state() in ("Z", "gone"), state()
